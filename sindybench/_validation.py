@@ -1,0 +1,220 @@
+"""Argument checks shared by the whole package.
+
+Every check raises :class:`ValueError` naming the argument, what was given and
+what was expected, so that bad input never turns into a silent NaN.
+"""
+
+import numbers
+
+import numpy as np
+
+__all__ = [
+    "check_bounds",
+    "check_dt",
+    "check_inputs_outputs",
+    "check_n_samples",
+    "check_positive",
+    "check_signal",
+    "check_time",
+]
+
+
+def check_signal(a, name, *, allow_none=False, n_samples=None, ensure_2d=True):
+    """Return ``a`` as a finite float array with samples along axis 0.
+
+    Parameters
+    ----------
+    a : array-like or None
+        The signal, shape ``(n_samples,)`` or ``(n_samples, n_channels)``.
+    name : str
+        Argument name used in error messages.
+    allow_none : bool, default=False
+        Return ``None`` for ``None`` instead of raising.
+    n_samples : int, optional
+        Required number of samples.
+    ensure_2d : bool, default=True
+        Reshape a 1-D signal into one column.
+
+    Returns
+    -------
+    ndarray or None
+
+    Examples
+    --------
+    >>> check_signal([1.0, 2.0], "y").shape
+    (2, 1)
+    >>> check_signal([1.0, float("nan")], "y")
+    Traceback (most recent call last):
+    ...
+    ValueError: y contains NaN or inf (first at sample 1); expected finite values.
+    """
+    if a is None:
+        if allow_none:
+            return None
+        raise ValueError(f"{name} is None; expected an array of shape (n_samples, n_channels).")
+    try:
+        arr = np.asarray(a, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} could not be converted to a float array: {exc}") from exc
+    if arr.ndim == 0:
+        raise ValueError(f"{name} is a scalar; expected an array of shape (n_samples, n_channels).")
+    if arr.ndim == 1 and ensure_2d:
+        arr = arr.reshape(-1, 1)
+    if arr.ndim > 2:
+        raise ValueError(
+            f"{name} has {arr.ndim} dimensions (shape {arr.shape}); "
+            "expected shape (n_samples,) or (n_samples, n_channels)."
+        )
+    if arr.shape[0] == 0:
+        raise ValueError(f"{name} has 0 samples; expected at least one.")
+    bad = ~np.isfinite(arr)
+    if bad.any():
+        first = int(np.argwhere(bad)[0][0])
+        raise ValueError(f"{name} contains NaN or inf (first at sample {first}); expected finite values.")
+    if n_samples is not None and arr.shape[0] != n_samples:
+        raise ValueError(f"{name} has {arr.shape[0]} samples; expected {n_samples}.")
+    return arr
+
+
+def check_inputs_outputs(X, y, *, x_name="X", y_name="y"):
+    """Check inputs ``X`` (may have zero columns) and outputs ``y`` together.
+
+    Returns
+    -------
+    X : ndarray of shape (n_samples, n_inputs)
+    y : ndarray of shape (n_samples, n_outputs)
+
+    Examples
+    --------
+    >>> X, y = check_inputs_outputs(None, [[1.0], [2.0]])
+    >>> X.shape, y.shape
+    ((2, 0), (2, 1))
+    >>> check_inputs_outputs([1.0, 2.0, 3.0], [1.0, 2.0])
+    Traceback (most recent call last):
+    ...
+    ValueError: X has 3 samples and y has 2; expected the same number of samples.
+    """
+    y = check_signal(y, y_name)
+    if X is None:
+        X = np.zeros((y.shape[0], 0))
+    else:
+        arr = np.asarray(X, dtype=float)
+        X = arr if (arr.ndim == 2 and arr.shape[1] == 0) else check_signal(X, x_name)
+    if X.shape[0] != y.shape[0]:
+        raise ValueError(
+            f"{x_name} has {X.shape[0]} samples and {y_name} has {y.shape[0]}; "
+            "expected the same number of samples."
+        )
+    return X, y
+
+
+def check_positive(value, name, *, allow_none=False, strict=True):
+    """Return ``value`` as a float after checking that it is positive and finite.
+
+    Examples
+    --------
+    >>> check_positive(0.5, "dt")
+    0.5
+    >>> check_positive(0.0, "dt")
+    Traceback (most recent call last):
+    ...
+    ValueError: dt must be a finite number > 0; got 0.0.
+    """
+    if value is None and allow_none:
+        return None
+    op = ">" if strict else ">="
+    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+        raise ValueError(f"{name} must be a finite number {op} 0; got {value!r}.")
+    value = float(value)
+    if not np.isfinite(value) or value < 0 or (strict and value == 0):
+        raise ValueError(f"{name} must be a finite number {op} 0; got {value!r}.")
+    return value
+
+
+def check_dt(dt, *, allow_none=False):
+    """Check a sampling interval (a finite number > 0)."""
+    return check_positive(dt, "dt", allow_none=allow_none)
+
+
+def check_time(t, n_samples=None, *, name="t"):
+    """Return ``t`` as a 1-D float array, finite and strictly increasing.
+
+    Examples
+    --------
+    >>> check_time([0.0, 0.1, 0.1])
+    Traceback (most recent call last):
+    ...
+    ValueError: t must be strictly increasing; t[2] = 0.1 <= t[1] = 0.1.
+    """
+    t = np.asarray(t, dtype=float)
+    if t.ndim != 1:
+        raise ValueError(f"{name} has shape {t.shape}; expected a 1-D array of sample times.")
+    if not np.all(np.isfinite(t)):
+        raise ValueError(f"{name} contains NaN or inf; expected finite sample times.")
+    if n_samples is not None and t.shape[0] != n_samples:
+        raise ValueError(f"{name} has {t.shape[0]} samples; expected {n_samples} (one per sample).")
+    d = np.diff(t)
+    if np.any(d <= 0):
+        i = int(np.argmax(d <= 0)) + 1
+        raise ValueError(
+            f"{name} must be strictly increasing; {name}[{i}] = {t[i]:g} <= {name}[{i - 1}] = {t[i - 1]:g}."
+        )
+    return t
+
+
+def check_n_samples(n_samples, n_features, *, what="library terms"):
+    """Raise when there are fewer samples than unknowns to fit.
+
+    Examples
+    --------
+    >>> check_n_samples(3, 5)
+    Traceback (most recent call last):
+    ...
+    ValueError: got 3 samples but 5 library terms; expected at least as many samples as library terms.
+    """
+    if n_samples < n_features:
+        raise ValueError(
+            f"got {n_samples} samples but {n_features} {what}; "
+            f"expected at least as many samples as {what}."
+        )
+
+
+def check_bounds(bounds, n_states, *, name="bounds"):
+    """Return ``(lower, upper)`` arrays of length ``n_states`` (``None`` -> unbounded).
+
+    ``bounds`` may be ``None``, a pair of scalars, or a pair of sequences with one
+    entry per state (``None`` entries mean unbounded).
+
+    Examples
+    --------
+    >>> lo, hi = check_bounds((0.0, None), 2)
+    >>> lo.tolist(), hi.tolist()
+    ([0.0, 0.0], [inf, inf])
+    """
+    if bounds is None:
+        return np.full(n_states, -np.inf), np.full(n_states, np.inf)
+    try:
+        lo, hi = bounds
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} must be a pair (lower, upper); got {bounds!r}.") from exc
+
+    def side(v, default):
+        if v is None:
+            return np.full(n_states, default)
+        arr = np.array(
+            [default if e is None else e for e in np.atleast_1d(np.asarray(v, dtype=object))],
+            dtype=float,
+        )
+        if arr.size == 1:
+            arr = np.full(n_states, arr[0])
+        if arr.shape != (n_states,):
+            raise ValueError(f"{name} has {arr.size} entries per side; expected 1 or {n_states} (one per state).")
+        if np.any(np.isnan(arr)):
+            raise ValueError(f"{name} contains NaN; use None or inf for an unbounded side.")
+        return arr
+
+    lo, hi = side(lo, -np.inf), side(hi, np.inf)
+    if np.any(lo >= hi):
+        i = int(np.argmax(lo >= hi))
+        raise ValueError(f"{name}: lower bound {lo[i]:g} >= upper bound {hi[i]:g} for state {i}; expected lower < upper.")
+    return lo, hi

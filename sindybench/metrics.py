@@ -1,0 +1,164 @@
+"""Error metrics for open-loop simulations, each under its own name.
+
+``r2`` is the coefficient of determination ``1 - SSE/SST`` (what the study's
+"BFR" column reports); ``fit_index`` is the system-identification best fit ratio
+``100 (1 - ||e|| / ||y - mean(y)||)``. They are different numbers: for a model
+with R^2 = 0.75 the fit index is 50 %.
+"""
+
+import numpy as np
+
+from ._validation import check_signal
+
+__all__ = ["fit_index", "make_simulation_scorer", "nrmse", "r2", "rmse"]
+
+_MULTIOUTPUT = ("uniform_average", "raw_values")
+
+
+def _prepare(y_true, y_pred, skip, multioutput):
+    if multioutput not in _MULTIOUTPUT:
+        raise ValueError(f"multioutput must be one of {_MULTIOUTPUT}; got {multioutput!r}.")
+    y_true = check_signal(y_true, "y_true")
+    y_pred = np.asarray(y_pred, dtype=float)
+    if y_pred.ndim == 1:
+        y_pred = y_pred.reshape(-1, 1)
+    if y_pred.shape != y_true.shape:
+        raise ValueError(f"y_pred has shape {y_pred.shape}; expected the shape of y_true, {y_true.shape}.")
+    if not np.all(np.isfinite(y_pred)):
+        raise ValueError("y_pred contains NaN or inf (a diverged simulation?); expected finite values.")
+    skip = int(skip)
+    if skip < 0 or skip >= y_true.shape[0]:
+        raise ValueError(f"skip must be in [0, {y_true.shape[0] - 1}]; got {skip}.")
+    return y_true[skip:], y_pred[skip:]
+
+
+def _reduce(values, multioutput):
+    return values if multioutput == "raw_values" else float(np.mean(values))
+
+
+def _spread(y_true):
+    sst = np.sum((y_true - y_true.mean(axis=0)) ** 2, axis=0)
+    if np.any(sst == 0):
+        raise ValueError("y_true is constant over the scored samples; R^2 and fit index are undefined.")
+    return sst
+
+
+def rmse(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
+    """Root-mean-square error.
+
+    Parameters
+    ----------
+    y_true, y_pred : array-like of shape (n_samples,) or (n_samples, n_outputs)
+    skip : int, default=0
+        Leave out the first ``skip`` samples (e.g. a transient).
+    multioutput : {"uniform_average", "raw_values"}
+
+    Returns
+    -------
+    float or ndarray
+
+    Examples
+    --------
+    >>> rmse([0.0, 1.0, 2.0], [0.0, 1.0, 3.0])
+    0.577...
+    """
+    y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
+    return _reduce(np.sqrt(np.mean((y_true - y_pred) ** 2, axis=0)), multioutput)
+
+
+def nrmse(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
+    """RMSE divided by the standard deviation of ``y_true``.
+
+    Examples
+    --------
+    >>> nrmse([0.0, 1.0, 2.0], [0.0, 1.0, 3.0])
+    0.707...
+    """
+    y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
+    err = np.sqrt(np.mean((y_true - y_pred) ** 2, axis=0))
+    return _reduce(err / np.sqrt(_spread(y_true) / y_true.shape[0]), multioutput)
+
+
+def r2(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
+    """Coefficient of determination ``1 - SSE / SST``.
+
+    This is what ``sklearn.metrics.r2_score`` returns, and what the benchmarking
+    study reports under the name "BFR". It is not the fit index.
+
+    Examples
+    --------
+    >>> r2([0.0, 1.0, 2.0], [0.0, 1.0, 3.0])
+    0.5
+    """
+    y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
+    sse = np.sum((y_true - y_pred) ** 2, axis=0)
+    return _reduce(1.0 - sse / _spread(y_true), multioutput)
+
+
+def fit_index(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
+    """Best fit ratio in percent, ``100 (1 - ||y - y_hat|| / ||y - mean(y)||)``.
+
+    The system-identification literature's BFR (MATLAB's ``compare`` fit).
+    Related to R^2 by ``fit = 100 (1 - sqrt(1 - R^2))``.
+
+    Examples
+    --------
+    >>> fit_index([0.0, 1.0, 2.0], [0.0, 1.0, 3.0])
+    29.28...
+    """
+    y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
+    err = np.sqrt(np.sum((y_true - y_pred) ** 2, axis=0))
+    return _reduce(100.0 * (1.0 - err / np.sqrt(_spread(y_true))), multioutput)
+
+
+_METRICS = {"rmse": (rmse, False), "nrmse": (nrmse, False), "r2": (r2, True), "fit_index": (fit_index, True)}
+
+
+class _SimulationScorer:
+    """Callable ``scorer(estimator, X, y)`` that scores an open-loop simulation."""
+
+    def __init__(self, name, skip):
+        self.name = name
+        self.skip = skip
+
+    def __call__(self, estimator, X, y):
+        func, greater_is_better = _METRICS[self.name]
+        y_pred = estimator.predict(X, y_init=y)
+        if not np.all(np.isfinite(y_pred)):
+            return -np.inf
+        value = func(y, y_pred, skip=self.skip)
+        return value if greater_is_better else -value
+
+    def __repr__(self):
+        return f"make_simulation_scorer({self.name!r}, skip={self.skip})"
+
+
+def make_simulation_scorer(metric="rmse", *, skip=0):
+    """Make a scikit-learn scorer that scores open-loop simulation.
+
+    The scorer calls ``estimator.predict(X, y_init=y)``: the simulation is driven
+    by the inputs ``X`` and initialised from the start of the measured ``y``,
+    then compared with all of ``y``. Error metrics are negated so that greater
+    is better, as scikit-learn expects; a diverged simulation scores ``-inf``.
+
+    Parameters
+    ----------
+    metric : {"rmse", "nrmse", "r2", "fit_index"}
+    skip : int, default=0
+        Leave out the first ``skip`` samples.
+
+    Returns
+    -------
+    callable
+        ``scorer(estimator, X, y) -> float``, usable as ``scoring=``.
+
+    Examples
+    --------
+    >>> make_simulation_scorer("fit_index")
+    make_simulation_scorer('fit_index', skip=0)
+    """
+    if metric not in _METRICS:
+        raise ValueError(f"metric must be one of {sorted(_METRICS)}; got {metric!r}.")
+    if int(skip) != skip or skip < 0:
+        raise ValueError(f"skip must be an integer >= 0; got {skip!r}.")
+    return _SimulationScorer(metric, int(skip))

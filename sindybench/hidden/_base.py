@@ -1,0 +1,240 @@
+"""The strategy protocol behind :class:`~sindybench.HiddenStateSINDy`.
+
+A *hidden-state strategy* says how to turn measured outputs ``y`` and inputs ``u``
+into a full state (observed + reconstructed hidden states), which state
+derivatives the sparse regression learns, which rows of the model are fixed by
+physics, and how to start a simulation on new data. ``HiddenStateSINDy`` does the
+rest: differentiation, library, STLS, the search over the strategy's physical
+guesses (Optuna TPE on a validation block), simulation and scoring.
+
+Conventions
+-----------
+* State vector ``x`` of length ``n_states``; library input ``Z = [x, u]`` (states
+  first, then inputs), exactly as in :mod:`sindybench.libraries` and
+  :class:`sindybench.simulate.TermsRHS`. Term tuples index columns of ``Z``.
+* ``learned``: indices of the states whose derivative the library fits (one STLS
+  target per index). Every other state derivative is a *fixed row*: a linear
+  combination of terms (``fixed_terms`` with ``fixed_coef``), e.g. the chain row
+  ``y' = v`` or ``v' = (u - c v - k y - z) / m``. Fixed rows are part of the model
+  by construction; they are never fitted and never overwritten after a fit.
+* ``params``: a dict holding *all* physical parameters of the strategy (values
+  given to the constructor, plus the searched ones for the current trial).
+
+Writing a strategy
+------------------
+Subclass :class:`HiddenStrategy` (a scikit-learn ``BaseEstimator``: ``__init__``
+only stores keyword arguments; physical guesses are constructor parameters,
+``None`` meaning "search it within ``bounds``"). Set the class attribute
+``_physical`` to the names of the searchable physical parameters and implement
+
+``structure(params, *, n_outputs, n_inputs) -> Structure``
+    number and names of the states, ``learned`` and ``output_index``, the fixed
+    rows as terms, simulation bounds per state.
+``design(u, y, dt, *, derivative, params) -> Design``
+    the state trajectory on training data (hidden states reconstructed) and the
+    targets (time derivatives of the ``learned`` states), one column per entry of
+    ``learned``, in that order.
+``initial_state(u, y_init, dt, *, derivative, params, model) -> ndarray``
+    the initial state (length ``n_states``) for a simulation of new data, from its
+    first output samples ``y_init`` (and inputs ``u``, same length).
+
+Optionally override ``default_library()`` (the library used when the estimator's
+``library=None``), ``search_space()`` and ``resolve_params(values)`` (defaults
+below use ``_physical`` and ``bounds``), and ``_validate()`` (parameter checks,
+called at the start of ``fit``; raise ``ValueError``).
+
+``derivative(a, order=1)`` is a callable bound to the estimator's fitted
+differentiation method and ``dt``: it returns the ``order``-th time derivative of
+``a`` (shape ``(n,)`` or ``(n, k)``, same shape back). ``model`` is a
+:class:`ModelView` of the fitted model (``rhs(x, u)`` for one state, and
+``simulate(x0, u)`` for a full open-loop run that returns NaN after a
+divergence), for strategies that estimate hidden initial states by matching the
+model (e.g. the tanks' grid search against ``y'(0)``).
+
+Example: a Bouc-Wen structure (states ``(y, v, z)``, ``v = y'``; z reconstructed
+as ``u - c v - k y - m y''``; ``z'`` learned) would return
+``Structure(n_states=3, learned=(2,), output_index=(0,),
+fixed_terms=[((1, POW, 1, 0),), ((0, POW, 1, 0),), ((1, POW, 1, 0),),
+((2, POW, 1, 0),), ((3, POW, 1, 0),)], fixed_coef=...)`` where column 0 of
+``fixed_coef`` holds the chain row ``y' = v`` and column 1 the force balance, and
+``design`` returns ``states = [y, y', z]`` and ``targets = z'``.
+"""
+
+from dataclasses import dataclass, field
+from typing import Callable, NamedTuple
+
+import numpy as np
+from sklearn.base import BaseEstimator
+
+__all__ = ["Design", "HiddenStrategy", "ModelView", "Structure", "linear_term"]
+
+
+def linear_term(col):
+    """The term ``Z[:, col]`` (one factor, power 1).
+
+    Examples
+    --------
+    >>> linear_term(2)
+    ((2, 0, 1, 0),)
+    """
+    return ((int(col), 0, 1, 0),)
+
+
+@dataclass
+class Structure:
+    """What a strategy's model looks like for given physical parameters.
+
+    Parameters
+    ----------
+    n_states : int
+        Length of the state vector ``x``.
+    learned : tuple of int
+        States whose derivative the library fits (in the order of the targets).
+    output_index : tuple of int
+        States that are the measured outputs, in the column order of ``y``.
+    fixed_terms : list of term tuples
+        Terms on ``Z = [x, u]`` used by the fixed rows.
+    fixed_coef : ndarray of shape (len(fixed_terms), n_states)
+        Coefficients of the fixed rows; columns of ``learned`` states are zero.
+    state_names : list of str
+        Names used by ``equations()``.
+    bounds : tuple (lower, upper) of ndarray of shape (n_states,), or None
+        Simulation bounds per state (``-inf``/``inf`` for unbounded).
+    fixed_rhs : callable or None
+        Optional ``f(x, u) -> dxdt`` (length ``n_states``, learned entries ignored)
+        for fixed rows that are not expressible as terms (Python callables).
+        When given it replaces ``fixed_terms``/``fixed_coef`` and the model is
+        simulated on the slow Python path unless the strategy handles it.
+    """
+
+    n_states: int
+    learned: tuple
+    output_index: tuple
+    fixed_terms: list = field(default_factory=list)
+    fixed_coef: np.ndarray = None
+    state_names: list = None
+    bounds: tuple = None
+    fixed_rhs: Callable = None
+
+    def __post_init__(self):
+        self.learned = tuple(int(i) for i in self.learned)
+        self.output_index = tuple(int(i) for i in self.output_index)
+        if self.fixed_coef is None:
+            self.fixed_coef = np.zeros((len(self.fixed_terms), self.n_states))
+        self.fixed_coef = np.asarray(self.fixed_coef, dtype=float).reshape(len(self.fixed_terms), self.n_states)
+        if self.state_names is None:
+            self.state_names = [f"x{i}" for i in range(self.n_states)]
+
+
+class Design(NamedTuple):
+    """Regression data produced by a strategy on one block of data.
+
+    Attributes
+    ----------
+    states : ndarray of shape (n_samples, n_states)
+        Observed and reconstructed hidden states.
+    targets : ndarray of shape (n_samples, len(learned))
+        Time derivatives of the learned states.
+    rows : slice or ndarray of bool or None
+        Rows used for the regression (e.g. to drop derivative edge effects);
+        None = all rows.
+    """
+
+    states: np.ndarray
+    targets: np.ndarray
+    rows: object = None
+
+
+class ModelView(NamedTuple):
+    """The fitted model as seen by ``HiddenStrategy.initial_state``.
+
+    Attributes
+    ----------
+    rhs : callable
+        ``rhs(x, u) -> dxdt`` for one state ``x`` (n_states,) and input ``u`` (n_inputs,).
+    simulate : callable
+        ``simulate(x0, u) -> x`` (n_samples, n_states), NaN after a divergence.
+    """
+
+    rhs: Callable
+    simulate: Callable
+
+
+class HiddenStrategy(BaseEstimator):
+    """Base class of hidden-state strategies (see the module docstring).
+
+    Subclasses define ``_physical`` (names of searchable constructor parameters)
+    and, when any of them may be ``None``, a ``bounds`` constructor parameter: a
+    dict ``name -> (low, high)`` or ``(low, high, log)``.
+    """
+
+    _physical = ()
+
+    def default_library(self):
+        """The library used when ``HiddenStateSINDy(library=None)``."""
+        from ..libraries import PolynomialLibrary
+
+        return PolynomialLibrary(degree=2)
+
+    def _validate(self):
+        """Check constructor parameters; raise ``ValueError`` with a clear message."""
+        space = self.search_space()
+        for name in self._physical:
+            value = getattr(self, name)
+            if value is not None and not np.all(np.isfinite(np.asarray(value, dtype=float))):
+                raise ValueError(f"{name} must be finite or None (searched); got {value!r}.")
+        for name, (low, high, _) in space.items():
+            if not low < high:
+                raise ValueError(f"bounds[{name!r}] = ({low!r}, {high!r}); expected low < high.")
+
+    def search_space(self):
+        """Searched physical parameters: ``name -> (low, high, log)``.
+
+        The default lists the ``_physical`` parameters that are ``None``, with
+        their range from ``self.bounds``.
+        """
+        bounds = getattr(self, "bounds", None) or {}
+        space = {}
+        for name in self._physical:
+            if getattr(self, name) is not None:
+                continue
+            if name not in bounds:
+                raise ValueError(
+                    f"{name}=None asks for a search but bounds has no entry {name!r}; "
+                    f"expected bounds={{{name!r}: (low, high)}} or a fixed value."
+                )
+            entry = tuple(bounds[name])
+            if len(entry) not in (2, 3):
+                raise ValueError(f"bounds[{name!r}] = {entry!r}; expected (low, high) or (low, high, log).")
+            low, high = float(entry[0]), float(entry[1])
+            log = bool(entry[2]) if len(entry) == 3 else False
+            if log and low <= 0:
+                raise ValueError(f"bounds[{name!r}] = {entry!r} is log-scaled; expected low > 0.")
+            space[name] = (low, high, log)
+        return space
+
+    def resolve_params(self, values=None):
+        """All physical parameters: constructor values, ``values`` for the searched ones."""
+        values = {} if values is None else dict(values)
+        params = {}
+        for name in self._physical:
+            fixed = getattr(self, name)
+            if fixed is not None:
+                params[name] = fixed
+            elif name in values:
+                params[name] = values[name]
+            else:
+                raise ValueError(f"no value for the searched parameter {name!r}.")
+        return params
+
+    def structure(self, params, *, n_outputs, n_inputs):
+        """The model structure for ``params`` (see :class:`Structure`)."""
+        raise NotImplementedError
+
+    def design(self, u, y, dt, *, derivative, params):
+        """States and regression targets on training data (see :class:`Design`)."""
+        raise NotImplementedError
+
+    def initial_state(self, u, y_init, dt, *, derivative, params, model):
+        """Initial state for simulating new data from its first samples ``y_init``."""
+        raise NotImplementedError

@@ -1,0 +1,103 @@
+"""Model factories and search spaces shared by the three benchmark set-ups.
+
+Every factory has the signature ``make(random_state, quick, dt, n_val)`` of
+:class:`~sindybench.experiments.ModelSpec`; estimators are imported lazily so
+that describing a benchmark never pulls in all of the library.
+"""
+
+__all__ = ["arx_model", "arx_space", "nnarx_model", "nnarx_space", "sindy_model", "stls_space"]
+
+
+def stls_space(*, threshold=(1e-4, 1e1), alpha=(1e-8, 1e-1), gamma=None):
+    """Search space of an STLS model: log-uniform threshold and ridge alpha.
+
+    With ``gamma=(low, high)``, the total-variation regularisation of the
+    derivative is searched jointly (``differentiation__gamma``), as in the study.
+    """
+    def space(quick):
+        from ..model_selection import LogUniform
+
+        dims = {
+            "optimizer__threshold": LogUniform(*threshold),
+            "optimizer__alpha": LogUniform(*alpha),
+        }
+        if gamma is not None:
+            dims["differentiation__gamma"] = LogUniform(*gamma)
+        return dims
+
+    return space
+
+
+def _differentiation(gamma):
+    if gamma is None:
+        return None
+    from ..differentiation import TotalVariation
+
+    return TotalVariation(gamma=gamma)
+
+
+def sindy_model(library, *, threshold=0.1, alpha=1e-6, gamma=None, bounds=None, normalize_columns=False,
+                n_substeps=1):
+    """Factory of a naive (first-order) :class:`~sindybench.SINDy` model.
+
+    ``library`` is a zero-argument callable returning a fresh library.
+    """
+    def make(*, random_state, quick, dt, n_val):
+        from .. import STLS, SINDy
+
+        return SINDy(
+            library=library(),
+            optimizer=STLS(threshold=threshold, alpha=alpha, normalize_columns=normalize_columns),
+            differentiation=_differentiation(gamma),
+            dt=dt,
+            bounds=bounds,
+            n_substeps=n_substeps,
+        )
+
+    return make
+
+
+def arx_model(make_kwargs=None):
+    """Factory of an :class:`~sindybench.baselines.ARX` model."""
+    def make(*, random_state, quick, dt, n_val):
+        from ..baselines import ARX
+
+        return ARX(**(make_kwargs or {}))
+
+    return make
+
+
+def arx_space(max_na=10, max_nb=10):
+    """Search space of ARX orders (``na``, ``nb``, ``nk``)."""
+    def space(quick):
+        from ..model_selection import IntRange
+
+        return {"na": IntRange(1, max_na), "nb": IntRange(1, max_nb), "nk": IntRange(0, 2)}
+
+    return space
+
+
+def nnarx_model(*, hidden_layer_sizes=(16,), max_iter=300, quick_max_iter=100):
+    """Factory of an :class:`~sindybench.baselines.NNARX` model (seeded)."""
+    def make(*, random_state, quick, dt, n_val):
+        from ..baselines import NNARX
+
+        return NNARX(na=2, nb=2, hidden_layer_sizes=hidden_layer_sizes,
+                     max_iter=quick_max_iter if quick else max_iter, random_state=random_state)
+
+    return make
+
+
+def nnarx_space(max_na=6, max_nb=6, sizes=((8,), (16,), (32,), (16, 16))):
+    """Search space of NN-ARX orders, network size and weight penalty."""
+    def space(quick):
+        from ..model_selection import Categorical, IntRange, LogUniform
+
+        return {
+            "na": IntRange(1, max_na),
+            "nb": IntRange(1, max_nb),
+            "hidden_layer_sizes": Categorical(sizes),
+            "alpha": LogUniform(1e-6, 1e-1),
+        }
+
+    return space

@@ -1,0 +1,86 @@
+"""The registry of benchmarks and the multi-benchmark runner used by the CLI."""
+
+import importlib
+import logging
+import time
+from pathlib import Path
+
+from ._report import staged_output_dir, write_report, write_results
+from ._runner import load_data, run_benchmark, test_sets
+
+__all__ = ["BENCHMARKS", "get_benchmark", "run_benchmarks"]
+
+logger = logging.getLogger(__name__)
+
+# CLI name -> module defining ``BENCHMARK`` (imported lazily: each pulls in its estimators)
+BENCHMARKS = {
+    "pick-and-place": "sindybench.experiments.pick_and_place",
+    "bouc-wen": "sindybench.experiments.bouc_wen",
+    "cascaded-tanks": "sindybench.experiments.cascaded_tanks",
+}
+
+
+def get_benchmark(name):
+    """Return the :class:`Benchmark` called ``name``.
+
+    Examples
+    --------
+    >>> get_benchmark("cascaded-tanks").title
+    'Cascaded tanks'
+    >>> get_benchmark("tanks")
+    Traceback (most recent call last):
+    ...
+    ValueError: unknown benchmark 'tanks'; expected one of ['bouc-wen', 'cascaded-tanks', 'pick-and-place'].
+    """
+    if name not in BENCHMARKS:
+        raise ValueError(f"unknown benchmark {name!r}; expected one of {sorted(BENCHMARKS)}.")
+    return importlib.import_module(BENCHMARKS[name]).BENCHMARK
+
+
+def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage=None, n_jobs=1,
+                   data_home=None, download_if_missing=True, show_progress_bar=False, write_report=None):
+    """Run several benchmarks and write their results under ``out``.
+
+    All records are loaded first, so missing data fail before any training.
+    Results go to ``out/<benchmark>/`` (``results.json``, ``results.md``,
+    ``models/``, figures) and, with several benchmarks, ``out/report.md``.
+    Files appear only when the whole run succeeded.
+
+    Parameters
+    ----------
+    benchmarks : list of Benchmark
+    out : path-like
+    trials, seed, quick, storage, n_jobs, show_progress_bar
+        Passed to :func:`run_benchmark`.
+    data_home : path-like, optional
+    download_if_missing : bool, default=True
+    write_report : bool, optional
+        Write ``report.md`` (default: with more than one benchmark).
+
+    Returns
+    -------
+    Path
+        ``out/report.md`` when written, else the single benchmark's ``results.md``.
+    """
+    out = Path(out)
+    write_report_md = len(benchmarks) > 1 if write_report is None else write_report
+    data = {b.name: load_data(b, data_home=data_home, download_if_missing=download_if_missing) for b in benchmarks}
+    start = time.perf_counter()
+    all_results = []
+    with staged_output_dir(out) as tmp:
+        for benchmark in benchmarks:
+            logger.info("== %s ==", benchmark.title)
+            results, fitted, simulations = run_benchmark(
+                benchmark, data=data[benchmark.name], trials=trials, seed=seed, quick=quick, storage=storage,
+                n_jobs=n_jobs, show_progress_bar=show_progress_bar,
+            )
+            folder = tmp / benchmark.name
+            folder.mkdir()
+            tests = {k: v for k, v in test_sets(data[benchmark.name]).items() if k in results["test_sets"]}
+            all_results.append(write_results(results, fitted, simulations, tests, folder,
+                                             hysteresis_test=benchmark.hysteresis_test))
+        if write_report_md:
+            write_report(all_results, tmp / "report.md", wall_time_s=time.perf_counter() - start)
+    if write_report_md:
+        return out / "report.md"
+    return out / benchmarks[0].name / "results.md"

@@ -1,0 +1,263 @@
+"""Train the study's models on one benchmark, evaluate them, collect results.
+
+The runner is a plain function over a :class:`~sindybench.experiments.Benchmark`
+description: load the data, tune and fit every model on the training +
+validation record (the validation block is the last part, as in the study),
+simulate each fitted model open loop on every test set from the test's first
+samples, and score the simulation with RMSE, R^2 and the fit index. Writing
+files is left to :mod:`sindybench.experiments._report`.
+"""
+
+import logging
+import time
+
+import numpy as np
+from sklearn.model_selection import PredefinedSplit
+
+from .. import __version__
+from ..metrics import fit_index, r2, rmse
+from ._published import published
+
+__all__ = ["DataNotFoundError", "evaluate", "fit_model", "load_data", "run_benchmark", "test_sets"]
+
+logger = logging.getLogger(__name__)
+
+
+class DataNotFoundError(FileNotFoundError):
+    """A benchmark record could not be found (or downloaded).
+
+    The message names the benchmark, repeats what the loader said (which file,
+    where it looked) and says how to provide the data.
+    """
+
+
+def load_data(benchmark, *, data_home=None, download_if_missing=True):
+    """Load a benchmark's record, turning a missing file into :class:`DataNotFoundError`.
+
+    Parameters
+    ----------
+    benchmark : Benchmark
+    data_home : str or path-like, optional
+        Data folder; ``None`` uses ``SINDYBENCH_DATA`` or the default data home.
+    download_if_missing : bool, default=True
+        Try the public source when a file is absent.
+
+    Returns
+    -------
+    Bunch
+    """
+    try:
+        return benchmark.load(data_home=data_home, download_if_missing=download_if_missing)
+    except OSError as exc:  # FileNotFoundError, a failed download (URLError is an OSError)
+        where = f"--data-home {data_home}" if data_home is not None else "SINDYBENCH_DATA / the default data home"
+        raise DataNotFoundError(
+            f"{benchmark.title} data are missing: {exc}\n"
+            f"(looked in {where}). Put the benchmark records in a folder and point to it with "
+            "the SINDYBENCH_DATA environment variable or --data-home DIR; without --no-download "
+            "the public sources are tried when a network is available."
+        ) from exc
+
+
+def test_sets(data):
+    """Return the test sets of a dataset Bunch as an ordered ``{name: Bunch}``."""
+    test = data["test"]
+    if isinstance(test, dict) and "u" not in test:
+        return dict(test)
+    return {"test": test}
+
+
+def _n_init(benchmark, data, test):
+    for source in (test, data):
+        value = source.get("n_init") if hasattr(source, "get") else None
+        if value is not None:
+            return int(value)
+    return benchmark.n_init
+
+
+def _training_record(benchmark, data, quick):
+    train, val = data["train"], data["validation"]
+    u_tr, y_tr = np.asarray(train["u"], float), np.asarray(train["y"], float)
+    if quick and benchmark.n_train_quick is not None:
+        u_tr, y_tr = u_tr[: benchmark.n_train_quick], y_tr[: benchmark.n_train_quick]
+    u_va, y_va = np.asarray(val["u"], float), np.asarray(val["y"], float)
+    X = np.vstack([u_tr.reshape(len(u_tr), -1), u_va.reshape(len(u_va), -1)])
+    y = np.vstack([y_tr.reshape(len(y_tr), -1), y_va.reshape(len(y_va), -1)])
+    return X, y, len(y_tr), len(y_va)
+
+
+def _holdout(n_train, n_val):
+    """The study's split: fit on the first block, validate on the last one."""
+    return PredefinedSplit(np.r_[np.full(n_train, -1), np.zeros(n_val, dtype=int)])
+
+
+def _jsonable(value):
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    if isinstance(value, (str, int, float, bool)) or value is None:
+        return value
+    if isinstance(value, (list, tuple)):
+        return [_jsonable(v) for v in value]
+    return repr(value)
+
+
+def fit_model(spec, X, y, *, n_train, n_val, dt, n_trials, seed=0, quick=False, storage=None,
+              n_jobs=1, study_name=None, show_progress_bar=False):
+    """Tune (when the spec has a search space and a budget) and fit one model.
+
+    Returns
+    -------
+    estimator : object
+        The fitted estimator (refitted on all of ``X, y`` at the best parameters).
+    info : dict
+        ``n_trials``, ``best_params``, ``best_value`` (validation RMSE) and
+        ``fit_time_s``.
+    """
+    start = time.perf_counter()
+    estimator = spec.make(random_state=seed, quick=quick, dt=dt, n_val=n_val)
+    info = {"n_trials": 0, "best_params": {}, "best_value": None}
+    if n_trials > 0:
+        from ..model_selection import tune
+
+        estimator, study = tune(
+            estimator, spec.search_space(quick), X, y, cv=_holdout(n_train, n_val), scoring="rmse",
+            n_trials=n_trials, storage=storage, study_name=study_name, n_jobs=n_jobs,
+            random_state=seed, show_progress_bar=show_progress_bar,
+        )
+        best = study.best_trial
+        info["n_trials"] = len(study.trials)
+        info["best_params"] = {k: _jsonable(v) for k, v in best.user_attrs.get("params", best.params).items()}
+        value = abs(float(best.value))
+        info["best_value"] = value if np.isfinite(value) else None
+    else:
+        estimator.fit(X, y)
+    info["fit_time_s"] = time.perf_counter() - start
+    return estimator, info
+
+
+def evaluate(estimator, test, n_init):
+    """Simulate a fitted model on one test set and score it.
+
+    Returns
+    -------
+    y_pred : ndarray or None
+        The open-loop simulation (``None`` when it failed).
+    scores : dict
+        ``rmse``, ``r2``, ``fit_index`` (``None`` when the simulation
+        diverged) and ``status`` (``"ok"`` or the reason it failed).
+    """
+    u = np.asarray(test["u"], float)
+    y = np.asarray(test["y"], float).reshape(len(u), -1)
+    try:
+        y_pred = np.asarray(estimator.predict(u.reshape(len(u), -1), y_init=y[:n_init]), float)
+        y_pred = y_pred.reshape(y.shape)
+    except Exception as exc:  # a diverging candidate is a result, not a crash
+        logger.warning("simulation failed: %s", exc)
+        return None, {"rmse": None, "r2": None, "fit_index": None, "status": f"failed: {exc}"}
+    if not np.all(np.isfinite(y_pred)):
+        return None, {"rmse": None, "r2": None, "fit_index": None, "status": "diverged (non-finite simulation)"}
+    return y_pred, {
+        "rmse": rmse(y, y_pred),
+        "r2": r2(y, y_pred),
+        "fit_index": fit_index(y, y_pred),
+        "status": "ok",
+    }
+
+
+def _equations(estimator):
+    method = getattr(estimator, "equations", None)
+    if method is None:
+        return []
+    try:
+        eqs = method()
+    except Exception as exc:  # equations are informative; never fail the run on them
+        return [f"<equations unavailable: {exc}>"]
+    return [str(e) for e in (eqs if isinstance(eqs, (list, tuple)) else [eqs])]
+
+
+def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, storage=None, n_jobs=1,
+                  data_home=None, download_if_missing=True, show_progress_bar=False, models=None):
+    """Train every model of a benchmark and evaluate it on every test set.
+
+    Parameters
+    ----------
+    benchmark : Benchmark
+    data : Bunch, optional
+        Already loaded data (else loaded with ``data_home``).
+    trials : int, optional
+        Outer search budget per model (default: each model's own budget).
+    seed : int, default=0
+        Seed of every search and estimator.
+    quick : bool, default=False
+        Small budgets (a smoke run).
+    storage : str, optional
+        Optuna storage URL (e.g. ``sqlite:///study.db``) to resume or share searches.
+    n_jobs : int, default=1
+        Parallel trials per search.
+    models : list of str, optional
+        Keys of the models to run (default: all).
+
+    Returns
+    -------
+    results : dict
+        JSON-serialisable results (see :func:`sindybench.experiments.write_results`).
+    fitted : dict
+        ``{model key: fitted estimator or None}``.
+    simulations : dict
+        ``{test name: {model key: y_pred or None}}``.
+    """
+    start = time.perf_counter()
+    if data is None:
+        data = load_data(benchmark, data_home=data_home, download_if_missing=download_if_missing)
+    X, y, n_train, n_val = _training_record(benchmark, data, quick)
+    dt = float(data["train"]["dt"])
+    tests = test_sets(data)
+    if quick and benchmark.test_sets_quick is not None:
+        tests = {k: v for k, v in tests.items() if k in benchmark.test_sets_quick}
+    specs = [m for m in benchmark.models if models is None or m.key in models]
+    results = {
+        "benchmark": benchmark.name,
+        "title": benchmark.title,
+        "sindybench_version": __version__,
+        "seed": seed,
+        "quick": bool(quick),
+        "n_jobs": n_jobs,
+        "storage": storage,
+        "n_train": n_train,
+        "n_validation": n_val,
+        "dt": dt,
+        "test_sets": {name: {"n_samples": int(len(t["y"])), "n_init": _n_init(benchmark, data, t)}
+                      for name, t in tests.items()},
+        "output_label": benchmark.output_label,
+        "input_label": benchmark.input_label,
+        "models": [],
+    }
+    fitted, simulations = {}, {name: {} for name in tests}
+    for spec in specs:
+        budget = spec.budget(quick=quick, trials=trials)
+        logger.info("%s: %s (%d trials)", benchmark.name, spec.label, budget)
+        entry = {"key": spec.key, "label": spec.label, "description": spec.description}
+        try:
+            estimator, info = fit_model(
+                spec, X, y, n_train=n_train, n_val=n_val, dt=dt, n_trials=budget, seed=seed, quick=quick,
+                storage=storage, n_jobs=n_jobs, study_name=f"{benchmark.name}.{spec.key}.seed{seed}",
+                show_progress_bar=show_progress_bar,
+            )
+            entry.update(info, status="ok", equations=_equations(estimator))
+        except Exception as exc:  # one model failing must not lose the others' results
+            logger.warning("%s: %s failed to fit: %s", benchmark.name, spec.label, exc)
+            estimator = None
+            entry.update(n_trials=budget, best_params={}, best_value=None, fit_time_s=None,
+                         status=f"fit failed: {type(exc).__name__}: {exc}", equations=[])
+        fitted[spec.key] = estimator
+        entry["scores"], entry["published"] = {}, {}
+        for name, test in tests.items():
+            if estimator is None:
+                y_pred, scores = None, {"rmse": None, "r2": None, "fit_index": None, "status": "not fitted"}
+            else:
+                y_pred, scores = evaluate(estimator, test, results["test_sets"][name]["n_init"])
+            simulations[name][spec.key] = y_pred
+            entry["scores"][name] = scores
+            entry["published"][name] = published(benchmark.name, spec.key, name)
+        results["models"].append(entry)
+    results["wall_time_s"] = time.perf_counter() - start
+    return results, fitted, simulations

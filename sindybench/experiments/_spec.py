@@ -1,0 +1,98 @@
+"""Declarative description of a benchmark and of the models trained on it."""
+
+from dataclasses import dataclass, field
+from typing import Callable
+
+__all__ = ["Benchmark", "ModelSpec"]
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """One model of the study's table: how to build it and how to tune it.
+
+    Parameters
+    ----------
+    key : str
+        Short identifier, used in file names and in ``results.json``.
+    label : str
+        Human-readable name for tables and figure legends.
+    make : callable
+        ``make(random_state, quick) -> estimator`` (unfitted).
+    search_space : callable or None
+        ``search_space(quick) -> dict`` of Optuna distributions keyed by
+        nested parameter name, for :func:`sindybench.model_selection.tune`;
+        ``None`` fits the estimator as built (its own inner search, if any,
+        still runs inside ``fit``).
+    n_trials : int
+        Outer search budget of a default run.
+    n_trials_quick : int
+        Outer search budget with ``--quick``.
+    description : str
+        One sentence on what the model is, for the reports.
+    """
+
+    key: str
+    label: str
+    make: Callable
+    search_space: Callable | None = None
+    n_trials: int = 0
+    n_trials_quick: int = 0
+    description: str = ""
+
+    def budget(self, *, quick, trials=None):
+        """Number of outer search trials for this run (0 without a search space)."""
+        if self.search_space is None:
+            return 0
+        if trials is not None:
+            return int(trials)
+        return self.n_trials_quick if quick else self.n_trials
+
+
+@dataclass(frozen=True)
+class Benchmark:
+    """One benchmark of the study.
+
+    Parameters
+    ----------
+    name : str
+        CLI name, e.g. ``"cascaded-tanks"``.
+    title : str
+        Title for reports.
+    load : callable
+        ``load(data_home=..., download_if_missing=...) -> Bunch`` with
+        ``train``, ``validation`` and ``test`` (a Bunch or a dict of Bunches).
+    models : tuple of ModelSpec
+    output_label, input_label : str
+        Axis labels (with units) for the figures.
+    n_init : int
+        Number of initial test samples a model may use to initialise its state
+        (overridden by the dataset's own ``n_init`` when it declares one).
+    hysteresis_test : str or None
+        Test set on which to draw force-displacement loops.
+    n_train_quick : int or None
+        With ``--quick``, train on the first ``n_train_quick`` training samples
+        only (``None``: all of them).
+    test_sets_quick : tuple of str or None
+        With ``--quick``, evaluate on these test sets only (``None``: all).
+    notes : str
+        Paragraph for the report: what the study did, what differs here.
+    """
+
+    name: str
+    title: str
+    load: Callable
+    models: tuple = field(default_factory=tuple)
+    output_label: str = "y"
+    input_label: str = "u"
+    n_init: int = 10
+    hysteresis_test: str | None = None
+    n_train_quick: int | None = None
+    test_sets_quick: tuple | None = None
+    notes: str = ""
+
+    def model(self, key):
+        """Return the model spec called ``key``."""
+        for spec in self.models:
+            if spec.key == key:
+                return spec
+        raise KeyError(f"{self.name} has no model {key!r}; models: {[m.key for m in self.models]}.")

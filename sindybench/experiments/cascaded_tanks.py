@@ -1,0 +1,87 @@
+"""Cascaded tanks (Schoukens et al., 2016): the study's Table 3.
+
+Models: naive first-order SINDy with a polynomial and with a square-root
+library, a second-order SINDy fitted on the output alone, the hidden-state
+remedy (simulated upper tank, :class:`~sindybench.hidden.TanksHiddenState`)
+with both libraries, and the ARX / NN-ARX baselines. Training: the first 768
+samples of the estimation record, validation: its last 256, test: the
+1024-sample validation record (Ts = 4 s), simulated from its first samples.
+"""
+
+from ._common import arx_model, arx_space, nnarx_model, nnarx_space, sindy_model, stls_space
+from ._spec import Benchmark, ModelSpec
+
+__all__ = ["BENCHMARK"]
+
+# level sensor range (V); the lower tank overflows at the top of it
+_BOUNDS = (0.0, 10.0)
+
+
+def _load(**kwargs):
+    from ..datasets import load_cascaded_tanks
+
+    return load_cascaded_tanks(**kwargs)
+
+
+def _poly():
+    from ..libraries import PolynomialLibrary
+
+    return PolynomialLibrary(degree=2)
+
+
+def _sqrt():
+    from ..libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary
+
+    return ConcatLibrary([PolynomialLibrary(degree=1), SqrtLibrary(lower=0.0)])
+
+
+def _second_order(*, random_state, quick, dt, n_val):
+    from .. import STLS, HiddenStateSINDy
+    from ..hidden import DerivativeAugmentation
+
+    return HiddenStateSINDy(hidden=DerivativeAugmentation(order=2), library=_poly(),
+                            optimizer=STLS(threshold=0.01), dt=dt)
+
+
+def _hidden(library):
+    def make(*, random_state, quick, dt, n_val):
+        from .. import STLS, HiddenStateSINDy
+        from ..hidden import TanksHiddenState
+
+        return HiddenStateSINDy(
+            hidden=TanksHiddenState(bounds=_BOUNDS), library=library(), optimizer=STLS(threshold=1e-3),
+            dt=dt, bounds=_BOUNDS, validation_size=n_val, n_trials=15 if quick else 150,
+            random_state=random_state,
+        )
+
+    return make
+
+
+BENCHMARK = Benchmark(
+    name="cascaded-tanks",
+    title="Cascaded tanks",
+    load=_load,
+    output_label="lower tank level y [V]",
+    input_label="pump voltage u [V]",
+    n_init=5,
+    models=(
+        ModelSpec("sindy_poly", "SINDy, polynomial", sindy_model(_poly, bounds=_BOUNDS),
+                  stls_space(threshold=(1e-5, 1.0)), n_trials=60, n_trials_quick=6,
+                  description="naive first-order SINDy, y' = f(y, u), quadratic polynomial library"),
+        ModelSpec("sindy_sqrt", "SINDy, square root", sindy_model(_sqrt, bounds=_BOUNDS),
+                  stls_space(threshold=(1e-5, 1.0)), n_trials=60, n_trials_quick=6,
+                  description="naive first-order SINDy with [1, y, u, sqrt(y), sqrt(u)]"),
+        ModelSpec("sindy_second_order", "SINDy, 2nd order", _second_order,
+                  stls_space(threshold=(1e-5, 1.0)), n_trials=30, n_trials_quick=4,
+                  description="second-order SINDy on the output alone, (y, y') with y'' = f(y, y', u)"),
+        ModelSpec("hidden_tanks_poly", "Hidden SINDy, polynomial", _hidden(_poly), None,
+                  description="simulated upper tank x1' = -k1 sqrt(x1) + k2 u, y' = f(y, x1, u) polynomial"),
+        ModelSpec("hidden_tanks_sqrt", "Hidden SINDy, square root", _hidden(_sqrt), None,
+                  description="simulated upper tank, y' = f(y, x1, u) with square-root terms"),
+        ModelSpec("arx", "ARX", arx_model(), arx_space(), n_trials=40, n_trials_quick=6,
+                  description="linear ARX, orders chosen on the validation block"),
+        ModelSpec("nnarx", "NN-ARX", nnarx_model(), nnarx_space(), n_trials=25, n_trials_quick=3,
+                  description="MLP on ARX lags, trained one step ahead, simulated free run"),
+    ),
+    notes="",
+)

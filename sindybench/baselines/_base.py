@@ -1,0 +1,116 @@
+"""What the ARX-type baselines share: orders, data checks, initial outputs, scoring."""
+
+import numbers
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+from .._validation import check_signal
+from ..metrics import r2
+from ._lags import lagged_regressors, n_lags
+
+__all__ = ["LagModel"]
+
+
+def _check_order(value, name):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise ValueError(f"{name} must be an integer >= 0; got {value!r}.")
+    return int(value)
+
+
+class LagModel(RegressorMixin, BaseEstimator):
+    """Base class of models ``y[t] = f(y[t-1..t-na], u[t-nk..t-nk-nb+1])``.
+
+    Subclasses implement ``_fit_regression(phi, target)`` (on the lagged
+    regressors of :func:`lagged_regressors`) and ``_simulate(u, y_start)``.
+    """
+
+    def _check_orders(self):
+        na = _check_order(self.na, "na")
+        nb = _check_order(self.nb, "nb")
+        nk = _check_order(self.nk, "nk")
+        if na + nb == 0:
+            raise ValueError("na and nb are both 0; expected at least one output or input lag.")
+        return na, nb, nk
+
+    def _fit_lags(self, X, y):
+        """Validate, set the common fitted attributes, return ``(phi, target)``."""
+        na, nb, nk = self._check_orders()
+        u, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
+        y = np.asarray(y, dtype=float)
+        self.y_ndim_ = y.ndim
+        y = y.reshape(-1, 1) if y.ndim == 1 else y
+        u = np.asarray(u, dtype=float)
+        self.n_outputs_ = y.shape[1]
+        self.n_lags_ = n_lags(na, nb, nk)
+        self.y_mean_ = y.mean(axis=0)
+        phi, target = lagged_regressors(u, y, na, nb, nk)
+        if target.shape[0] < 1:
+            raise ValueError(
+                f"got {y.shape[0]} samples; {type(self).__name__}(na={na}, nb={nb}, nk={nk}) needs at least "
+                f"{self.n_lags_ + 1} (the {self.n_lags_} first samples only start the lags)."
+            )
+        return phi, target
+
+    def _initial_outputs(self, y_init, n_samples):
+        n0 = min(self.n_lags_, n_samples)
+        if y_init is None:
+            return np.tile(self.y_mean_, (n0, 1))
+        y_init = check_signal(y_init, "y_init")
+        if y_init.shape[1] != self.n_outputs_:
+            raise ValueError(f"y_init has {y_init.shape[1]} outputs; expected {self.n_outputs_} (as in fit).")
+        if y_init.shape[0] < n0:
+            raise ValueError(
+                f"y_init has {y_init.shape[0]} samples; expected at least {n0} "
+                f"(the lags na={self.na}, nb={self.nb}, nk={self.nk})."
+            )
+        return y_init[:n0]
+
+    def simulate(self, X, y_init=None):
+        """Free-run simulation driven by the inputs ``X``.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs)
+            Inputs.
+        y_init : array-like of shape (>= n_lags_, n_outputs), optional
+            Measured outputs whose first ``n_lags_`` samples start the
+            simulation (they are copied into the result). ``None`` starts
+            from the mean training output.
+
+        Returns
+        -------
+        ndarray of shape (n_samples,) or (n_samples, n_outputs)
+            One column per output; 1-D when ``y`` was 1-D in ``fit``. An
+            unstable model gives inf or NaN, never an exception.
+        """
+        check_is_fitted(self)
+        u = np.asarray(validate_data(self, X, reset=False), dtype=float)
+        y_start = self._initial_outputs(y_init, u.shape[0])
+        with np.errstate(over="ignore", invalid="ignore"):
+            y = self._simulate(u, y_start) if u.shape[0] > y_start.shape[0] else y_start.copy()
+        return y.ravel() if self.y_ndim_ == 1 else y
+
+    def predict(self, X, *, y_init=None):
+        """Simulated output (the free run of :meth:`simulate`)."""
+        return self.simulate(X, y_init)
+
+    def score(self, X, y, sample_weight=None):
+        """R^2 of the simulation started from the first samples of ``y``.
+
+        A diverged simulation (non-finite output) scores ``-inf``.
+        """
+        if sample_weight is not None:
+            raise ValueError("sample_weight is not supported; expected None.")
+        y_pred = self.predict(X, y_init=np.asarray(y, dtype=float).reshape(len(y), -1))
+        if not np.all(np.isfinite(y_pred)):
+            return -np.inf
+        return r2(y, y_pred)
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        # scored by free-run simulation: i.i.d. test data of the common checks are no system
+        tags.regressor_tags.poor_score = True
+        return tags

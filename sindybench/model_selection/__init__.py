@@ -1,0 +1,17 @@
+"""Model selection scored by open-loop simulation: splitters, search spaces, ``tune``."""
+
+from ._space import Categorical, IntRange, LogNormal, LogUniform, Normal, Uniform
+from ._split import HoldoutSplit
+from ._tune import AllTrialsFailedError, tune
+
+__all__ = [
+    "AllTrialsFailedError",
+    "Categorical",
+    "HoldoutSplit",
+    "IntRange",
+    "LogNormal",
+    "LogUniform",
+    "Normal",
+    "Uniform",
+    "tune",
+]

@@ -1,0 +1,151 @@
+"""Where a study lives: in memory, an SQLite/RDB database, or an Optuna journal file.
+
+Also the bookkeeping that makes a study resumable: which trials count toward
+the budget, and which RUNNING trials were left behind by a dead worker.
+"""
+
+import logging
+import os
+import socket
+import warnings
+
+import optuna
+from optuna.storages import BaseStorage, InMemoryStorage, JournalStorage, RDBStorage
+from optuna.storages.journal import JournalFileBackend
+from optuna.trial import TrialState
+
+__all__ = ["count_done", "fail_dead_workers", "make_storage", "worker_id"]
+
+logger = logging.getLogger(__name__)
+
+#: Seconds between heartbeats of a running trial in an RDB storage, and the
+#: silence after which another worker marks the trial FAIL.
+HEARTBEAT_INTERVAL = 60
+GRACE_PERIOD = 180
+
+_JOURNAL_PREFIX = "journal://"
+_JOURNAL_SUFFIXES = (".log", ".journal")
+_SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
+
+
+def _rdb(url):
+    engine_kwargs = None
+    if url.startswith("sqlite"):
+        # several local workers write to one file: wait for the lock instead of failing
+        engine_kwargs = {"connect_args": {"timeout": 60}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        return RDBStorage(
+            url, engine_kwargs=engine_kwargs, heartbeat_interval=HEARTBEAT_INTERVAL, grace_period=GRACE_PERIOD
+        )
+
+
+def make_storage(storage):
+    """Turn ``storage`` into an Optuna storage.
+
+    Parameters
+    ----------
+    storage : None, str, path-like or optuna.storages.BaseStorage
+        - ``None``: in memory (lost when the process ends);
+        - a database URL (``"sqlite:///study.db"``, ``"postgresql://user:pw@host/db"``,
+          ``"mysql+pymysql://..."``): Optuna's ``RDBStorage`` with a heartbeat;
+        - ``"journal:///abs/path/study.log"`` (or ``"journal://relative.log"``), or a
+          path ending in ``.log`` / ``.journal``: Optuna's journal file;
+        - a path ending in ``.db``, ``.sqlite`` or ``.sqlite3``: that SQLite file;
+        - a ready Optuna storage object, used as it is.
+
+    Returns
+    -------
+    optuna.storages.BaseStorage
+
+    Examples
+    --------
+    >>> type(make_storage(None)).__name__
+    'InMemoryStorage'
+    >>> make_storage("study.csv")
+    Traceback (most recent call last):
+    ...
+    ValueError: storage 'study.csv' is not understood; expected None, a database URL ('sqlite:///study.db', 'postgresql://...'), 'journal:///path/study.log', a path ending in .log/.journal (journal file) or .db/.sqlite/.sqlite3 (SQLite), or an optuna storage.
+    """
+    if storage is None:
+        return InMemoryStorage()
+    if isinstance(storage, BaseStorage):
+        return storage
+    if isinstance(storage, (str, os.PathLike)):
+        text = os.fspath(storage)
+        if text.startswith(_JOURNAL_PREFIX):
+            return JournalStorage(JournalFileBackend(text[len(_JOURNAL_PREFIX) :]))
+        if "://" in text:
+            return _rdb(text)
+        if text.endswith(_JOURNAL_SUFFIXES):
+            return JournalStorage(JournalFileBackend(text))
+        if text.endswith(_SQLITE_SUFFIXES):
+            return _rdb("sqlite:///" + os.path.abspath(text))
+    raise ValueError(
+        f"storage {storage!r} is not understood; expected None, a database URL ('sqlite:///study.db', "
+        "'postgresql://...'), 'journal:///path/study.log', a path ending in .log/.journal (journal file) "
+        "or .db/.sqlite/.sqlite3 (SQLite), or an optuna storage."
+    )
+
+
+def worker_id():
+    """``"host:pid"`` of this process, recorded on every trial it runs."""
+    return f"{socket.gethostname()}:{os.getpid()}"
+
+
+def _alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def count_done(study):
+    """Trials that count toward the budget ``n_trials``.
+
+    Evaluated trials count: COMPLETE ones, and PRUNED ones (a failed fit or a
+    diverged simulation, see :func:`~sindybench.model_selection.tune`). FAIL
+    trials were interrupted before an evaluation finished (killed worker,
+    KeyboardInterrupt, stale heartbeat) and do not count: their budget is
+    spent again.
+    """
+    return len(study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.PRUNED)))
+
+
+def fail_dead_workers(study):
+    """Mark FAIL the RUNNING trials whose worker, on this machine, no longer exists.
+
+    A worker killed with SIGKILL leaves its current trial RUNNING. On resume,
+    a trial whose ``worker`` user attribute names this host and a process id
+    that no longer runs is told FAIL (so TPE no longer treats it as pending).
+    Trials of workers on other machines are left to the RDB heartbeat
+    (:data:`GRACE_PERIOD` seconds of silence).
+
+    Returns
+    -------
+    list of int
+        Numbers of the trials marked FAIL.
+    """
+    host = socket.gethostname()
+    failed = []
+    for trial in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
+        owner = trial.user_attrs.get("worker", "")
+        owner_host, _, pid = owner.rpartition(":")
+        if owner_host != host or not pid.isdigit() or int(pid) == os.getpid() or _alive(int(pid)):
+            continue
+        try:
+            study.tell(trial.number, state=TrialState.FAIL)
+        except (ValueError, RuntimeError) as exc:  # another worker was faster
+            logger.debug("trial %d of %s already finished: %s", trial.number, study.study_name, exc)
+            continue
+        logger.warning(
+            "trial %d of study %r was left RUNNING by worker %s, which no longer runs: marked FAIL",
+            trial.number,
+            study.study_name,
+            owner,
+        )
+        failed.append(trial.number)
+    return failed

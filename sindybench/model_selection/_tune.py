@@ -1,0 +1,292 @@
+"""``tune``: Bayesian optimisation (Optuna TPE) of any estimator, scored by simulation."""
+
+import collections
+import logging
+import numbers
+
+import numpy as np
+import optuna
+from sklearn.base import clone
+from sklearn.model_selection import TimeSeriesSplit
+
+from ..metrics import make_simulation_scorer
+from ._sampler import make_sampler
+from ._space import check_search_space, sample_params
+from ._split import HoldoutSplit
+from ._storage import count_done, fail_dead_workers, make_storage, worker_id
+
+__all__ = ["AllTrialsFailedError", "tune"]
+
+logger = logging.getLogger(__name__)
+
+_DIRECTIONS = {"rmse": "minimize", "nrmse": "minimize", "r2": "maximize", "fit_index": "maximize"}
+
+
+class AllTrialsFailedError(RuntimeError):
+    """No trial of the study completed; ``study`` holds the trials and their ``fail_reason``."""
+
+    def __init__(self, message, study):
+        super().__init__(message)
+        self.study = study
+
+
+def _check_args(n_trials, timeout, n_jobs, random_state, scoring):
+    if isinstance(n_trials, bool) or not isinstance(n_trials, numbers.Integral) or n_trials < 1:
+        raise ValueError(f"n_trials must be an integer >= 1; got {n_trials!r}.")
+    if timeout is not None and (
+        isinstance(timeout, bool) or not isinstance(timeout, numbers.Real) or not timeout > 0
+    ):
+        raise ValueError(f"timeout must be None or a number of seconds > 0; got {timeout!r}.")
+    if isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0 or n_jobs < -1:
+        raise ValueError(f"n_jobs must be an integer >= 1, or -1 for one thread per CPU; got {n_jobs!r}.")
+    if random_state is not None and (isinstance(random_state, bool) or not isinstance(random_state, numbers.Integral)):
+        raise ValueError(f"random_state must be None or an integer seed; got {random_state!r}.")
+    if isinstance(scoring, str):
+        if scoring not in _DIRECTIONS:
+            raise ValueError(f"scoring must be one of {sorted(_DIRECTIONS)} or a scorer callable; got {scoring!r}.")
+        return make_simulation_scorer(scoring), _DIRECTIONS[scoring], -1.0 if _DIRECTIONS[scoring] == "minimize" else 1.0
+    if callable(scoring):
+        return scoring, "maximize", 1.0
+    raise ValueError(f"scoring must be one of {sorted(_DIRECTIONS)} or a scorer callable; got {scoring!r}.")
+
+
+def _splits(cv, X, y):
+    if cv is None:
+        cv = HoldoutSplit()
+    elif isinstance(cv, numbers.Integral) and not isinstance(cv, bool):
+        cv = TimeSeriesSplit(n_splits=int(cv))
+    ref = y if X is None else X
+    splits = list(cv.split(ref, y)) if hasattr(cv, "split") else list(cv)
+    if not splits:
+        raise ValueError(f"cv={cv!r} gave no split; expected at least one (train, validation) pair.")
+    return splits
+
+
+def _take(a, idx):
+    return None if a is None else a[idx]
+
+
+def _jsonable(value):
+    if isinstance(value, np.generic):
+        return value.item()
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    return repr(value)
+
+
+def _fail(trial, reason):
+    trial.set_user_attr("fail_reason", reason)
+    raise optuna.TrialPruned(reason)
+
+
+def _objective(estimator, search_space, X, y, splits, scorer, sign):
+    worker = worker_id()
+
+    def objective(trial):
+        trial.set_user_attr("worker", worker)
+        params = sample_params(search_space, trial)
+        trial.set_user_attr("params", {k: _jsonable(v) for k, v in params.items()})
+        scores = []
+        for k, (train, test) in enumerate(splits):
+            stage = "set_params"
+            try:
+                model = clone(estimator).set_params(**params)
+                stage = "fit"
+                model.fit(_take(X, train), y[train])
+                stage = "simulation"
+                score = float(scorer(model, _take(X, test), y[test]))
+            except Exception as exc:  # a failed fit or simulation ends the trial, never the study
+                _fail(trial, f"{stage} failed on split {k}: {type(exc).__name__}: {exc}")
+            if not np.isfinite(score):
+                _fail(trial, f"simulation diverged on split {k} (non-finite prediction, score {score})")
+            scores.append(score)
+        trial.set_user_attr("split_scores", scores)
+        return sign * float(np.mean(scores))
+
+    return objective
+
+
+def _open_study(storage, study_name, estimator, search_space, direction, scoring, random_state):
+    space_text = repr(search_space) if isinstance(search_space, dict) else getattr(search_space, "__qualname__", "")
+    if study_name is None and not isinstance(storage, optuna.storages.InMemoryStorage):
+        study_name = f"tune-{type(estimator).__name__}"
+    study = optuna.create_study(
+        storage=storage,
+        study_name=study_name,
+        sampler=make_sampler(random_state),
+        direction=direction,
+        load_if_exists=True,
+    )
+    signature = {"estimator": type(estimator).__name__, "search_space": space_text, "scoring": repr(scoring)}
+    stored = {k: study.user_attrs[k] for k in signature if k in study.user_attrs}
+    if stored and stored != signature:
+        raise ValueError(
+            f"study {study.study_name!r} in this storage was made by another call ({stored}); got {signature}. "
+            "Expected the same estimator class, search space and scoring to resume it: pass another study_name."
+        )
+    if study.direction.name.lower() != direction:
+        raise ValueError(f"study {study.study_name!r} has direction {study.direction.name}; expected {direction}.")
+    for key, value in signature.items():
+        if key not in stored:
+            study.set_user_attr(key, value)
+    return study
+
+
+def _failure_summary(study):
+    reasons = collections.Counter(
+        t.user_attrs.get("fail_reason", f"{t.state.name} (no reason recorded)")
+        for t in study.get_trials(deepcopy=False)
+    )
+    return "; ".join(f"{n} x {reason}" for reason, n in reasons.most_common(3))
+
+
+def tune(
+    estimator,
+    search_space,
+    X,
+    y,
+    *,
+    cv=None,
+    scoring="rmse",
+    n_trials=100,
+    timeout=None,
+    storage=None,
+    study_name=None,
+    n_jobs=1,
+    random_state=None,
+    show_progress_bar=False,
+):
+    """Choose hyperparameters by Bayesian optimisation of the simulation error.
+
+    Every trial draws parameters from ``search_space`` (Optuna TPE), fits a
+    clone of ``estimator`` on each training block of ``cv`` and scores the
+    open-loop simulation of the matching validation block
+    (:func:`~sindybench.metrics.make_simulation_scorer`). The best parameters
+    are then refitted on all of ``X, y``.
+
+    Parameters
+    ----------
+    estimator : estimator
+        Any sindybench estimator (``fit(X, y)``, ``predict(X, y_init=...)``),
+        cloned for every fit.
+    search_space : dict or callable
+        ``{parameter name: dimension}`` with the dimensions of
+        :mod:`sindybench.model_selection` (``LogUniform``, ``LogNormal``,
+        ``IntRange``, ``Categorical``, ...), names as in ``set_params``
+        (``"optimizer__threshold"``). Or a callable ``f(trial) -> dict`` of
+        parameter values for conditional spaces.
+    X : array-like of shape (n_samples, n_inputs) or None
+        Inputs.
+    y : array-like of shape (n_samples, n_outputs)
+        Measured outputs.
+    cv : splitter, int or iterable, default=None
+        ``None``: :class:`HoldoutSplit` (the last 20 % validates); an int:
+        ``TimeSeriesSplit(n_splits=cv)``; any scikit-learn splitter or list of
+        ``(train, validation)`` index pairs. The trial value is the mean over splits.
+    scoring : {"rmse", "nrmse", "r2", "fit_index"} or callable, default="rmse"
+        A simulation metric (minimised for rmse and nrmse, maximised
+        otherwise, the study's values are the metric itself), or a scorer
+        ``scorer(estimator, X, y) -> float`` to maximise.
+    n_trials : int, default=100
+        Budget of the *study*, not of this call: trials that finished
+        (COMPLETE, or PRUNED for a failed evaluation) count, and a call on a
+        study that already holds some runs only the missing ones. Workers
+        sharing a study share the budget; each may finish the trial it is
+        running when the budget is reached, so the study can end with up to
+        ``n_workers - 1`` extra trials.
+    timeout : float, optional
+        Stop starting new trials after this many seconds.
+    storage : None, str, path-like or optuna storage, default=None
+        ``None`` keeps the study in memory. ``"sqlite:///study.db"`` (or a
+        ``.db`` path), ``"journal:///path/study.log"`` (or a ``.log`` path),
+        or a PostgreSQL/MySQL URL make it persistent, resumable and shared
+        between worker processes and machines: see ``docs/scaling.rst``.
+    study_name : str, optional
+        Name in the storage; default ``"tune-<EstimatorClass>"`` with a
+        persistent storage. The same call with the same name resumes.
+    n_jobs : int, default=1
+        Threads in this process (``-1``: one per CPU). For CPU-bound fits, run
+        several processes on one storage instead.
+    random_state : int or None, default=None
+        Seeds TPE. Trial ``n`` draws from a generator seeded by
+        ``(random_state, n)``, so concurrent or restarted workers do not
+        repeat each other's points.
+    show_progress_bar : bool, default=False
+
+    Returns
+    -------
+    best_estimator : estimator
+        A clone with the best trial's parameters, fitted on all of ``X, y``.
+    study : optuna.study.Study
+        All trials. ``user_attrs`` of a trial: ``params`` (the values set on
+        the estimator), ``split_scores``, ``worker`` (``host:pid``) and, for a
+        failed one, ``fail_reason``.
+
+    Raises
+    ------
+    AllTrialsFailedError
+        When no trial of the study completed (its ``study`` attribute holds them).
+
+    Notes
+    -----
+    A fit that raises, a simulation that raises (``sindybench.SimulationError``)
+    or a non-finite simulation ends the trial as **PRUNED** with user attribute
+    ``fail_reason``; it never stops the study. PRUNED rather than FAIL because
+    TPE ranks pruned trials below all completed ones, so it learns to stay away
+    from regions where models diverge, while it ignores FAIL trials. FAIL is
+    left to trials that were interrupted (worker killed, Ctrl-C, stale
+    heartbeat); they do not count toward ``n_trials``. On start, RUNNING
+    trials of dead workers on this machine are marked FAIL.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sindybench.baselines import ARX
+    >>> from sindybench.model_selection import IntRange, tune
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal((400, 1))
+    >>> y = np.zeros((400, 1))
+    >>> for t in range(2, 400):
+    ...     y[t] = 1.5 * y[t - 1] - 0.7 * y[t - 2] + u[t - 1]
+    >>> space = {"na": IntRange(1, 4), "nb": IntRange(1, 3)}
+    >>> best, study = tune(ARX(), space, u, y, n_trials=15, random_state=0)
+    >>> best.na >= 2, study.best_value < 1e-6
+    (True, True)
+    """
+    scorer, direction, sign = _check_args(n_trials, timeout, n_jobs, random_state, scoring)
+    check_search_space(search_space, estimator)
+    X = None if X is None else np.asarray(X)
+    y = np.asarray(y)
+    if X is not None and X.shape[0] != y.shape[0]:
+        raise ValueError(f"X has {X.shape[0]} samples and y has {y.shape[0]}; expected the same number of samples.")
+    splits = _splits(cv, X, y)
+    study = _open_study(make_storage(storage), study_name, estimator, search_space, direction, scoring, random_state)
+    fail_dead_workers(study)
+
+    def stop_at_budget(study, trial):
+        if count_done(study) >= n_trials:
+            study.stop()
+
+    remaining = n_trials - count_done(study)
+    if remaining > 0:
+        logger.info("study %r: running up to %d of %d trials", study.study_name, remaining, n_trials)
+        study.optimize(
+            _objective(estimator, search_space, X, y, splits, scorer, sign),
+            n_trials=remaining,
+            timeout=timeout,
+            n_jobs=n_jobs,
+            catch=(),
+            callbacks=[stop_at_budget],
+            show_progress_bar=show_progress_bar,
+        )
+    complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
+    if not complete:
+        raise AllTrialsFailedError(
+            f"no trial of study {study.study_name!r} completed ({len(study.trials)} trials); "
+            f"most frequent reasons: {_failure_summary(study)}",
+            study,
+        )
+    best = study.best_trial
+    params = sample_params(search_space, optuna.trial.FixedTrial(best.params, best.number))
+    best_estimator = clone(estimator).set_params(**params).fit(X, y)
+    return best_estimator, study

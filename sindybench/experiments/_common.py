@@ -68,11 +68,15 @@ def arx_model(make_kwargs=None):
 
 
 def arx_space(max_na=10, max_nb=10):
-    """Search space of ARX orders (``na``, ``nb``, ``nk``)."""
+    """Search space of ARX orders (``na``, ``nb``, ``nk``).
+
+    A simulation starts from ``max(na, nb + nk - 1)`` measured samples, so the
+    maxima must not exceed the samples a test lets a model use (``n_init``).
+    """
     def space(quick):
         from ..model_selection import IntRange
 
-        return {"na": IntRange(1, max_na), "nb": IntRange(1, max_nb), "nk": IntRange(0, 2)}
+        return {"na": IntRange(1, max_na), "nb": IntRange(1, max_nb), "nk": IntRange(0, 1)}
 
     return space
 
@@ -88,8 +92,8 @@ def nnarx_model(*, hidden_layer_sizes=(16,), max_iter=300, quick_max_iter=100):
     return make
 
 
-def nnarx_space(max_na=6, max_nb=6, sizes=((8,), (16,), (32,), (16, 16))):
-    """Search space of NN-ARX orders, network size and weight penalty."""
+def nnarx_space(max_na=5, max_nb=5, sizes=((8,), (16,), (32,), (16, 16))):
+    """Search space of NN-ARX orders, network size and weight penalty (see :func:`arx_space`)."""
     def space(quick):
         from ..model_selection import Categorical, IntRange, LogUniform
 

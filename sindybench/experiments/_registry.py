@@ -5,7 +5,8 @@ import logging
 import time
 from pathlib import Path
 
-from ._report import staged_output_dir, write_report, write_results
+from ._report import staged_output_dir, write_results
+from ._report import write_report as _write_report
 from ._runner import load_data, run_benchmark, test_sets
 
 __all__ = ["BENCHMARKS", "get_benchmark", "run_benchmarks"]
@@ -80,7 +81,7 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
             all_results.append(write_results(results, fitted, simulations, tests, folder,
                                              hysteresis_test=benchmark.hysteresis_test))
         if write_report_md:
-            write_report(all_results, tmp / "report.md", wall_time_s=time.perf_counter() - start)
+            _write_report(all_results, tmp / "report.md", wall_time_s=time.perf_counter() - start)
     if write_report_md:
         return out / "report.md"
     return out / benchmarks[0].name / "results.md"

@@ -191,11 +191,11 @@ def _save_model(estimator, entry, path):
     path.write_text(json.dumps(doc, indent=2) + "\n")
 
 
-def _figure(nrows=1, ncols=1, **kwargs):
+def _figure(nrows=1, ncols=1, *, figsize, **subplot_kw):
     from matplotlib.figure import Figure
 
-    fig = Figure(**kwargs)
-    axes = fig.subplots(nrows, ncols, squeeze=False)
+    fig = Figure(figsize=figsize, layout="constrained")
+    axes = fig.subplots(nrows, ncols, squeeze=False, **subplot_kw)
     return fig, axes
 
 
@@ -210,8 +210,7 @@ def plot_test(results, test_name, test, simulations):
     dt = float(test.get("dt", results["dt"]))
     t = np.arange(len(y)) * dt
     k = _stride(len(y))
-    fig, axes = _figure(2, 1, figsize=(9, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]},
-                        layout="constrained")
+    fig, axes = _figure(2, 1, figsize=(9, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     ax, ax_u = axes[0, 0], axes[1, 0]
     ax.plot(t[::k], y[::k], color="black", lw=1.6, label="measured")
     for m in results["models"]:
@@ -234,7 +233,7 @@ def plot_hysteresis(results, test_name, test, simulations):
     """Figure: force-displacement loops (input vs output) on one test set."""
     y = np.asarray(test["y"], float).reshape(len(test["y"]), -1)[:, 0]
     u = np.asarray(test["u"], float).reshape(len(y), -1)[:, 0]
-    fig, axes = _figure(figsize=(6.5, 5), layout="constrained")
+    fig, axes = _figure(figsize=(6.5, 5))
     ax = axes[0, 0]
     ax.plot(y, u, color="black", lw=1.8, label="true system")
     for m in results["models"]:

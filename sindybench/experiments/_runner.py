@@ -9,6 +9,7 @@ files is left to :mod:`sindybench.experiments._report`.
 """
 
 import logging
+import os
 import time
 
 import numpy as np
@@ -49,12 +50,18 @@ def load_data(benchmark, *, data_home=None, download_if_missing=True):
     try:
         return benchmark.load(data_home=data_home, download_if_missing=download_if_missing)
     except OSError as exc:  # FileNotFoundError, a failed download (URLError is an OSError)
-        where = f"--data-home {data_home}" if data_home is not None else "SINDYBENCH_DATA / the default data home"
+        if data_home is not None:
+            where = f"{data_home} (--data-home / data_home=)"
+        elif os.environ.get("SINDYBENCH_DATA"):
+            where = f"{os.environ['SINDYBENCH_DATA']} (SINDYBENCH_DATA)"
+        else:
+            where = "~/sindybench_data (the default data home; SINDYBENCH_DATA is not set)"
+        how = ("put the benchmark records in a folder DIR and pass --data-home DIR "
+               "(data_home= in Python) or set SINDYBENCH_DATA=DIR")
+        if not download_if_missing:
+            how += ", or allow the download from the public source (drop --no-download; needs a network)"
         raise DataNotFoundError(
-            f"{benchmark.title} data are missing: {exc}\n"
-            f"(looked in {where}). Put the benchmark records in a folder and point to it with "
-            "the SINDYBENCH_DATA environment variable or --data-home DIR; without --no-download "
-            "the public sources are tried when a network is available."
+            f"{benchmark.title}: benchmark data not found.\n  {exc}\n  Looked in: {where}.\n  To provide them: {how}."
         ) from exc
 
 

@@ -1,1 +1,28 @@
+"""Feature libraries: scikit-learn transformers applied to ``Z = [states, inputs]``."""
 
+from ._base import BaseLibrary
+from ._builtin import AbsProductLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
+from ._compose import ConcatLibrary, ProductLibrary
+from ._custom import CustomLibrary, ExternalLibrary, as_library
+from ._spec import library_from_spec, library_to_spec
+from ._terms import evaluate_terms, term_name, terms_from_json, terms_to_arrays, terms_to_json
+
+__all__ = [
+    "AbsProductLibrary",
+    "BaseLibrary",
+    "ConcatLibrary",
+    "CustomLibrary",
+    "ExternalLibrary",
+    "PolynomialLibrary",
+    "ProductLibrary",
+    "SqrtLibrary",
+    "TermsLibrary",
+    "as_library",
+    "evaluate_terms",
+    "library_from_spec",
+    "library_to_spec",
+    "term_name",
+    "terms_from_json",
+    "terms_to_arrays",
+    "terms_to_json",
+]

@@ -23,7 +23,18 @@ An empty term ``()`` is the constant 1.
 
 import numpy as np
 
-__all__ = ["ABS_POW", "POW", "SIGN", "SQRT", "evaluate_terms", "term_name", "terms_to_arrays"]
+__all__ = [
+    "ABS_POW",
+    "POW",
+    "SIGN",
+    "SQRT",
+    "check_terms",
+    "evaluate_terms",
+    "term_name",
+    "terms_from_json",
+    "terms_to_arrays",
+    "terms_to_json",
+]
 
 POW, ABS_POW, SQRT, SIGN = 0, 1, 2, 3
 _OPS = (POW, ABS_POW, SQRT, SIGN)
@@ -126,3 +137,73 @@ def terms_to_arrays(terms):
     a = np.array([f[2] for f in flat], dtype=float)
     b = np.array([f[3] for f in flat], dtype=float)
     return ptr, col, op, a, b
+
+
+def check_terms(terms, n_variables=None, *, name="terms"):
+    """Return ``terms`` as a list of tuples of ``(int, int, float, float)`` factors.
+
+    Accepts the JSON form too (lists; ``"inf"`` / ``"-inf"`` strings for
+    infinite clip values).
+
+    Parameters
+    ----------
+    terms : sequence of sequence of (col, op, a, b)
+    n_variables : int, optional
+        Number of columns of ``Z``; every ``col`` must be below it.
+
+    Examples
+    --------
+    >>> check_terms([[], [[1, 2, 0, "inf"]]])
+    [(), ((1, 2, 0.0, inf),)]
+    >>> check_terms([[[2, 0, 1, 0]]], 2)
+    Traceback (most recent call last):
+    ...
+    ValueError: terms[0] uses column 2 of Z; expected columns in [0, 1].
+    """
+    if isinstance(terms, (str, bytes)) or not hasattr(terms, "__iter__"):
+        raise ValueError(f"{name} must be a sequence of terms; got {terms!r}.")
+    out = []
+    for j, term in enumerate(terms):
+        factors = []
+        try:
+            for col, op, a, b in term:
+                factors.append((int(col), int(op), float(a), float(b)))
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name}[{j}] = {term!r} is not a sequence of (col, op, a, b) factors.") from exc
+        for col, op, a, b in factors:
+            if op not in _OPS:
+                raise ValueError(f"{name}[{j}] has unknown operation {op}; expected one of {_OPS}.")
+            if col < 0 or (n_variables is not None and col >= n_variables):
+                hi = "" if n_variables is None else f" in [0, {n_variables - 1}]"
+                raise ValueError(f"{name}[{j}] uses column {col} of Z; expected columns{hi}.")
+            if np.isnan(a) or np.isnan(b):
+                raise ValueError(f"{name}[{j}] has a NaN parameter; expected numbers.")
+        out.append(tuple(factors))
+    return out
+
+
+def _json_float(v):
+    return v if np.isfinite(v) else ("inf" if v > 0 else "-inf")
+
+
+def terms_to_json(terms):
+    """Plain JSON-able form of ``terms`` (lists; infinite values as strings).
+
+    Examples
+    --------
+    >>> terms_to_json([(), ((0, SQRT, 0.0, float("inf")),)])
+    [[], [[0, 2, 0.0, 'inf']]]
+    """
+    return [[[int(c), int(o), _json_float(float(a)), _json_float(float(b))] for c, o, a, b in t] for t in terms]
+
+
+def terms_from_json(obj):
+    """Inverse of :func:`terms_to_json`.
+
+    Examples
+    --------
+    >>> t = [(), ((0, SQRT, 0.0, float("inf")),)]
+    >>> terms_from_json(terms_to_json(t)) == t
+    True
+    """
+    return check_terms(obj)

@@ -18,7 +18,7 @@ from numba import njit
 
 from .._validation import check_positive, check_signal
 from ._resample import decimate_fir, upsample
-from ._signals import check_rng
+from ._signals import _check_count, check_rng
 
 __all__ = ["BoucWen"]
 
@@ -96,12 +96,6 @@ def newmark_bouc_wen(u, h, m, c, k, alpha, beta, gamma, delta, nu, x0, stride, t
             states[j, 1] = v
             states[j, 2] = z
     return y_out, states, n_fail
-
-
-def _check_count(value, name, minimum):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}; got {value!r}.")
-    return int(value)
 
 
 class BoucWen:

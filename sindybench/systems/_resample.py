@@ -128,8 +128,11 @@ def decimate_fir(x, factor, *, order=30, periodic=False):
         filtered = sp_fft.irfft(sp_fft.rfft(x) * sp_fft.rfft(kernel), n)
         return filtered[::factor]
     n_pad = order + 1
-    if n <= n_pad + 1:
-        raise ValueError(f"signal has {n} samples; expected more than {n_pad + 1} to decimate with an order-{order} FIR.")
-    extended = _reflect_pad(x, n_pad)
+    n_reflect = min(n_pad, n - 1)
+    extended = _reflect_pad(x, n_reflect)
+    if n_reflect < n_pad:
+        # a record shorter than the filter: continue the reflected ends with their last values
+        extra = n_pad - n_reflect
+        extended = np.concatenate([np.full(extra, extended[0]), extended, np.full(extra, extended[-1])])
     filtered = np.convolve(extended, b, mode="same")[n_pad : n_pad + n]
     return filtered[::factor]

@@ -179,7 +179,9 @@ class AbsProductLibrary(BaseLibrary):
             cols = check_variables(self.variables, n_features)
             pairs = list(combinations(cols, 2))
             if not pairs:
-                raise ValueError(f"AbsProductLibrary needs at least two variables for its pairs; got {cols}.")
+                raise ValueError(
+                    f"AbsProductLibrary needs two variables for its pairs; got {cols} (n_features = {n_features})."
+                )
             return pairs
         if self.variables is not None:
             raise ValueError("give either pairs or variables, not both; variables only build the default pairs.")

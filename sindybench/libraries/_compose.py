@@ -11,10 +11,9 @@ __all__ = ["ConcatLibrary", "ProductLibrary"]
 
 
 def _fit_clone(library, Z, name):
-    lib = as_library(library)
-    if lib is None:
+    if library is None:
         raise ValueError(f"{name} is None; expected a library.")
-    return clone(lib).fit(Z)
+    return clone(as_library(library)).fit(Z)
 
 
 class ConcatLibrary(BaseLibrary):
@@ -74,7 +73,7 @@ class ConcatLibrary(BaseLibrary):
     def get_params(self, deep=True):
         """Parameters, with those of the parts as ``libraries__<i>__<param>``."""
         params = super().get_params(deep=False)
-        if deep and self.libraries is not None:
+        if deep and isinstance(self.libraries, (list, tuple)):
             for i, lib in enumerate(self.libraries):
                 if hasattr(lib, "get_params"):
                     for key, value in lib.get_params(deep=True).items():
@@ -87,7 +86,8 @@ class ConcatLibrary(BaseLibrary):
         for key in list(params):
             if key.startswith("libraries__"):
                 index, _, sub = key[len("libraries__"):].partition("__")
-                if not index.isdigit() or not sub or self.libraries is None or int(index) >= len(self.libraries):
+                if (not index.isdigit() or not sub or not isinstance(self.libraries, (list, tuple))
+                        or int(index) >= len(self.libraries)):
                     raise ValueError(f"invalid parameter {key!r} for {type(self).__name__}; "
                                      "expected libraries__<index>__<param>.")
                 nested.setdefault(int(index), {})[sub] = params.pop(key)

@@ -1,0 +1,314 @@
+"""Feature libraries: names and values on known inputs, composition, spec, adapters, bad input."""
+
+import json
+
+import numpy as np
+import pysindy as ps
+import pytest
+from numpy.testing import assert_allclose
+from sklearn.base import clone
+from sklearn.preprocessing import PolynomialFeatures
+
+from sindybench.libraries import (
+    AbsProductLibrary,
+    ConcatLibrary,
+    CustomLibrary,
+    ExternalLibrary,
+    PolynomialLibrary,
+    ProductLibrary,
+    SqrtLibrary,
+    TermsLibrary,
+    as_library,
+    library_from_spec,
+    library_to_spec,
+    terms_from_json,
+    terms_to_json,
+)
+from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT, check_terms, evaluate_terms
+
+
+@pytest.fixture
+def Z(rng):
+    return rng.normal(size=(50, 3))
+
+
+# ------------------------------------------------------------------ polynomial
+@pytest.mark.parametrize("degree", [1, 2, 3])
+@pytest.mark.parametrize("include_bias", [True, False])
+@pytest.mark.parametrize("interaction_only", [True, False])
+def test_polynomial_matches_sklearn(Z, degree, include_bias, interaction_only):
+    ours = PolynomialLibrary(degree=degree, include_bias=include_bias, interaction_only=interaction_only).fit(Z)
+    ref = PolynomialFeatures(degree=degree, include_bias=include_bias, interaction_only=interaction_only).fit(Z)
+    assert_allclose(ours.transform(Z), ref.transform(Z), rtol=1e-12)
+    assert ours.n_output_features_ == ref.n_output_features_ == len(ours.terms_)
+
+
+def test_polynomial_names_match_pysindy(Z):
+    names = ["y0", "y1", "u0"]
+    ours = PolynomialLibrary(degree=3).fit(Z).get_feature_names_out(names)
+    ref = ps.PolynomialLibrary(degree=3).fit(Z).get_feature_names(names)
+    assert sorted(ours) == sorted(ref)
+
+
+def test_polynomial_variables_select_columns(Z):
+    lib = PolynomialLibrary(degree=2, include_bias=False, variables=[2, 0]).fit(Z)
+    assert lib.get_feature_names_out().tolist() == ["x0", "x2", "x0^2", "x0 x2", "x2^2"]
+    assert_allclose(lib.transform(Z)[:, 3], Z[:, 0] * Z[:, 2])
+
+
+def test_default_names_and_input_names(Z):
+    lib = PolynomialLibrary(degree=1).fit(Z)
+    assert lib.get_feature_names_out().tolist() == ["1", "x0", "x1", "x2"]
+    assert lib.get_feature_names_out(["y", "v", "u"]).tolist() == ["1", "y", "v", "u"]
+
+
+# ------------------------------------------------------------------------ sqrt
+def test_sqrt_clips_before_root():
+    Z = np.array([[-1.0, 4.0], [9.0, 16.0], [0.25, 100.0]])
+    lib = SqrtLibrary(lower=0.0, upper=[4.0, 25.0]).fit(Z)
+    assert lib.get_feature_names_out(["x1", "x2"]).tolist() == ["sqrt(x1)", "sqrt(x2)"]
+    assert_allclose(lib.transform(Z), [[0.0, 2.0], [2.0, 4.0], [0.5, 5.0]])
+
+
+def test_sqrt_lower_threshold(Z):
+    lib = SqrtLibrary(lower=0.5, variables=[1]).fit(Z)
+    assert_allclose(lib.transform(Z)[:, 0], np.sqrt(np.maximum(Z[:, 1], 0.5)))
+
+
+# ---------------------------------------------------------------- abs products
+def test_abs_product_values(Z):
+    lib = AbsProductLibrary(pairs=[(2, 0)], include_abs=True).fit(Z)
+    z, v = Z[:, 2], Z[:, 0]
+    expected = np.column_stack([z * abs(v), abs(z) * v, abs(z) * abs(v), abs(z), abs(v)])
+    assert_allclose(lib.transform(Z), expected)
+    assert lib.get_feature_names_out(["v", "u", "z"]).tolist() == ["z |v|", "|z| v", "|z| |v|", "|z|", "|v|"]
+
+
+def test_abs_product_default_pairs_and_selection(Z):
+    lib = AbsProductLibrary(products=["x|y|", "xy"]).fit(Z)
+    # pairs (0, 1), (0, 2), (1, 2), two products each
+    assert lib.n_output_features_ == 6
+    assert_allclose(lib.transform(Z)[:, 5], Z[:, 1] * Z[:, 2])
+
+
+def test_abs_product_power_and_self_pair(Z):
+    lib = AbsProductLibrary(pairs=[(1, 1)], abs_power=2.0).fit(Z)
+    # x|x|^2 and |x|^2 x coincide: one is dropped
+    assert lib.get_feature_names_out().tolist() == ["x1 |x1|^2", "|x1|^2 |x1|^2"]
+    assert_allclose(lib.transform(Z)[:, 0], Z[:, 1] ** 3)
+
+
+def test_abs_product_bouc_wen_law(rng):
+    """z' = A v - beta |v| z - gamma v |z| is a linear combination of the library columns."""
+    Z = rng.normal(size=(40, 2))  # columns v, z
+    lib = ConcatLibrary([PolynomialLibrary(degree=1, include_bias=False), AbsProductLibrary(pairs=[(1, 0)])]).fit(Z)
+    v, z = Z[:, 0], Z[:, 1]
+    target = 2.0 * v - 0.5 * np.abs(v) * z - 0.3 * v * np.abs(z)
+    coef, *_ = np.linalg.lstsq(lib.transform(Z), target, rcond=None)
+    names = lib.get_feature_names_out(["v", "z"]).tolist()
+    assert_allclose(coef[names.index("v")], 2.0, atol=1e-10)
+    assert_allclose(coef[names.index("z |v|")], -0.5, atol=1e-10)
+    assert_allclose(coef[names.index("|z| v")], -0.3, atol=1e-10)
+
+
+# ---------------------------------------------------------------------- custom
+def test_custom_library_names_and_values(Z):
+    lib = CustomLibrary(
+        functions=[np.sin, lambda a, b: a * np.tanh(b)], names=["sin({})", lambda a, b: f"{a} tanh({b})"], variables=[0, 2]
+    ).fit(Z)
+    assert lib.terms_ is None
+    assert lib.get_feature_names_out(["y", "v", "u"]).tolist() == ["sin(y)", "sin(u)", "y tanh(u)"]
+    assert_allclose(lib.transform(Z), np.column_stack([np.sin(Z[:, 0]), np.sin(Z[:, 2]), Z[:, 0] * np.tanh(Z[:, 2])]))
+
+
+def test_custom_library_default_names_and_constant(Z):
+    lib = CustomLibrary(functions=[lambda x: 1.0], variables=[1]).fit(Z)
+    assert lib.get_feature_names_out().tolist() == ["f0(x1)"]
+    assert_allclose(lib.transform(Z), 1.0)
+
+
+# ----------------------------------------------------------------- composition
+def test_concat_equals_hstack_and_operator(Z):
+    a, b = PolynomialLibrary(degree=2), SqrtLibrary(variables=[0])
+    lib = (a + b).fit(Z)
+    assert isinstance(lib, ConcatLibrary)
+    assert_allclose(lib.transform(Z), np.hstack([clone(a).fit_transform(Z), clone(b).fit_transform(Z)]))
+    assert len(lib.terms_) == lib.n_output_features_ == 11
+    assert lib.get_feature_names_out()[-1] == "sqrt(x0)"
+
+
+def test_concat_with_custom_is_not_compilable(Z):
+    lib = ConcatLibrary([PolynomialLibrary(degree=1), CustomLibrary(functions=[np.cos])]).fit(Z)
+    assert lib.terms_ is None
+    assert_allclose(lib.transform(Z)[:, 4:], np.cos(Z))
+
+
+def test_concat_nested_params():
+    lib = ConcatLibrary([PolynomialLibrary(degree=2), SqrtLibrary()])
+    assert lib.get_params()["libraries__0__degree"] == 2
+    lib.set_params(libraries__0__degree=3, libraries__1__upper=5.0)
+    assert (lib.libraries[0].degree, lib.libraries[1].upper) == (3, 5.0)
+    assert clone(lib).libraries[0].degree == 3
+
+
+def test_product_compiled_equals_columnwise(Z):
+    left = PolynomialLibrary(degree=1, variables=[0])
+    compiled = ProductLibrary(left, PolynomialLibrary(degree=1)).fit(Z)
+    external = ProductLibrary(left, as_library(ps.PolynomialLibrary(degree=1))).fit(Z)
+    assert compiled.terms_ is not None and external.terms_ is None
+    assert_allclose(compiled.transform(Z), external.transform(Z), rtol=1e-12)
+    assert compiled.get_feature_names_out().tolist() == ["1", "x0", "x1", "x2", "x0", "x0^2", "x0 x1", "x0 x2"]
+    assert external.get_feature_names_out().tolist() == ["1", "x0", "x1", "x2", "x0", "x0 x0", "x0 x1", "x0 x2"]
+
+
+def test_product_operator_merges_abs_and_sqrt(Z):
+    lib = (SqrtLibrary(variables=[0]) * AbsProductLibrary(pairs=[(1, 2)], products=["x|y|"])).fit(Z)
+    assert_allclose(lib.transform(Z)[:, 0], np.sqrt(np.maximum(Z[:, 0], 0)) * Z[:, 1] * abs(Z[:, 2]))
+
+
+# --------------------------------------------------------- terms, spec, adapters
+def test_terms_library_reproduces_fitted_library(Z):
+    lib = (PolynomialLibrary(degree=2) + SqrtLibrary(upper=2.0) + AbsProductLibrary()).fit(Z)
+    again = TermsLibrary(terms=terms_from_json(json.loads(json.dumps(terms_to_json(lib.terms_))))).fit(Z)
+    assert_allclose(again.transform(Z), lib.transform(Z))
+    assert again.get_feature_names_out().tolist() == lib.get_feature_names_out().tolist()
+
+
+@pytest.mark.parametrize(
+    "lib",
+    [
+        PolynomialLibrary(degree=3, interaction_only=True, variables=[0, 1]),
+        SqrtLibrary(lower=0.1, upper=np.inf),
+        AbsProductLibrary(pairs=[(0, 1)], include_abs=True, abs_power=1.5),
+        ConcatLibrary([PolynomialLibrary(), ProductLibrary(SqrtLibrary(), AbsProductLibrary())]),
+        TermsLibrary(terms=[(), ((0, SIGN, 0.0, 0.0),)]),
+    ],
+    ids=["poly", "sqrt", "abs", "nested", "terms"],
+)
+def test_spec_round_trip(Z, lib):
+    spec = library_to_spec(lib)
+    text = json.dumps(spec, allow_nan=False)
+    again = library_from_spec(json.loads(text))
+    assert_allclose(clone(again).fit_transform(Z), clone(lib).fit_transform(Z))
+
+
+def test_spec_rejects_custom():
+    with pytest.raises(ValueError, match="cannot be stored as a plain spec"):
+        library_to_spec(CustomLibrary(functions=[np.sin]))
+
+
+@pytest.mark.parametrize(
+    "pslib", [ps.PolynomialLibrary(degree=2), ps.FourierLibrary(n_frequencies=2)], ids=["poly", "fourier"]
+)
+def test_as_library_accepts_pysindy(Z, pslib):
+    lib = as_library(pslib).fit(Z)
+    ref = clone(pslib).fit(Z)
+    assert lib.terms_ is None
+    assert_allclose(lib.transform(Z), np.asarray(ref.transform(Z)))
+    assert lib.get_feature_names_out(["a", "b", "c"]).tolist() == ref.get_feature_names(["a", "b", "c"])
+
+
+def test_as_library_accepts_sklearn_transformer_and_none(Z):
+    lib = as_library(PolynomialFeatures(degree=2)).fit(Z)
+    assert isinstance(lib, ExternalLibrary)
+    assert lib.get_feature_names_out()[4] == "x0^2"
+    assert as_library(None).get_params() == PolynomialLibrary().get_params()
+    own = SqrtLibrary()
+    assert as_library(own) is own
+
+
+def test_evaluate_terms_every_operation():
+    Z = np.array([[-2.0, 9.0], [0.0, -1.0], [3.0, 0.25]])
+    terms = [((0, POW, 3, 0),), ((0, ABS_POW, 0.5, 0),), ((1, SQRT, 0.0, 4.0),), ((0, SIGN, 0, 0), (1, POW, 1, 0))]
+    expected = np.array([[-8.0, np.sqrt(2.0), 2.0, -9.0], [0.0, 0.0, 0.0, -0.0], [27.0, np.sqrt(3.0), 0.5, 0.25]])
+    assert_allclose(evaluate_terms(terms, Z), expected)
+
+
+# ------------------------------------------------------------------- bad input
+@pytest.mark.parametrize(
+    ("lib", "match"),
+    [
+        (PolynomialLibrary(degree=-1), "degree must be an integer >= 0"),
+        (PolynomialLibrary(degree=1.5), "degree must be an integer >= 0"),
+        (PolynomialLibrary(include_bias="yes"), "include_bias must be True or False"),
+        (PolynomialLibrary(interaction_only=None), "interaction_only must be True or False"),
+        (PolynomialLibrary(degree=0, include_bias=False), "has no terms"),
+        (PolynomialLibrary(variables=[3]), r"variables contains 3; expected column indices in \[0, 2\]"),
+        (PolynomialLibrary(variables=[0, 0]), "repeated entries"),
+        (PolynomialLibrary(variables=[]), "variables is empty"),
+        (PolynomialLibrary(variables="x0"), "sequence of column indices"),
+        (PolynomialLibrary(variables=[0.5]), "integer column indices"),
+        (SqrtLibrary(lower=-1.0), "lower must be >= 0"),
+        (SqrtLibrary(lower=2.0, upper=1.0), "lower must be < upper"),
+        (SqrtLibrary(upper=[1.0, 2.0]), "upper has 2 entries; expected a scalar or 3"),
+        (SqrtLibrary(lower=np.nan), "lower contains NaN"),
+        (AbsProductLibrary(products=["x^y"]), "products contains"),
+        (AbsProductLibrary(products="x|y|"), "products must be a non-empty sequence"),
+        (AbsProductLibrary(pairs=[(0, 1)], variables=[0, 1]), "either pairs or variables"),
+        (AbsProductLibrary(pairs=[(0, 1, 2)]), "pairs must be a non-empty sequence of"),
+        (AbsProductLibrary(pairs=[(0, 5)]), "pairs contains 5"),
+        (AbsProductLibrary(variables=[1]), "needs two variables"),
+        (AbsProductLibrary(abs_power=0.0), "abs_power must be a finite number > 0"),
+        (CustomLibrary(functions=None), "functions must be a non-empty sequence"),
+        (CustomLibrary(functions=[np.sin], names=["a", "b"]), "one name per function"),
+        (CustomLibrary(functions=[1.0]), r"functions\[0\] is not callable"),
+        (CustomLibrary(functions=[lambda: 1.0]), "takes no positional argument"),
+        (ConcatLibrary([]), "libraries must be a non-empty sequence"),
+        (ConcatLibrary([PolynomialLibrary(), "poly"]), "library must be a sindybench library"),
+        (ProductLibrary(PolynomialLibrary(), None), "right is None"),
+        (ExternalLibrary(object()), "library must have fit and transform"),
+        (TermsLibrary(terms=[((0, 7, 1, 0),)]), "unknown operation 7"),
+        (TermsLibrary(terms=[((3, POW, 1, 0),)]), r"terms\[0\] uses column 3"),
+        (TermsLibrary(terms=[("x",)]), "is not a sequence of"),
+        (TermsLibrary(), "terms is None"),
+    ],
+)
+def test_bad_parameters(Z, lib, match):
+    with pytest.raises(ValueError, match=match):
+        lib.fit(Z)
+
+
+def test_bad_input_nan(Z):
+    Z[3, 1] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        PolynomialLibrary().fit(Z)
+
+
+def test_bad_input_wrong_width(Z):
+    lib = PolynomialLibrary().fit(Z)
+    with pytest.raises(ValueError, match="features"):
+        lib.transform(Z[:, :2])
+
+
+def test_bad_input_names_length(Z):
+    lib = PolynomialLibrary().fit(Z)
+    with pytest.raises(ValueError, match="input_features"):
+        lib.get_feature_names_out(["a", "b"])
+
+
+def test_custom_bad_output_shape(Z):
+    lib = CustomLibrary(functions=[lambda x: np.ones(3)]).fit(Z)
+    with pytest.raises(ValueError, match=r"returned shape \(3,\); expected \(50,\)"):
+        lib.transform(Z)
+
+
+def test_bad_spec():
+    with pytest.raises(ValueError, match="unknown library class 'Foo'"):
+        library_from_spec({"class": "Foo", "params": {}})
+
+
+def test_bad_nested_param():
+    with pytest.raises(ValueError, match="libraries__<index>__<param>"):
+        ConcatLibrary([PolynomialLibrary()]).set_params(libraries__4__degree=2)
+
+
+def test_check_terms_rejects_string():
+    with pytest.raises(ValueError, match="must be a sequence of terms"):
+        check_terms("x0")
+
+
+def test_sqrt_per_variable_mismatch_uses_selection(Z):
+    lib = SqrtLibrary(upper=[1.0, 2.0], variables=[0, 2]).fit(Z)
+    assert [t[0][3] for t in lib.terms_] == [1.0, 2.0]
+    assert lib.terms_[1][0][0] == 2
+    assert SQRT == lib.terms_[0][0][1]

@@ -1,7 +1,10 @@
 """sindybench: SINDy with control for systems with hidden states and hard nonlinearities."""
 
+from ._sindy import SINDy
 from ._stls import STLS, stls
+from .io import load_model
+from .simulate import SimulationError
 
 __version__ = "0.1.0"
 
-__all__ = ["STLS", "__version__", "stls"]
+__all__ = ["SINDy", "STLS", "SimulationError", "__version__", "load_model", "stls"]

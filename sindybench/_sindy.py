@@ -1,0 +1,435 @@
+"""Continuous-time SINDy with control inputs, as a scikit-learn estimator."""
+
+import logging
+import numbers
+import warnings
+
+import numpy as np
+import scipy.sparse as sp
+from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.utils.validation import check_is_fitted
+
+from ._stls import STLS
+from ._validation import (
+    check_bounds,
+    check_dt,
+    check_inputs_outputs,
+    check_n_samples,
+    check_signal,
+    check_time,
+)
+from .libraries import as_library
+from .metrics import r2
+from .simulate import _HOLDS, _METHODS, make_rhs, simulate
+
+__all__ = ["SINDy"]
+
+logger = logging.getLogger(__name__)
+
+
+def _as_differentiation(obj):
+    # Temporary bridge until sindybench.differentiation exists: pysindy's
+    # finite differences behind the shared ``derivative(y, *, dt, t, order)``.
+    try:
+        from .differentiation import as_differentiation
+    except ModuleNotFoundError:
+        return _PysindyDerivative(obj)
+    return as_differentiation(obj)
+
+
+class _PysindyDerivative(BaseEstimator):
+    def __init__(self, method=None):
+        self.method = method
+
+    def derivative(self, y, *, dt=None, t=None, order=1):
+        from pysindy.differentiation import FiniteDifference
+
+        method = FiniteDifference(d=order) if self.method is None else self.method
+        return np.asarray(method(y, t=dt if t is None else t), dtype=float).reshape(np.shape(y))
+
+
+def _check_array_like(a, name):
+    """Reject what ``np.asarray(a, dtype=float)`` would silently mangle: sparse, complex, 1-D inputs."""
+    if a is None:
+        return
+    if sp.issparse(a):
+        raise ValueError(f"{name} is a sparse matrix; sparse input is not supported, expected a dense array.")
+    arr = np.asarray(a)
+    if np.iscomplexobj(arr):
+        raise ValueError(f"{name} is complex. Complex data not supported; expected real values.")
+    if name == "X" and arr.ndim == 1:
+        raise ValueError(
+            f"X is 1-D (shape {arr.shape}); expected 2-D (n_samples, n_inputs). "
+            "Reshape your data with X.reshape(-1, 1) for a single input."
+        )
+
+
+def _check_names(names, n, prefix, name):
+    if names is None:
+        return [f"{prefix}{i}" for i in range(n)]
+    if isinstance(names, str) or len(names) != n or not all(isinstance(s, str) for s in names):
+        raise ValueError(f"{name} must be a list of {n} strings; got {names!r}.")
+    return list(names)
+
+
+def _format_coef(c, precision, first):
+    text = f"{abs(c):.{precision}f}"
+    if first:
+        return f"-{text}" if c < 0 else text
+    return f"- {text}" if c < 0 else f"+ {text}"
+
+
+class SINDy(RegressorMixin, BaseEstimator):
+    """Continuous-time SINDy with control: ``y' = Theta([y, u]) coef``.
+
+    ``fit`` differentiates the measured states ``y``, evaluates the library on
+    ``Z = [y, u]`` and finds sparse coefficients with the optimizer (STLS by
+    default); ``simulate`` integrates the model open loop from an initial
+    state, driven by the inputs.
+
+    Parameters
+    ----------
+    library : library, pysindy feature library or None, default=None
+        Candidate terms over ``Z = [y, u]`` (states first);
+        None means ``PolynomialLibrary(degree=2)``.
+    optimizer : regressor or None, default=None
+        Sparse regression ``fit(Theta, y_dot)`` exposing ``coef_`` of shape
+        (n_states, n_terms); None means :class:`~sindybench.STLS`. Pass
+        ``optimizer=STLS()`` to search ``optimizer__threshold``.
+    differentiation : differentiation method or None, default=None
+        Estimates ``y'`` from ``y``; None means finite differences; pysindy
+        differentiation objects are accepted.
+    dt : float or None, default=None
+        Sampling interval, used unless ``fit``/``simulate`` receive ``dt`` or ``t``.
+    n_substeps : int, default=1
+        Integration steps per sampling interval in simulations.
+    integrator : {"rk4", "euler"}, default="rk4"
+    input_hold : {"zoh", "linear"}, default="zoh"
+        Input between samples: held, or linearly interpolated.
+    bounds : (lower, upper) or None, default=None
+        State bounds for simulations (saturation), scalars or one per state.
+    max_abs : float, default=inf
+        A simulated state with ``|x| > max_abs`` counts as diverged.
+    output_names, input_names : list of str or None, default=None
+        Names of the columns of ``y`` and ``X`` (default ``y0, y1, ...`` and
+        ``u0, u1, ...``), used by :meth:`equations` and the feature names.
+
+    Attributes
+    ----------
+    coef_ : ndarray of shape (n_states, n_terms)
+        Row ``i`` holds the coefficients of ``y_i'``.
+    library_, optimizer_, differentiation_ : fitted clones of the parameters
+    terms_ : list of term tuples or None
+        The library's symbolic terms (None for custom/external libraries,
+        which simulate on the slower Python path and cannot be saved).
+    feature_names_ : list of str
+        Names of the library terms.
+    dt_ : float or None
+        Sampling interval of the training data (None for non-uniform ``t``).
+    x0_ : ndarray of shape (n_states,)
+        First training sample (the default initial state of :meth:`predict`).
+    n_states_, n_inputs_, n_features_in_ : int
+        ``n_features_in_`` is the number of inputs (columns of ``X``).
+
+    See Also
+    --------
+    sindybench.STLS, sindybench.simulate.simulate, sindybench.load_model
+
+    Examples
+    --------
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> from sindybench.simulate import simulate, TermsRHS
+    >>> t = np.arange(0, 10, 0.01)
+    >>> u = np.sin(t)[:, None]
+    >>> truth = lambda x, u: np.array([-2.0 * x[0] + u[0]])
+    >>> y = simulate(truth, [0.5], u, dt=0.01, input_hold="linear")
+    >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01).fit(u, y)
+    >>> model.equations(precision=2)
+    ["y0' = -2.00 y0 + 1.00 u0"]
+    >>> round(model.score(u, y), 4)
+    1.0
+    """
+
+    def __init__(
+        self,
+        *,
+        library=None,
+        optimizer=None,
+        differentiation=None,
+        dt=None,
+        n_substeps=1,
+        integrator="rk4",
+        input_hold="zoh",
+        bounds=None,
+        max_abs=np.inf,
+        output_names=None,
+        input_names=None,
+    ):
+        self.library = library
+        self.optimizer = optimizer
+        self.differentiation = differentiation
+        self.dt = dt
+        self.n_substeps = n_substeps
+        self.integrator = integrator
+        self.input_hold = input_hold
+        self.bounds = bounds
+        self.max_abs = max_abs
+        self.output_names = output_names
+        self.input_names = input_names
+
+    # ------------------------------------------------------------------ checks
+    def _check_params(self, n_states):
+        check_dt(self.dt, allow_none=True)
+        n_sub = self.n_substeps
+        if isinstance(n_sub, bool) or not isinstance(n_sub, numbers.Integral) or n_sub < 1:
+            raise ValueError(f"n_substeps must be an integer >= 1; got {n_sub!r}.")
+        if self.integrator not in _METHODS:
+            raise ValueError(f"integrator must be one of {_METHODS}; got {self.integrator!r}.")
+        if self.input_hold not in _HOLDS:
+            raise ValueError(f"input_hold must be one of {_HOLDS}; got {self.input_hold!r}.")
+        max_abs = self.max_abs
+        if isinstance(max_abs, bool) or not isinstance(max_abs, numbers.Real) or not max_abs > 0:
+            raise ValueError(f"max_abs must be a number > 0 (inf allowed); got {max_abs!r}.")
+        return check_bounds(self.bounds, n_states)
+
+    @staticmethod
+    def _resolve_time(dt, t, n_samples, fallback):
+        """Return ``(dt, t)`` with exactly one of them set."""
+        if dt is not None and t is not None:
+            raise ValueError("give dt or t, not both.")
+        if t is not None:
+            return None, check_time(t, n_samples)
+        dt = check_dt(dt if dt is not None else fallback, allow_none=True)
+        if dt is None:
+            raise ValueError("dt is None; pass dt (to the constructor, fit or simulate) or the sample times t.")
+        return dt, None
+
+    # --------------------------------------------------------------------- fit
+    def fit(self, X, y, *, dt=None, t=None, x_dot=None):
+        """Fit the sparse model ``y' = Theta([y, u]) coef``.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+            Inputs ``u``; None or zero columns for an autonomous system.
+        y : array-like of shape (n_samples, n_states) or (n_samples,)
+            Measured states.
+        dt : float, optional
+            Sampling interval (overrides the constructor's ``dt``).
+        t : array-like of shape (n_samples,), optional
+            Strictly increasing sample times, instead of ``dt``.
+        x_dot : array-like of shape (n_samples, n_states), optional
+            Known derivatives of ``y``; skips ``differentiation``.
+
+        Returns
+        -------
+        self
+        """
+        if y is None:
+            raise ValueError(
+                "SINDy requires y to be passed, but the target y is None; expected the measured states."
+            )
+        _check_array_like(X, "X")
+        _check_array_like(y, "y")
+        y_1d = np.asarray(y).ndim == 1
+        X, y = check_inputs_outputs(X, y)
+        n_samples, n_states = y.shape
+        self._check_params(n_states)
+        dt, t = self._resolve_time(dt, t, n_samples, self.dt)
+        if n_samples < 3 and x_dot is None:
+            raise ValueError(f"y has {n_samples} sample(s); expected at least 3 to estimate derivatives.")
+        out_names = _check_names(self.output_names, n_states, "y", "output_names")
+        in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
+
+        self.differentiation_ = clone(_as_differentiation(self.differentiation))
+        if x_dot is None:
+            x_dot = self.differentiation_.derivative(y, dt=dt, t=t)
+            x_dot = check_signal(x_dot, "derivative of y", n_samples=n_samples)
+        else:
+            x_dot = check_signal(x_dot, "x_dot", n_samples=n_samples)
+            if x_dot.shape[1] != n_states:
+                raise ValueError(f"x_dot has {x_dot.shape[1]} columns; expected {n_states} (one per state in y).")
+
+        self.library_ = clone(as_library(self.library))
+        theta = self.library_.fit_transform(np.hstack([y, X]))
+        check_n_samples(n_samples, theta.shape[1])
+        theta = check_signal(theta, "library output Theta([y, u])")
+        self.optimizer_ = clone(STLS() if self.optimizer is None else self.optimizer)
+        self.optimizer_.fit(theta, x_dot)
+        coef = np.asarray(self.optimizer_.coef_, dtype=float).reshape(n_states, theta.shape[1])
+        if not np.all(np.isfinite(coef)):
+            raise ValueError("the optimizer returned NaN or inf coefficients; check the data and its settings.")
+
+        self.coef_ = coef
+        self.terms_ = getattr(self.library_, "terms_", None)
+        self.output_names_ = out_names
+        self.input_names_ = in_names
+        self.feature_names_ = [str(s) for s in self.library_.get_feature_names_out(out_names + in_names)]
+        self.n_states_ = n_states
+        self.n_inputs_ = X.shape[1]
+        self.n_features_in_ = X.shape[1]
+        self.dt_ = dt if dt is not None else _uniform_step(t)
+        self.x0_ = y[0].copy()
+        self._y_1d = y_1d
+        return self
+
+    # -------------------------------------------------------------- simulation
+    def _rhs(self):
+        return make_rhs(self.library_, self.coef_.T, self.n_states_)
+
+    def _check_inputs(self, X, n_samples=None):
+        if X is None:
+            if n_samples is None:
+                raise ValueError("X is None; expected inputs of shape (n_samples, n_inputs) (0 columns if none).")
+            X = np.zeros((n_samples, 0))
+        _check_array_like(X, "X")
+        arr = np.asarray(X, dtype=float)
+        if not (arr.ndim == 2 and arr.shape[1] == 0 and arr.shape[0] > 0):
+            arr = check_signal(arr, "X")
+        if arr.shape[1] != self.n_inputs_:
+            raise ValueError(
+                f"X has {arr.shape[1]} features, but {type(self).__name__} is expecting {self.n_inputs_} "
+                "features as input (the inputs seen in fit)."
+            )
+        return arr
+
+    def simulate(self, X, x0, *, dt=None, t=None, on_divergence="raise"):
+        """Open-loop simulation driven by the inputs ``X`` from ``x0``.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+            Inputs (None for an autonomous model, with ``t`` given).
+        x0 : array-like of shape (n_states,)
+            Initial state (returned as the first row).
+        dt : float, optional
+            Step (default: the training ``dt``).
+        t : array-like of shape (n_samples,), optional
+            Sample times instead of ``dt`` (may be non-uniform).
+        on_divergence : {"raise", "nan"}, default="raise"
+            Raise :class:`sindybench.SimulationError`, or fill NaN from the
+            diverged sample on.
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_states)
+        """
+        check_is_fitted(self)
+        X = self._check_inputs(X, None if t is None else len(t))
+        dt, t = self._resolve_time(dt, t, X.shape[0], self.dt_)
+        return simulate(
+            self._rhs(),
+            x0,
+            X,
+            dt,
+            t=t,
+            n_substeps=self.n_substeps,
+            method=self.integrator,
+            input_hold=self.input_hold,
+            bounds=self.bounds,
+            max_abs=self.max_abs,
+            on_divergence=on_divergence,
+        )
+
+    def predict(self, X, *, x0=None, y_init=None):
+        """Simulated output for the inputs ``X``, NaN after a divergence.
+
+        The simulation starts from ``x0``, or from ``y_init[0]`` (``y_init``:
+        the first samples of the measured output, as the scorers of
+        :mod:`sindybench.metrics` pass it). Without either it starts from the
+        first training sample ``x0_`` and warns: that is only right when ``X``
+        starts where the training data started.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+        x0 : array-like of shape (n_states,), optional
+        y_init : array-like of shape (n_init, n_states), optional
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_states), or (n_samples,) when ``fit`` got a 1-D ``y``
+        """
+        check_is_fitted(self)
+        if x0 is not None and y_init is not None:
+            raise ValueError("give x0 or y_init, not both.")
+        if x0 is None and y_init is None:
+            warnings.warn(
+                "predict without x0 or y_init starts from the first training sample x0_; "
+                "pass y_init (the first samples of the measured y) for new data.",
+                UserWarning,
+                stacklevel=2,
+            )
+            x0 = self.x0_
+        if y_init is not None:
+            y_init = check_signal(y_init, "y_init")
+            if y_init.shape[1] != self.n_states_:
+                raise ValueError(f"y_init has {y_init.shape[1]} columns; expected {self.n_states_} (one per state).")
+            x0 = y_init[0]
+        y_pred = self.simulate(X, x0, on_divergence="nan")
+        return y_pred[:, 0] if getattr(self, "_y_1d", False) else y_pred
+
+    def score(self, X, y, sample_weight=None):
+        """R^2 of the open-loop simulation started from ``y[0]``.
+
+        A diverged simulation scores ``-inf`` (ranked last by scikit-learn
+        searches, as by :func:`sindybench.metrics.make_simulation_scorer`).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+        y : array-like of shape (n_samples, n_states)
+        sample_weight : None
+            Not supported; must be None.
+
+        Returns
+        -------
+        float
+        """
+        if sample_weight is not None:
+            raise ValueError("sample_weight is not supported by SINDy.score; expected None.")
+        X, y = check_inputs_outputs(X, y)
+        y_pred = self.predict(X, y_init=y)
+        if not np.all(np.isfinite(y_pred)):
+            return -np.inf
+        return r2(y, y_pred)
+
+    # ----------------------------------------------------------------- display
+    def equations(self, precision=3):
+        """Readable model equations, one line per state.
+
+        Examples
+        --------
+        ``["y0' = -4.822 y0 + 0.740 y0 u0 + 1.742 u0^2"]``; a constant term
+        shows as its number, an all-zero row as ``0``.
+        """
+        check_is_fitted(self)
+        lines = []
+        for name, row in zip(self.output_names_, self.coef_):
+            parts = []
+            for c, feature in zip(row, self.feature_names_):
+                if c == 0:
+                    continue
+                coef = _format_coef(c, precision, not parts)
+                parts.append(coef if feature == "1" else f"{coef} {feature}")
+            lines.append(f"{name}' = " + (" ".join(parts) if parts else "0"))
+        return lines
+
+    def to_json(self, path):
+        """Save the fitted model as plain JSON; see :func:`sindybench.load_model`."""
+        from .io import save_model
+
+        save_model(self, path)
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        tags.regressor_tags.poor_score = True
+        tags.input_tags.allow_nan = False
+        return tags
+
+
+def _uniform_step(t, rtol=1e-9):
+    d = np.diff(t)
+    return float(np.mean(d)) if np.allclose(d, d[0], rtol=rtol, atol=0) else None

@@ -1,0 +1,67 @@
+"""scikit-learn's estimator checks over every public estimator.
+
+To add an estimator: append an instance to ``ESTIMATORS`` (settings small
+enough for scikit-learn's tiny random data sets) and, only for checks that
+cannot apply to time-series models, an entry ``{check name: reason}`` under
+its class name in ``EXPECTED_FAILED``.
+"""
+
+import numpy as np
+import pytest
+from sklearn.utils.estimator_checks import parametrize_with_checks
+
+from sindybench import STLS, SINDy
+from sindybench.libraries import (
+    AbsProductLibrary,
+    ConcatLibrary,
+    CustomLibrary,
+    PolynomialLibrary,
+    ProductLibrary,
+    SqrtLibrary,
+)
+
+# Reasons shared by the open-loop simulating estimators (fit(X=inputs, y=outputs)).
+_SIMULATING = {
+    "check_methods_subset_invariance": (
+        "predict is an open-loop simulation: row k depends on the inputs before it, "
+        "so predicting a subset of rows is not the subset of the prediction"
+    ),
+    "check_methods_sample_order_invariance": (
+        "predict is an open-loop simulation: the samples are a time series, their order is the model's input"
+    ),
+    "check_estimators_empty_data_messages": (
+        "X with zero columns is valid: an autonomous system has no inputs"
+    ),
+    "check_regressor_multioutput": (
+        "the check's data has more library terms (one per input and output) than samples; "
+        "SINDy refuses an under-determined regression with a ValueError by design"
+    ),
+}
+
+ESTIMATORS = [
+    STLS(),
+    STLS(threshold=0.05, alpha=0.1, normalize_columns=True),
+    SINDy(dt=0.1, library=PolynomialLibrary(degree=1)),
+    PolynomialLibrary(degree=2),
+    SqrtLibrary(),
+    AbsProductLibrary(),
+    CustomLibrary(functions=[np.tanh]),
+    ConcatLibrary([PolynomialLibrary(degree=1), SqrtLibrary()]),
+    ProductLibrary(PolynomialLibrary(degree=1), PolynomialLibrary(degree=1, include_bias=False)),
+]
+
+EXPECTED_FAILED = {
+    "SINDy": _SIMULATING,
+}
+
+
+def _expected_failed_checks(estimator):
+    return EXPECTED_FAILED.get(type(estimator).__name__, {})
+
+
+@pytest.mark.filterwarnings("ignore:predict without x0 or y_init")
+@pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
+@parametrize_with_checks(ESTIMATORS, expected_failed_checks=_expected_failed_checks)
+def test_sklearn_compatible_estimator(estimator, check):
+    check(estimator)
+

@@ -168,8 +168,8 @@ def _power(v, p):
 
 
 @njit(cache=True, inline="always")
-def _terms_rhs(z, model, theta, dx):
-    """dx[i] = sum_k theta[rows[k]] vals[k] over k in rptr[i]:rptr[i+1], theta = terms(z)."""
+def _terms_rhs(z, model, theta, K, s):
+    """K[s, i] = sum_k theta[rows[k]] vals[k] over k in rptr[i]:rptr[i+1], theta = terms(z)."""
     ptr, col, op, a, b, rptr, rows, vals = model
     for j in range(ptr.shape[0] - 1):
         value = 1.0
@@ -187,16 +187,16 @@ def _terms_rhs(z, model, theta, dx):
             elif not v > 0.0:
                 value *= v  # sign(0) = 0, sign(nan) = nan
         theta[j] = value
-    for i in range(dx.shape[0]):
+    for i in range(rptr.shape[0] - 1):
         acc = 0.0
         for k in range(rptr[i], rptr[i + 1]):
             acc += theta[rows[k]] * vals[k]
-        dx[i] = acc
+        K[s, i] = acc
 
 
 @njit(cache=True, inline="always")
 def _clip(x, lo, hi):
-    for i in range(x.shape[0]):
+    for i in range(lo.shape[0]):
         if x[i] < lo[i]:
             x[i] = lo[i]
         elif x[i] > hi[i]:
@@ -204,18 +204,21 @@ def _clip(x, lo, hi):
 
 
 @njit(cache=True, inline="always")
-def _stage(x, kprev, c, hs, uk, uk1, frac, z, lo, hi, model, theta, dx):
-    """dx = f at state clip(x + c hs kprev) and input uk + frac (uk1 - uk)."""
+def _stage(x, K, s, c, hs, u, k, k1, frac, z, lo, hi, model, theta):
+    """K[s] = f at state clip(x + c hs K[s-1]) and input u[k] + frac (u[k1] - u[k]).
+
+    Plain index loops only: no array views are created per stage.
+    """
     n = x.shape[0]
     for i in range(n):
-        z[i] = x[i] + c * hs * kprev[i] if c != 0.0 else x[i]
-    _clip(z[:n], lo, hi)
-    for i in range(uk.shape[0]):
-        z[n + i] = uk[i] + frac * (uk1[i] - uk[i])
-    _terms_rhs(z, model, theta, dx)
+        z[i] = x[i] + c * hs * K[s - 1, i] if c != 0.0 else x[i]
+    _clip(z, lo, hi)
+    for i in range(u.shape[1]):
+        z[n + i] = u[k, i] + frac * (u[k1, i] - u[k, i])
+    _terms_rhs(z, model, theta, K, s)
     for i in range(n):
-        if (z[i] <= lo[i] and dx[i] < 0.0) or (z[i] >= hi[i] and dx[i] > 0.0):
-            dx[i] = 0.0
+        if (z[i] <= lo[i] and K[s, i] < 0.0) or (z[i] >= hi[i] and K[s, i] > 0.0):
+            K[s, i] = 0.0
 
 
 @njit(cache=True)
@@ -230,25 +233,31 @@ def _run_terms(x0, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, model
     z = np.empty(n + u.shape[1])
     theta = np.empty(model[0].shape[0] - 1)
     K = np.zeros((offsets.shape[0], n))
-    out[0] = x
+    for i in range(n):
+        out[0, i] = x[i]
     for k in range(out.shape[0] - 1):
         hs = h[k] / n_sub
-        uk, uk1 = u[k], u[k + 1] if linear else u[k]
+        k1 = k + 1 if linear else k
         for j in range(n_sub):
             for s in range(offsets.shape[0]):
                 frac = (j + offsets[s]) / n_sub
-                _stage(x, K[s - 1], offsets[s], hs, uk, uk1, frac, z, lo, hi, model, theta, K[s])
+                _stage(x, K, s, offsets[s], hs, u, k, k1, frac, z, lo, hi, model, theta)
             for i in range(n):
                 incr = 0.0
                 for s in range(offsets.shape[0]):
                     incr += weights[s] * K[s, i]
                 x[i] += hs * incr
             _clip(x, lo, hi)
+            bad = False
             for i in range(n):
                 if not (abs(x[i]) <= max_abs and abs(x[i]) < np.inf):
-                    out[k + 1] = x
-                    return k + 1
-        out[k + 1] = x
+                    bad = True
+            if bad:
+                for i in range(n):
+                    out[k + 1, i] = x[i]
+                return k + 1
+        for i in range(n):
+            out[k + 1, i] = x[i]
     return -1
 
 

@@ -32,7 +32,7 @@ def _as_differentiation(obj):
     # finite differences behind the shared ``derivative(y, *, dt, t, order)``.
     try:
         from .differentiation import as_differentiation
-    except ModuleNotFoundError:
+    except ImportError:
         return _PysindyDerivative(obj)
     return as_differentiation(obj)
 

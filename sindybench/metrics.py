@@ -6,6 +6,8 @@
 with R^2 = 0.75 the fit index is 50 %.
 """
 
+import numbers
+
 import numpy as np
 
 from ._validation import check_signal
@@ -26,9 +28,10 @@ def _prepare(y_true, y_pred, skip, multioutput):
         raise ValueError(f"y_pred has shape {y_pred.shape}; expected the shape of y_true, {y_true.shape}.")
     if not np.all(np.isfinite(y_pred)):
         raise ValueError("y_pred contains NaN or inf (a diverged simulation?); expected finite values.")
+    if isinstance(skip, bool) or not isinstance(skip, numbers.Integral) or not 0 <= skip < y_true.shape[0]:
+        # int(2.5) would silently score from sample 2
+        raise ValueError(f"skip must be an integer in [0, {y_true.shape[0] - 1}]; got {skip!r}.")
     skip = int(skip)
-    if skip < 0 or skip >= y_true.shape[0]:
-        raise ValueError(f"skip must be in [0, {y_true.shape[0] - 1}]; got {skip}.")
     return y_true[skip:], y_pred[skip:]
 
 

@@ -14,7 +14,7 @@ def stls_space(*, threshold=(1e-4, 1e1), alpha=(1e-8, 1e-1), gamma=None):
     With ``gamma=(low, high)``, the total-variation regularisation of the
     derivative is searched jointly (``differentiation__gamma``), as in the study.
     """
-    def space(quick):
+    def space(quick, n_init):
         from ..model_selection import LogUniform
 
         dims = {
@@ -71,12 +71,12 @@ def arx_space(max_na=10, max_nb=10):
     """Search space of ARX orders (``na``, ``nb``, ``nk``).
 
     A simulation starts from ``max(na, nb + nk - 1)`` measured samples, so the
-    maxima must not exceed the samples a test lets a model use (``n_init``).
+    orders are also capped by the samples a test lets a model use (``n_init``).
     """
-    def space(quick):
+    def space(quick, n_init):
         from ..model_selection import IntRange
 
-        return {"na": IntRange(1, max_na), "nb": IntRange(1, max_nb), "nk": IntRange(0, 1)}
+        return {"na": IntRange(1, min(max_na, n_init)), "nb": IntRange(1, min(max_nb, n_init)), "nk": IntRange(0, 1)}
 
     return space
 
@@ -94,12 +94,12 @@ def nnarx_model(*, hidden_layer_sizes=(16,), max_iter=300, quick_max_iter=100):
 
 def nnarx_space(max_na=5, max_nb=5, sizes=((8,), (16,), (32,), (16, 16))):
     """Search space of NN-ARX orders, network size and weight penalty (see :func:`arx_space`)."""
-    def space(quick):
+    def space(quick, n_init):
         from ..model_selection import Categorical, IntRange, LogUniform
 
         return {
-            "na": IntRange(1, max_na),
-            "nb": IntRange(1, max_nb),
+            "na": IntRange(1, min(max_na, n_init)),
+            "nb": IntRange(1, min(max_nb, n_init)),
             "hidden_layer_sizes": Categorical(sizes),
             "alpha": LogUniform(1e-6, 1e-1),
         }

@@ -11,9 +11,10 @@ files is left to :mod:`sindybench.experiments._report`.
 import logging
 import os
 import time
+import warnings
 
 import numpy as np
-from sklearn.model_selection import PredefinedSplit
+from sklearn.exceptions import ConvergenceWarning
 
 from .. import __version__
 from ..metrics import fit_index, r2, rmse
@@ -92,11 +93,6 @@ def _training_record(benchmark, data, quick):
     return X, y, len(y_tr), len(y_va)
 
 
-def _holdout(n_train, n_val):
-    """The study's split: fit on the first block, validate on the last one."""
-    return PredefinedSplit(np.r_[np.full(n_train, -1), np.zeros(n_val, dtype=int)])
-
-
 def _jsonable(value):
     if isinstance(value, (np.floating, np.integer)):
         return value.item()
@@ -107,9 +103,12 @@ def _jsonable(value):
     return repr(value)
 
 
-def fit_model(spec, X, y, *, n_train, n_val, dt, n_trials, seed=0, quick=False, storage=None,
+def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, storage=None,
               n_jobs=1, study_name=None, show_progress_bar=False):
     """Tune (when the spec has a search space and a budget) and fit one model.
+
+    The search validates on the last ``n_val`` samples of ``X, y``; ``n_init``
+    (the initial samples a test gives a model) caps model orders in the space.
 
     Returns
     -------
@@ -122,11 +121,25 @@ def fit_model(spec, X, y, *, n_train, n_val, dt, n_trials, seed=0, quick=False, 
     start = time.perf_counter()
     estimator = spec.make(random_state=seed, quick=quick, dt=dt, n_val=n_val)
     info = {"n_trials": 0, "best_params": {}, "best_value": None}
-    if n_trials > 0:
-        from ..model_selection import tune
+    with warnings.catch_warnings():
+        # small budgets stop iterative fits early on purpose (NN-ARX): say it once in the report, not per fit
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        estimator = _search_and_fit(
+            spec, estimator, X, y, info, n_val=n_val, n_trials=n_trials, n_init=n_init, seed=seed, quick=quick,
+            storage=storage, n_jobs=n_jobs, study_name=study_name, show_progress_bar=show_progress_bar,
+        )
+    info["fit_time_s"] = time.perf_counter() - start
+    return estimator, info
 
+
+def _search_and_fit(spec, estimator, X, y, info, *, n_val, n_trials, n_init, seed, quick, storage, n_jobs, study_name,
+                    show_progress_bar):
+    if n_trials > 0:
+        from ..model_selection import HoldoutSplit, tune
+
+        # the study's split: fit on the first block, validate on the last n_val samples
         estimator, study = tune(
-            estimator, spec.search_space(quick), X, y, cv=_holdout(n_train, n_val), scoring="rmse",
+            estimator, spec.search_space(quick, n_init), X, y, cv=HoldoutSplit(validation_size=n_val), scoring="rmse",
             n_trials=n_trials, storage=storage, study_name=study_name, n_jobs=n_jobs,
             random_state=seed, show_progress_bar=show_progress_bar,
         )
@@ -137,8 +150,7 @@ def fit_model(spec, X, y, *, n_train, n_val, dt, n_trials, seed=0, quick=False, 
         info["best_value"] = value if np.isfinite(value) else None
     else:
         estimator.fit(X, y)
-    info["fit_time_s"] = time.perf_counter() - start
-    return estimator, info
+    return estimator
 
 
 def evaluate(estimator, test, n_init):
@@ -238,6 +250,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         "input_label": benchmark.input_label,
         "models": [],
     }
+    n_init = min(info["n_init"] for info in results["test_sets"].values())
     fitted, simulations = {}, {name: {} for name in tests}
     for spec in specs:
         budget = spec.budget(quick=quick, trials=trials)
@@ -245,7 +258,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         entry = {"key": spec.key, "label": spec.label, "description": spec.description}
         try:
             estimator, info = fit_model(
-                spec, X, y, n_train=n_train, n_val=n_val, dt=dt, n_trials=budget, seed=seed, quick=quick,
+                spec, X, y, n_val=n_val, dt=dt, n_trials=budget, n_init=n_init, seed=seed, quick=quick,
                 storage=storage, n_jobs=n_jobs, study_name=f"{benchmark.name}.{spec.key}.seed{seed}",
                 show_progress_bar=show_progress_bar,
             )

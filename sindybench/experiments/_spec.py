@@ -17,10 +17,13 @@ class ModelSpec:
     label : str
         Human-readable name for tables and figure legends.
     make : callable
-        ``make(random_state, quick) -> estimator`` (unfitted).
+        ``make(*, random_state, quick, dt, n_val) -> estimator`` (unfitted;
+        ``n_val`` is the size of the validation block at the end of the
+        training record, for estimators that search inside ``fit``).
     search_space : callable or None
-        ``search_space(quick) -> dict`` of Optuna distributions keyed by
-        nested parameter name, for :func:`sindybench.model_selection.tune`;
+        ``search_space(quick, n_init) -> dict`` of search dimensions keyed by
+        nested parameter name, for :func:`sindybench.model_selection.tune`
+        (``n_init``: the initial test samples a model may use);
         ``None`` fits the estimator as built (its own inner search, if any,
         still runs inside ``fit``).
     n_trials : int

@@ -83,7 +83,9 @@ class TermsRHS:
             raise ValueError("coef contains NaN or inf; expected finite coefficients.")
         terms = check_terms(terms)
         if len(terms) != coef.shape[0]:
-            raise ValueError(f"coef has {coef.shape[0]} rows but there are {len(terms)} terms; expected one row per term.")
+            raise ValueError(
+                f"coef has {coef.shape[0]} rows but there are {len(terms)} terms; expected one row per term."
+            )
         self.coef = coef
         self.terms = terms
         self.n_states = int(n_states)
@@ -315,7 +317,9 @@ def _check_x0(x0, n_states, lo, hi):
     outside = (x0 < lo) | (x0 > hi)
     if outside.any():
         i = int(np.argmax(outside))
-        raise ValueError(f"x0[{i}] = {x0[i]:g} is outside bounds [{lo[i]:g}, {hi[i]:g}]; expected a state within bounds.")
+        raise ValueError(
+            f"x0[{i}] = {x0[i]:g} is outside bounds [{lo[i]:g}, {hi[i]:g}]; expected a state within bounds."
+        )
     return x0
 
 

@@ -114,7 +114,9 @@ def test_abs_product_bouc_wen_law(rng):
 # ---------------------------------------------------------------------- custom
 def test_custom_library_names_and_values(Z):
     lib = CustomLibrary(
-        functions=[np.sin, lambda a, b: a * np.tanh(b)], names=["sin({})", lambda a, b: f"{a} tanh({b})"], variables=[0, 2]
+        functions=[np.sin, lambda a, b: a * np.tanh(b)],
+        names=["sin({})", lambda a, b: f"{a} tanh({b})"],
+        variables=[0, 2],
     ).fit(Z)
     assert lib.terms_ is None
     assert lib.get_feature_names_out(["y", "v", "u"]).tolist() == ["sin(y)", "sin(u)", "y tanh(u)"]

@@ -76,7 +76,9 @@ class CustomLibrary(BaseLibrary):
         if functions is None or callable(functions) or len(functions) == 0:
             raise ValueError(f"functions must be a non-empty sequence of callables; got {functions!r}.")
         if self.names is not None and (isinstance(self.names, str) or len(self.names) != len(functions)):
-            raise ValueError(f"names must be None or hold one name per function ({len(functions)}); got {self.names!r}.")
+            raise ValueError(
+                f"names must be None or hold one name per function ({len(functions)}); got {self.names!r}."
+            )
         cols = check_variables(self.variables, self.n_features_in_)
         self.combinations_ = [
             (i, combo) for i, f in enumerate(functions) for combo in combinations(cols, _arity(f, i))

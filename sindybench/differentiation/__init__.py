@@ -1,0 +1,21 @@
+"""Derivative estimation: ``method.derivative(y, dt=..., order=1 or 2)``."""
+
+from ._base import BaseDifferentiation
+from ._local import FiniteDifference, SavitzkyGolay, finite_difference
+from ._smoothing import Kalman, SmoothingSpline, kalman_smooth
+from ._total_variation import TotalVariation, tv_smooth
+from ._wrap import PySINDyDifferentiation, as_differentiation
+
+__all__ = [
+    "BaseDifferentiation",
+    "FiniteDifference",
+    "Kalman",
+    "PySINDyDifferentiation",
+    "SavitzkyGolay",
+    "SmoothingSpline",
+    "TotalVariation",
+    "as_differentiation",
+    "finite_difference",
+    "kalman_smooth",
+    "tv_smooth",
+]

@@ -1,0 +1,104 @@
+"""The shared interface of the differentiation methods and its argument checks."""
+
+import numbers
+
+import numpy as np
+from sklearn.base import BaseEstimator
+
+from .._validation import check_dt, check_signal, check_time
+
+__all__ = ["BaseDifferentiation"]
+
+# Relative spread of the sampling steps below which ``t`` counts as uniform.
+UNIFORM_RTOL = 1e-6
+
+
+class BaseDifferentiation(BaseEstimator):
+    """Base class: ``derivative(y, *, dt=None, t=None, order=1)`` for every method.
+
+    Subclasses implement ``_derivative(y, t, step, order)`` with ``y`` of shape
+    ``(n_samples, n_channels)``, ``t`` the sample times and ``step`` the sampling
+    interval when it is uniform (``None`` otherwise), and ``_min_samples(order)``.
+    Columns are differentiated independently.
+    """
+
+    def derivative(self, y, *, dt=None, t=None, order=1):
+        """Estimate the first or second time derivative of ``y``.
+
+        Parameters
+        ----------
+        y : array-like of shape (n_samples,) or (n_samples, n_channels)
+            Samples of the signal; each column is differentiated on its own.
+        dt : float, optional
+            Uniform sampling interval. Give ``dt`` or ``t``, not both.
+        t : array-like of shape (n_samples,), optional
+            Strictly increasing sample times.
+        order : {1, 2}, default=1
+            Order of the derivative.
+
+        Returns
+        -------
+        ndarray of the shape of ``y``
+            The derivative at the sample times (finite at the ends too).
+        """
+        shape = np.shape(y)
+        y = check_signal(y, "y")
+        order = check_order(order)
+        t, step = resolve_time(y.shape[0], dt, t)
+        self._validate_params()
+        need = self._min_samples(order)
+        if y.shape[0] < need:
+            raise ValueError(
+                f"y has {y.shape[0]} samples; {type(self).__name__} needs at least {need} "
+                f"for order={order} with these parameters."
+            )
+        out = self._derivative(y, t, step, order)
+        return out.reshape(shape)
+
+    def _validate_params(self):
+        """Check the constructor parameters (called at the start of ``derivative``)."""
+
+    def _min_samples(self, order):
+        return 3
+
+
+def check_order(order):
+    """Return the derivative order, 1 or 2."""
+    if isinstance(order, bool) or not isinstance(order, numbers.Integral) or order not in (1, 2):
+        raise ValueError(f"order must be 1 or 2; got {order!r}.")
+    return int(order)
+
+
+def check_int(value, name, *, low, high=None):
+    """Return ``value`` as an int in ``[low, high]`` or raise a ValueError."""
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    if not ok or value < low or (high is not None and value > high):
+        expected = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise ValueError(f"{name} must be an integer {expected}; got {value!r}.")
+    return int(value)
+
+
+def resolve_time(n_samples, dt, t):
+    """Return ``(t, step)``: sample times and the uniform step (``None`` if not uniform).
+
+    Examples
+    --------
+    >>> resolve_time(3, 0.5, None)
+    (array([0. , 0.5, 1. ]), 0.5)
+    >>> resolve_time(3, None, [0.0, 1.0, 3.0])[1] is None
+    True
+    """
+    if dt is not None and t is not None:
+        raise ValueError("got both dt and t; give the sampling interval dt or the sample times t, not both.")
+    if dt is None and t is None:
+        raise ValueError("got neither dt nor t; give the sampling interval dt or the sample times t.")
+    if t is None:
+        dt = check_dt(dt)
+        return np.arange(n_samples) * dt, dt
+    t = check_time(t, n_samples)
+    if n_samples < 2:
+        return t, None
+    steps = np.diff(t)
+    mean = (t[-1] - t[0]) / (n_samples - 1)
+    uniform = np.max(np.abs(steps - mean)) <= UNIFORM_RTOL * mean
+    return t, (float(mean) if uniform else None)

@@ -307,3 +307,22 @@ def test_simulate_checks_inputs(data):
         model.simulate(None, y[0])
     with pytest.raises(ValueError, match="Complex data not supported"):
         model.simulate(u + 1j, y[0])
+
+
+def test_pysindy_optimizer_is_accepted(data):
+    u, y = data
+    model = _model(optimizer=ps.STLSQ(threshold=0.05, alpha=0.0)).fit(u[:1500], y[:1500])
+    reference = _model().fit(u[:1500], y[:1500])
+    np.testing.assert_allclose(model.coef_, reference.coef_, rtol=1e-8, atol=1e-10)
+
+
+def test_threshold_refits_reuse_the_stls_cache(data):
+    from sindybench._stls import _shared, clear_stls_cache
+
+    clear_stls_cache()
+    u, y = data
+    for threshold in (0.01, 0.05, 0.2):
+        _model(optimizer=STLS(threshold=threshold)).fit(u, y)
+    assert len(_shared) == 1  # Theta and y' recomputed identically: one factorization
+    _model().fit(u, y * 1.01)
+    assert len(_shared) == 2

@@ -151,8 +151,11 @@ def make_rhs(library, coef, n_states):
     if coef.ndim != 2 or coef.shape != (library.n_output_features_, n_states):
         raise ValueError(f"coef has shape {coef.shape}; expected ({library.n_output_features_}, {n_states}).")
 
+    # sindybench libraries: skip the per-call input validation of ``transform``
+    transform = library._transform if hasattr(library, "_transform") else library.transform
+
     def rhs(x, u):
-        return library.transform(np.concatenate([x, u])[None, :])[0] @ coef
+        return transform(np.concatenate([x, u])[None, :])[0] @ coef
 
     return rhs
 

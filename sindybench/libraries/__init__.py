@@ -5,19 +5,35 @@ from ._builtin import AbsProductLibrary, PolynomialLibrary, SqrtLibrary, TermsLi
 from ._compose import ConcatLibrary, ProductLibrary
 from ._custom import CustomLibrary, ExternalLibrary, as_library
 from ._spec import library_from_spec, library_to_spec
-from ._terms import evaluate_terms, term_name, terms_from_json, terms_to_arrays, terms_to_json
+from ._terms import (
+    ABS_POW,
+    POW,
+    SIGN,
+    SQRT,
+    check_terms,
+    evaluate_terms,
+    term_name,
+    terms_from_json,
+    terms_to_arrays,
+    terms_to_json,
+)
 
 __all__ = [
+    "ABS_POW",
     "AbsProductLibrary",
     "BaseLibrary",
     "ConcatLibrary",
     "CustomLibrary",
     "ExternalLibrary",
+    "POW",
     "PolynomialLibrary",
     "ProductLibrary",
+    "SIGN",
+    "SQRT",
     "SqrtLibrary",
     "TermsLibrary",
     "as_library",
+    "check_terms",
     "evaluate_terms",
     "library_from_spec",
     "library_to_spec",

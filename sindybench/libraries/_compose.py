@@ -65,7 +65,7 @@ class ConcatLibrary(BaseLibrary):
     def _transform(self, Z):
         if self.terms_ is not None:
             return evaluate_terms(self.terms_, Z)
-        return np.hstack([lib.transform(Z) for lib in self.libraries_])
+        return np.hstack([lib._transform(Z) for lib in self.libraries_])
 
     def _feature_names(self, names):
         return [n for lib in self.libraries_ for n in lib.get_feature_names_out(names)]
@@ -147,7 +147,7 @@ class ProductLibrary(BaseLibrary):
     def _transform(self, Z):
         if self.terms_ is not None:
             return evaluate_terms(self.terms_, Z)
-        a, b = self.left_.transform(Z), self.right_.transform(Z)
+        a, b = self.left_._transform(Z), self.right_._transform(Z)
         return (a[:, :, None] * b[:, None, :]).reshape(Z.shape[0], -1)
 
     def _feature_names(self, names):

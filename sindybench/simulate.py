@@ -412,7 +412,8 @@ def simulate(rhs, x0, u, dt=None, *, t=None, n_substeps=1, method="rk4", input_h
         step = _run_terms(x0, u, h, int(n_substeps), offsets, weights, linear, lo, hi, float(max_abs),
                           rhs._arrays, out)
     else:
-        step = _run_python(rhs, x0, u, h, int(n_substeps), method, linear, lo, hi, float(max_abs), out)
+        with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
+            step = _run_python(rhs, x0, u, h, int(n_substeps), method, linear, lo, hi, float(max_abs), out)
     if step < 0:
         return out
     when = t[step] if t is not None else step * h[0]

@@ -18,6 +18,7 @@ from ._validation import (
     check_signal,
     check_time,
 )
+from .differentiation import as_differentiation
 from .libraries import as_library
 from .metrics import r2
 from .simulate import _HOLDS, _METHODS, make_rhs, simulate
@@ -25,27 +26,6 @@ from .simulate import _HOLDS, _METHODS, make_rhs, simulate
 __all__ = ["SINDy"]
 
 logger = logging.getLogger(__name__)
-
-
-def _as_differentiation(obj):
-    # Temporary bridge until sindybench.differentiation exists: pysindy's
-    # finite differences behind the shared ``derivative(y, *, dt, t, order)``.
-    try:
-        from .differentiation import as_differentiation
-    except ImportError:
-        return _PysindyDerivative(obj)
-    return as_differentiation(obj)
-
-
-class _PysindyDerivative(BaseEstimator):
-    def __init__(self, method=None):
-        self.method = method
-
-    def derivative(self, y, *, dt=None, t=None, order=1):
-        from pysindy.differentiation import FiniteDifference
-
-        method = FiniteDifference(d=order) if self.method is None else self.method
-        return np.asarray(method(y, t=dt if t is None else t), dtype=float).reshape(np.shape(y))
 
 
 def _check_array_like(a, name):
@@ -241,7 +221,7 @@ class SINDy(RegressorMixin, BaseEstimator):
         out_names = _check_names(self.output_names, n_states, "y", "output_names")
         in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
 
-        self.differentiation_ = clone(_as_differentiation(self.differentiation))
+        self.differentiation_ = clone(as_differentiation(self.differentiation))
         if x_dot is None:
             x_dot = self.differentiation_.derivative(y, dt=dt, t=t)
             x_dot = check_signal(x_dot, "derivative of y", n_samples=n_samples)

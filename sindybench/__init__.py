@@ -1,5 +1,6 @@
 """sindybench: SINDy with control for systems with hidden states and hard nonlinearities."""
 
+from . import differentiation
 from ._sindy import SINDy
 from ._stls import STLS, stls
 from .io import load_model
@@ -7,4 +8,4 @@ from .simulate import SimulationError
 
 __version__ = "0.1.0"
 
-__all__ = ["SINDy", "STLS", "SimulationError", "__version__", "load_model", "stls"]
+__all__ = ["SINDy", "STLS", "SimulationError", "__version__", "differentiation", "load_model", "stls"]

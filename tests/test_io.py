@@ -9,6 +9,7 @@ from sklearn.exceptions import NotFittedError
 
 import sindybench.io as sio
 from sindybench import STLS, SINDy, load_model
+from sindybench.differentiation import SavitzkyGolay
 from sindybench.libraries import AbsProductLibrary, CustomLibrary, PolynomialLibrary, SqrtLibrary
 from sindybench.simulate import simulate
 
@@ -64,6 +65,16 @@ def test_loaded_model_can_be_refit(tmp_path, fitted):
     model.to_json(tmp_path / "m.json")
     refit = load_model(tmp_path / "m.json").fit(u, y)
     np.testing.assert_allclose(refit.coef_, model.coef_, rtol=1e-12, atol=1e-14)
+
+
+def test_differentiation_settings_are_kept(tmp_path, rng):
+    u, y = _data(rng, n=400)
+    model = SINDy(library=PolynomialLibrary(degree=1), differentiation=SavitzkyGolay(window_length=9, polyorder=2), dt=DT)
+    model.fit(u, y).to_json(tmp_path / "m.json")
+    loaded = load_model(tmp_path / "m.json")
+    assert isinstance(loaded.differentiation, SavitzkyGolay)
+    assert loaded.differentiation.get_params() == {"window_length": 9, "polyorder": 2}
+    np.testing.assert_array_equal(loaded.fit(u, y).coef_, model.coef_)
 
 
 def test_file_is_plain_json(tmp_path, fitted):

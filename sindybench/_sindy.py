@@ -318,7 +318,8 @@ class SINDy(RegressorMixin, BaseEstimator):
         the first samples of the measured output, as the scorers of
         :mod:`sindybench.metrics` pass it). Without either it starts from the
         first training sample ``x0_`` and warns: that is only right when ``X``
-        starts where the training data started.
+        starts where the training data started. ``y_init[0]`` is clipped into
+        ``bounds`` (a noisy measurement may lie just outside them).
 
         Parameters
         ----------
@@ -345,7 +346,8 @@ class SINDy(RegressorMixin, BaseEstimator):
             y_init = check_signal(y_init, "y_init")
             if y_init.shape[1] != self.n_states_:
                 raise ValueError(f"y_init has {y_init.shape[1]} columns; expected {self.n_states_} (one per state).")
-            x0 = y_init[0]
+            # a measured sample may lie slightly outside the model's bounds (noise)
+            x0 = np.clip(y_init[0], *check_bounds(self.bounds, self.n_states_))
         y_pred = self.simulate(X, x0, on_divergence="nan")
         return y_pred[:, 0] if getattr(self, "_y_1d", False) else y_pred
 

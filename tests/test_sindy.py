@@ -326,3 +326,12 @@ def test_threshold_refits_reuse_the_stls_cache(data):
     assert len(_shared) == 1  # Theta and y' recomputed identically: one factorization
     _model().fit(u, y * 1.01)
     assert len(_shared) == 2
+
+
+def test_predict_clips_a_measured_start_into_bounds(data):
+    u, y = data
+    model = _model(bounds=(-0.3, 0.3)).fit(u[:600], y[:600])
+    start = np.array([[0.35, -0.1]])  # a noisy sample above the bound
+    np.testing.assert_array_equal(model.predict(u[:600], y_init=start), model.simulate(u[:600], [0.3, -0.1]))
+    with pytest.raises(ValueError, match="outside bounds"):
+        model.simulate(u[:600], start[0])

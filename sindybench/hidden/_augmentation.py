@@ -1,0 +1,71 @@
+"""Derivative-coordinate augmentation: states ``(y, y', ..., y^(n-1))``."""
+
+import numbers
+
+import numpy as np
+
+from ._base import Design, HiddenStrategy, Structure, linear_term
+
+__all__ = ["DerivativeAugmentation"]
+
+
+class DerivativeAugmentation(HiddenStrategy):
+    """Lift each output to ``(y, y', ..., y^(order-1))`` and learn ``y^(order)``.
+
+    The chain rows ``d/dt y^(k) = y^(k+1)`` are fixed rows of the model (they
+    hold by construction; nothing is overwritten after the fit); the library
+    learns the highest derivative from ``Z = [y, y', ..., u]``. On new data the
+    initial derivatives come from the first ``init_size`` output samples with
+    the estimator's differentiation method.
+
+    States are ordered derivative by derivative: for outputs ``y0, y1`` and
+    ``order=2`` they are ``(y0, y1, y0', y1')``.
+
+    Parameters
+    ----------
+    order : int, default=2
+        Order of the learned derivative (1 = plain SINDy on the outputs).
+    init_size : int, default=20
+        Output samples used to estimate the initial derivatives on new data.
+
+    Examples
+    --------
+    >>> s = DerivativeAugmentation(order=2).structure({}, n_outputs=1, n_inputs=1)
+    >>> s.state_names, s.learned, s.output_index
+    (['y0', "y0'"], (1,), (0,))
+    """
+
+    def __init__(self, *, order=2, init_size=20):
+        self.order = order
+        self.init_size = init_size
+
+    def _validate(self):
+        for name, low in (("order", 1), ("init_size", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
+                raise ValueError(f"{name} must be an integer >= {low}; got {value!r}.")
+
+    def structure(self, params, *, n_outputs, n_inputs):
+        p, n = n_outputs, self.order
+        n_states = p * n
+        terms = [linear_term(p * (k + 1) + j) for k in range(n - 1) for j in range(p)]
+        coef = np.zeros((len(terms), n_states))
+        for row, (k, j) in enumerate((k, j) for k in range(n - 1) for j in range(p)):
+            coef[row, p * k + j] = 1.0
+        names = [f"y{j}" + "'" * k for k in range(n) for j in range(p)]
+        return Structure(
+            n_states=n_states,
+            learned=tuple(p * (n - 1) + j for j in range(p)),
+            output_index=tuple(range(p)),
+            fixed_terms=terms,
+            fixed_coef=coef,
+            state_names=names,
+        )
+
+    def design(self, u, y, dt, *, derivative, params):
+        states = np.hstack([derivative(y, k) for k in range(self.order)])
+        return Design(states=states, targets=derivative(y, self.order))
+
+    def initial_state(self, u, y_init, dt, *, derivative, params, model):
+        y_init = y_init[: self.init_size]
+        return np.concatenate([derivative(y_init, k)[0] for k in range(self.order)])

@@ -1,0 +1,535 @@
+"""``HiddenStateSINDy``: SINDy with control for systems whose state is partly unmeasured."""
+
+import logging
+import numbers
+import warnings
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.utils.validation import check_is_fitted
+
+from .._stls import STLS
+from .._validation import check_dt, check_inputs_outputs, check_n_samples, check_signal
+from ..libraries import as_library, evaluate_terms, term_name
+from ..metrics import r2
+from ..simulate import _HOLDS, SimulationError, TermsRHS, simulate
+from ._base import HiddenStrategy, ModelView
+from ._search import check_space, minimize
+
+__all__ = ["HiddenStateSINDy"]
+
+logger = logging.getLogger(__name__)
+
+_PENALTY = 1e3  # validation score of a diverged or failed candidate (scores are normalized RMSEs)
+_HIDDEN_PREFIX = "hidden__"
+
+
+def _as_differentiation(obj):
+    try:
+        from ..differentiation import as_differentiation
+    except ImportError:  # TODO(H6): drop once sindybench.differentiation has landed
+        from .._sindy import _PysindyDerivative
+
+        return _PysindyDerivative(obj)
+    return as_differentiation(obj)
+
+
+def make_derivative(differentiation, dt):
+    """``derivative(a, order=1)`` bound to a differentiation method and ``dt``.
+
+    Orders above 2 chain second and first derivatives.
+    """
+
+    def derivative(a, order=1):
+        a = np.asarray(a, dtype=float)
+        if order == 0:
+            return a.copy()
+        if order <= 2:
+            return np.asarray(differentiation.derivative(a, dt=dt, order=order), dtype=float).reshape(a.shape)
+        return derivative(derivative(a, 2), order - 2)
+
+    return derivative
+
+
+class _Candidate:
+    """One fitted model for given physical parameters (internal)."""
+
+    def __init__(self, *, params, structure, library, coef, derivative, design, rhs):
+        self.params = params
+        self.structure = structure
+        self.library = library
+        self.coef = coef
+        self.derivative = derivative
+        self.design = design
+        self.rhs = rhs
+
+
+def _build_rhs(structure, library, coef):
+    """Full right-hand side: learned rows from ``library``/``coef``, fixed rows from ``structure``."""
+    n_states, learned = structure.n_states, list(structure.learned)
+    fixed_coef = structure.fixed_coef.copy()
+    fixed_coef[:, learned] = 0.0
+    lib_terms = getattr(library, "terms_", None)
+    if lib_terms is not None and structure.fixed_rhs is None:
+        full = np.zeros((len(lib_terms) + len(structure.fixed_terms), n_states))
+        full[: len(lib_terms), learned] = coef
+        full[len(lib_terms) :] = fixed_coef
+        return TermsRHS(full, list(lib_terms) + list(structure.fixed_terms), n_states)
+    fixed_terms, fixed_rhs = structure.fixed_terms, structure.fixed_rhs
+
+    def rhs(x, u):
+        z = np.concatenate([x, u])[None, :]
+        if fixed_rhs is not None:
+            dx = np.array(fixed_rhs(x, u), dtype=float).reshape(n_states)
+        else:
+            dx = evaluate_terms(fixed_terms, z)[0] @ fixed_coef if fixed_terms else np.zeros(n_states)
+        dx[learned] = library.transform(z)[0] @ coef
+        return dx
+
+    return rhs
+
+
+class HiddenStateSINDy(RegressorMixin, BaseEstimator):
+    """SINDy with control for partly hidden states, with a physics-guided hidden-state strategy.
+
+    The ``hidden`` strategy turns measured outputs into a full state (observed +
+    reconstructed hidden states) and fixes the rows of the model that physics
+    dictates; the ``library`` and the sparse ``optimizer`` learn the remaining
+    rows. Physical guesses left ``None`` in the strategy (and the estimator
+    parameters listed in ``search_params``) are searched inside ``fit`` with
+    Optuna's TPE sampler: each candidate is fitted on the training data without
+    its last ``validation_size`` samples and scored by the error of an
+    open-loop simulation of that validation block, started the way new data is
+    started (``strategy.initial_state`` from its first samples). A diverging
+    candidate is a bad trial, never a crash.
+
+    Parameters
+    ----------
+    hidden : HiddenStrategy, default=None
+        The strategy; None means ``DerivativeAugmentation(order=2)``.
+    library : transformer, default=None
+        Candidate functions of ``Z = [states, inputs]``; None means the
+        strategy's ``default_library()``. pysindy libraries are wrapped.
+    optimizer : regressor, default=None
+        Sparse regressor with ``coef_`` (n_targets, n_features); None means
+        ``STLS(threshold=0.0)`` -- plain least squares; pass
+        ``STLS(threshold=...)`` for sparsity in the units of your problem.
+    differentiation : object, default=None
+        Derivative method with ``derivative(y, *, dt, order)`` (see
+        :mod:`sindybench.differentiation`); None means finite differences.
+    dt : float, default=None
+        Sampling interval (required, here or in ``fit``).
+    validation_size : float or int, default=0.2
+        Validation block at the end of the training data: a fraction in
+        (0, 1) or a number of samples. Used only when something is searched.
+    n_trials : int, default=50
+        Optuna trials of the inner search.
+    random_state : int, RandomState or None, default=None
+        Seed of the TPE sampler.
+    search_params : dict, optional
+        Further parameters of this estimator to search jointly, by nested name
+        (``"differentiation__window_length": (5, 41)``,
+        ``"optimizer__threshold": (1e-3, 1.0, True)``, a list = choices).
+    refit : bool, default=True
+        Refit the best candidate on all the training data (else keep the fit
+        without the validation block).
+    n_substeps : int, default=1
+        Integration steps per sample in simulations.
+    input_hold : {"zoh", "linear"}, default="zoh"
+        Input interpolation between samples in simulations.
+    max_abs : float, default=1e6
+        A simulated state beyond this magnitude counts as divergence.
+
+    Attributes
+    ----------
+    hidden_ : HiddenStrategy
+        The fitted clone of the strategy.
+    params_ : dict
+        All physical parameters of the final model (given and searched).
+    best_params_ : dict
+        Values of the best trial (``hidden__<name>`` for physical parameters);
+        empty when nothing was searched.
+    search_results_ : list of (dict, float)
+        Every trial's values and validation score (normalized RMSE).
+    library_, optimizer_, differentiation_ : fitted components
+    coef_ : ndarray of shape (n_learned, n_library_terms)
+        Learned coefficients, one row per learned state.
+    structure_ : Structure
+    rhs_ : TermsRHS or callable
+        Right-hand side of the full state.
+    states_ : ndarray of shape (n_samples, n_states)
+        State trajectory reconstructed on the training data.
+    hidden_states_ : ndarray of shape (n_samples, n_hidden)
+        The reconstructed hidden (not measured) states on the training data.
+    x0_ : ndarray of shape (n_states,)
+        First training state.
+    state_names_ : list of str
+    dt_ : float
+    n_features_in_ : int
+        Number of inputs.
+    n_outputs_ : int
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sindybench.hidden import DerivativeAugmentation
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> from sindybench.simulate import TermsRHS, simulate
+    >>> t = np.arange(2000) * 0.01
+    >>> u = np.sin(t) + np.sin(2.3 * t)
+    >>> truth = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0},
+    ...     {((0, 0, 1, 0),): -4.0, ((1, 0, 1, 0),): -0.5, ((2, 0, 1, 0),): 2.0}])
+    >>> y = simulate(truth, [0.0, 0.0], u[:, None], dt=0.01, n_substeps=4)[:, :1]
+    >>> model = HiddenStateSINDy(hidden=DerivativeAugmentation(order=2),
+    ...                          library=PolynomialLibrary(degree=1), dt=0.01).fit(u, y)
+    >>> model.score(u, y) > 0.99
+    True
+    """
+
+    def __init__(
+        self,
+        *,
+        hidden=None,
+        library=None,
+        optimizer=None,
+        differentiation=None,
+        dt=None,
+        validation_size=0.2,
+        n_trials=50,
+        random_state=None,
+        search_params=None,
+        refit=True,
+        n_substeps=1,
+        input_hold="zoh",
+        max_abs=1e6,
+    ):
+        self.hidden = hidden
+        self.library = library
+        self.optimizer = optimizer
+        self.differentiation = differentiation
+        self.dt = dt
+        self.validation_size = validation_size
+        self.n_trials = n_trials
+        self.random_state = random_state
+        self.search_params = search_params
+        self.refit = refit
+        self.n_substeps = n_substeps
+        self.input_hold = input_hold
+        self.max_abs = max_abs
+
+    # ------------------------------------------------------------------ checks
+    def _check_params(self, dt):
+        dt = check_dt(dt if dt is not None else self.dt, allow_none=True)
+        if dt is None:
+            raise ValueError("dt is None; pass dt to the constructor or to fit.")
+        if self.hidden is not None and not isinstance(self.hidden, HiddenStrategy):
+            raise ValueError(
+                f"hidden must be a HiddenStrategy (e.g. DerivativeAugmentation()); got {type(self.hidden).__name__}."
+            )
+        for name in ("n_trials", "n_substeps"):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
+                raise ValueError(f"{name} must be an integer >= 1; got {value!r}.")
+        if self.input_hold not in _HOLDS:
+            raise ValueError(f"input_hold must be one of {_HOLDS}; got {self.input_hold!r}.")
+        if not isinstance(self.refit, bool):
+            raise ValueError(f"refit must be True or False; got {self.refit!r}.")
+        if isinstance(self.max_abs, bool) or not isinstance(self.max_abs, numbers.Real) or not self.max_abs > 0:
+            raise ValueError(f"max_abs must be a number > 0; got {self.max_abs!r}.")
+        space = check_space(self.search_params)
+        bad = [k for k in space if k.startswith(_HIDDEN_PREFIX)]
+        if bad:
+            raise ValueError(
+                f"search_params {bad} name strategy parameters; leave them None in the strategy "
+                "(with their bounds) to search them."
+            )
+        valid = self.get_params(deep=True)
+        unknown = [k for k in space if k not in valid]
+        if unknown:
+            raise ValueError(f"search_params names unknown parameters {unknown}; expected names from get_params().")
+        return dt, space
+
+    def _n_validation(self, n_samples):
+        v = self.validation_size
+        if isinstance(v, bool) or not isinstance(v, numbers.Real):
+            raise ValueError(f"validation_size must be a fraction in (0, 1) or a number of samples; got {v!r}.")
+        n_val = int(round(v * n_samples)) if 0 < v < 1 else int(v)
+        if v != n_val and not 0 < v < 1:
+            raise ValueError(f"validation_size must be a fraction in (0, 1) or an integer; got {v!r}.")
+        if not 2 <= n_val <= n_samples - 2:
+            raise ValueError(
+                f"validation_size={v!r} gives {n_val} validation samples out of {n_samples}; "
+                "expected at least 2 on each side of the split."
+            )
+        return n_val
+
+    # --------------------------------------------------------------------- fit
+    def fit(self, X, y, *, dt=None):
+        """Fit the model, searching the strategy's open physical parameters.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+            Inputs ``u``.
+        y : array-like of shape (n_samples, n_outputs)
+            Measured outputs.
+        dt : float, optional
+            Sampling interval (overrides the constructor's ``dt``).
+
+        Returns
+        -------
+        self
+        """
+        X, y1 = _check_fit_data(X, y)
+        dt, est_space = self._check_params(dt)
+        hidden = clone(self.hidden) if self.hidden is not None else _default_strategy()
+        hidden._validate()
+        space = {_HIDDEN_PREFIX + k: ("float", lo, hi, log) for k, (lo, hi, log) in hidden.search_space().items()}
+        space.update(est_space)
+        n = y1.shape[0]
+        self.best_params_, self.search_results_ = {}, []
+        n_rows = n
+        if space:
+            n_val = self._n_validation(n)
+            n_fit = n - n_val
+
+            def objective(values):
+                try:
+                    cand = self._candidate(hidden, values, X, y1, dt, n_fit)
+                    return self._validation_error(hidden, cand, X[n_fit:], y1[n_fit:], dt)
+                except (SimulationError, ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
+                    logger.debug("bad trial %s: %s", values, exc)
+                    return _PENALTY
+
+            with np.errstate(all="ignore"):
+                self.best_params_, self.search_results_ = minimize(
+                    objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=_PENALTY
+                )
+            if min(s for _, s in self.search_results_) >= _PENALTY:
+                warnings.warn(
+                    f"all {self.n_trials} candidates of the inner search diverged or failed on the validation "
+                    "block; check the bounds of the searched parameters.",
+                    UserWarning,
+                    stacklevel=2,
+                )
+            n_rows = n if self.refit else n_fit
+        cand = self._candidate(hidden, self.best_params_, X, y1, dt, n_rows)
+        self._set_fitted(hidden, cand, self.best_params_, dt, X, y1)
+        self._y_1d = np.ndim(y) == 1
+        return self
+
+    def _components(self, est_values):
+        est = clone(self).set_params(**est_values) if est_values else self
+        library = est.library if est.library is not None else None
+        optimizer = clone(est.optimizer) if est.optimizer is not None else STLS(threshold=0.0)
+        differentiation = clone(_as_differentiation(est.differentiation))
+        return library, optimizer, differentiation
+
+    def _candidate(self, hidden, values, X, y, dt, n_rows):
+        hvals = {k[len(_HIDDEN_PREFIX) :]: v for k, v in values.items() if k.startswith(_HIDDEN_PREFIX)}
+        est_values = {k: v for k, v in values.items() if not k.startswith(_HIDDEN_PREFIX)}
+        library, optimizer, differentiation = self._components(est_values)
+        library = clone(as_library(library if library is not None else hidden.default_library()))
+        derivative = make_derivative(differentiation, dt)
+        params = hidden.resolve_params(hvals)
+        structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
+        design = hidden.design(X, y, dt, derivative=derivative, params=params)
+        states = check_signal(design.states, "strategy states", n_samples=y.shape[0])
+        targets = check_signal(design.targets, "strategy targets", n_samples=y.shape[0])
+        if states.shape[1] != structure.n_states or targets.shape[1] != len(structure.learned):
+            raise ValueError(
+                f"the strategy returned states {states.shape} and targets {targets.shape}; expected "
+                f"{structure.n_states} state columns and {len(structure.learned)} target columns."
+            )
+        rows = np.zeros(y.shape[0], dtype=bool)
+        rows[:n_rows] = True
+        if design.rows is not None:
+            keep = np.zeros(y.shape[0], dtype=bool)
+            keep[design.rows] = True
+            rows &= keep
+        Z = np.hstack([states, X])
+        library.fit(Z[rows])
+        theta = library.transform(Z[rows])
+        check_n_samples(int(rows.sum()), theta.shape[1])
+        optimizer.fit(theta, targets[rows])
+        coef = np.asarray(optimizer.coef_, dtype=float).reshape(len(structure.learned), theta.shape[1]).T
+        rhs = _build_rhs(structure, library, coef)
+        cand = _Candidate(params=params, structure=structure, library=library, coef=coef,
+                          derivative=derivative, design=design, rhs=rhs)
+        cand.optimizer, cand.differentiation = optimizer, differentiation
+        return cand
+
+    def _simulate(self, cand, x0, X, dt, on_divergence):
+        s = cand.structure
+        return simulate(cand.rhs, x0, X, dt, n_substeps=self.n_substeps, input_hold=self.input_hold,
+                        bounds=s.bounds, max_abs=self.max_abs, on_divergence=on_divergence)
+
+    def _model_view(self, cand, dt):
+        return ModelView(rhs=cand.rhs, simulate=lambda x0, u: self._simulate(cand, x0, u, dt, "nan"))
+
+    def _initial_state(self, hidden, cand, X, y_init, dt):
+        x0 = hidden.initial_state(X, y_init, dt, derivative=cand.derivative, params=cand.params,
+                                  model=self._model_view(cand, dt))
+        x0 = np.asarray(x0, dtype=float).reshape(-1)
+        if x0.shape[0] != cand.structure.n_states or not np.all(np.isfinite(x0)):
+            raise ValueError(f"the strategy's initial state {x0!r} is not {cand.structure.n_states} finite numbers.")
+        return x0
+
+    def _validation_error(self, hidden, cand, X, y, dt):
+        x0 = self._initial_state(hidden, cand, X, y, dt)
+        y_sim = self._simulate(cand, x0, X, dt, "nan")[:, list(cand.structure.output_index)]
+        if not np.all(np.isfinite(y_sim)):
+            return _PENALTY
+        scale = np.std(y, axis=0)
+        scale[scale == 0] = 1.0
+        return float(np.mean(np.sqrt(np.mean((y_sim - y) ** 2, axis=0)) / scale))
+
+    def _set_fitted(self, hidden, cand, values, dt, X, y):
+        s = cand.structure
+        self.hidden_ = hidden
+        self.params_ = dict(cand.params)
+        self.library_, self.optimizer_, self.differentiation_ = cand.library, cand.optimizer, cand.differentiation
+        self.coef_ = cand.coef.T.copy()
+        self.structure_ = s
+        self.rhs_ = cand.rhs
+        self._derivative = cand.derivative
+        self._candidate_ = cand
+        self.states_ = np.asarray(cand.design.states, dtype=float)
+        hidden_idx = [i for i in range(s.n_states) if i not in s.output_index]
+        self.hidden_states_ = self.states_[:, hidden_idx]
+        self.x0_ = self.states_[0].copy()
+        self.state_names_ = list(s.state_names)
+        self.dt_ = dt
+        self.n_features_in_ = X.shape[1]
+        self.n_outputs_ = y.shape[1]
+
+    # ------------------------------------------------------------- simulation
+    def _check_X(self, X, n_samples=None):
+        if X is None:
+            if n_samples is None:
+                raise ValueError("X is None; expected inputs of shape (n_samples, n_inputs).")
+            X = np.zeros((n_samples, 0))
+        arr = np.asarray(X, dtype=float)
+        if not (arr.ndim == 2 and arr.shape[1] == 0):
+            arr = check_signal(X, "X")
+        if arr.shape[1] != self.n_features_in_:
+            raise ValueError(f"X has {arr.shape[1]} input columns; expected {self.n_features_in_} as in fit.")
+        return arr
+
+    def estimate_initial_state(self, X, y_init):
+        """Initial state for simulating ``X``, from the first samples ``y_init`` of its output.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs)
+            Inputs of the run to simulate (the strategy may use the first ones).
+        y_init : array-like of shape (n_init, n_outputs)
+            First measured output samples of that run.
+
+        Returns
+        -------
+        ndarray of shape (n_states,)
+        """
+        check_is_fitted(self)
+        y_init = check_signal(y_init, "y_init")
+        if y_init.shape[1] != self.n_outputs_:
+            raise ValueError(f"y_init has {y_init.shape[1]} columns; expected {self.n_outputs_} (one per output).")
+        X = self._check_X(X, y_init.shape[0])
+        n = min(X.shape[0], y_init.shape[0])
+        return self._initial_state(self.hidden_, self._candidate_, X[:n], y_init[:n], self.dt_)
+
+    def simulate(self, X, *, y_init=None, x0=None, on_divergence="raise"):
+        """Open-loop simulation of the full state (measured and hidden).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs)
+        y_init : array-like of shape (n_init, n_outputs), optional
+            First measured output samples; the initial state is estimated from them.
+        x0 : array-like of shape (n_states,), optional
+            The initial state, instead of ``y_init``.
+        on_divergence : {"raise", "nan"}, default="raise"
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_states)
+        """
+        check_is_fitted(self)
+        if (x0 is None) == (y_init is None):
+            raise ValueError("give exactly one of x0 and y_init.")
+        X = self._check_X(X)
+        if y_init is not None:
+            x0 = self.estimate_initial_state(X, y_init)
+        x0 = np.asarray(x0, dtype=float).reshape(-1)
+        if x0.shape[0] != self.structure_.n_states:
+            raise ValueError(f"x0 has {x0.shape[0]} entries; expected {self.structure_.n_states} (one per state).")
+        return self._simulate(self._candidate_, x0, X, self.dt_, on_divergence)
+
+    def predict(self, X, *, y_init=None):
+        """Simulated outputs for the inputs ``X`` (NaN after a divergence).
+
+        Started from the state estimated from ``y_init`` (the first samples of
+        the measured output); without it from the first training state
+        ``x0_``, with a warning.
+        """
+        check_is_fitted(self)
+        if y_init is None:
+            warnings.warn(
+                "predict without y_init starts from the first training state x0_; "
+                "pass y_init (the first samples of the measured y) for new data.",
+                UserWarning,
+                stacklevel=2,
+            )
+            states = self.simulate(X, x0=self.x0_, on_divergence="nan")
+        else:
+            states = self.simulate(X, y_init=y_init, on_divergence="nan")
+        y_pred = states[:, list(self.structure_.output_index)]
+        return y_pred[:, 0] if self._y_1d else y_pred
+
+    def score(self, X, y, sample_weight=None):
+        """R^2 of the open-loop simulation initialised from the start of ``y`` (-inf if it diverges)."""
+        if sample_weight is not None:
+            raise ValueError("sample_weight is not supported by HiddenStateSINDy.score; expected None.")
+        X, y = check_inputs_outputs(X, y)
+        y_pred = np.asarray(self.predict(X, y_init=y), dtype=float).reshape(y.shape)
+        if not np.all(np.isfinite(y_pred)):
+            return -np.inf
+        return r2(y, y_pred)
+
+    def equations(self, precision=3):
+        """Readable model equations, one line per state (fixed rows included)."""
+        check_is_fitted(self)
+        names = self.state_names_ + [f"u{i}" for i in range(self.n_features_in_)]
+        s = self.structure_
+        lines = []
+        lib_names = list(self.library_.get_feature_names_out(names))
+        for i in range(s.n_states):
+            if i in s.learned:
+                pairs = zip(self.coef_[s.learned.index(i)], lib_names)
+            elif s.fixed_rhs is not None:
+                lines.append(f"{names[i]}' = (fixed: {self.hidden_.__class__.__name__})")
+                continue
+            else:
+                pairs = zip(s.fixed_coef[:, i], [term_name(t, names) for t in s.fixed_terms])
+            parts = [f"{c:+.{precision}g}" + ("" if f == "1" else f" {f}") for c, f in pairs if c != 0]
+            body = " ".join(parts).lstrip("+") if parts else "0"
+            lines.append(f"{names[i]}' = {body}")
+        return lines
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        tags.regressor_tags.poor_score = True
+        return tags
+
+
+def _default_strategy():
+    from ._augmentation import DerivativeAugmentation
+
+    return DerivativeAugmentation(order=2)
+
+
+def _check_fit_data(X, y):
+    X, y1 = check_inputs_outputs(X, y)
+    return X, y1

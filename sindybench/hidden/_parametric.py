@@ -1,0 +1,279 @@
+"""A hidden state with user-supplied parametric dynamics ``x_h' = rhs(x_h, y, u, **params)``."""
+
+import itertools
+import numbers
+
+import numpy as np
+from scipy.optimize import minimize as scipy_minimize
+from scipy.optimize import minimize_scalar
+
+from .._validation import check_bounds
+from ..simulate import simulate
+from ._base import Design, HiddenStrategy, Structure
+
+__all__ = ["ParametricHiddenState"]
+
+_INITS = ("simulation", "derivative")
+
+
+def _check_range(spec, name):
+    try:
+        entry = tuple(spec)
+    except TypeError:
+        entry = ()
+    if len(entry) not in (2, 3) or not all(isinstance(v, numbers.Real) and not isinstance(v, bool)
+                                           for v in entry[:2]):
+        raise ValueError(f"{name} = {spec!r}; expected a number or (low, high) or (low, high, log).")
+    low, high = float(entry[0]), float(entry[1])
+    log = bool(entry[2]) if len(entry) == 3 else False
+    if not (np.isfinite(low) and np.isfinite(high) and low < high):
+        raise ValueError(f"{name} = {spec!r}; expected finite low < high.")
+    if log and low <= 0:
+        raise ValueError(f"{name} = {spec!r} is log-scaled; expected low > 0.")
+    return low, high, log
+
+
+class ParametricHiddenState(HiddenStrategy):
+    """Hidden states with known parametric dynamics; the outputs' dynamics are learned.
+
+    States are ``(y_0, ..., y_{p-1}, x_h0, ..., x_h{q-1})``: the measured outputs
+    followed by the hidden states. The hidden states follow the user's model
+    ``x_h' = rhs(x_h, y, u, **params)``; on training data they are reconstructed
+    by simulating it (with the measured ``y`` as an input) from an initial
+    hidden state, and the library learns ``y' = Theta^T phi(y, x_h, u)``. The
+    parameters given as ranges and the training initial hidden state are
+    searched by ``HiddenStateSINDy`` (validation simulation error).
+
+    On new data the initial hidden state is found on a grid over ``x0_bounds``:
+    with ``init="simulation"`` (default) by the simulation error over the first
+    ``init_size`` samples (then refined locally), with ``init="derivative"`` by
+    matching the model's ``y'(0)`` to the measured one.
+
+    Parameters
+    ----------
+    rhs : callable
+        ``rhs(x_h, y, u, **params) -> dx_h/dt`` with 1-D arrays ``x_h`` (q,),
+        ``y`` (p,), ``u`` (n_inputs,).
+    params : dict, optional
+        ``name -> value`` (fixed) or ``name -> (low, high[, log])`` (searched).
+    x0_bounds : (low, high) or sequence of (low, high)
+        Range of each hidden state's initial value (one pair per hidden state;
+        a single pair means one hidden state).
+    bounds : (lower, upper), optional
+        Simulation bounds of the hidden states (scalars or one per hidden state).
+    init : {"simulation", "derivative"}, default="simulation"
+        How the initial hidden state is estimated on new data.
+    init_size : int, default=50
+        Samples of the initialisation window on new data.
+    grid_size : int, default=41
+        Grid points per hidden state for the initial-state search.
+    n_substeps : int, default=4
+        RK4 steps per sample when reconstructing the hidden states.
+    hidden_names : sequence of str, optional
+        Names of the hidden states (default ``h0, h1, ...``).
+
+    Examples
+    --------
+    >>> def leak(xh, y, u, *, a):
+    ...     return -a * xh + u
+    >>> s = ParametricHiddenState(leak, params={"a": (0.1, 2.0)}, x0_bounds=(0.0, 1.0))
+    >>> sorted(s.search_space())
+    ['a', 'x0']
+    """
+
+    def __init__(self, rhs=None, params=None, x0_bounds=None, *, bounds=None, init="simulation", init_size=50,
+                 grid_size=41, n_substeps=4, hidden_names=None):
+        self.rhs = rhs
+        self.params = params
+        self.x0_bounds = x0_bounds
+        self.bounds = bounds
+        self.init = init
+        self.init_size = init_size
+        self.grid_size = grid_size
+        self.n_substeps = n_substeps
+        self.hidden_names = hidden_names
+
+    # ------------------------------------------------------------- the model
+    def _hidden_rhs(self):
+        """The user's ``rhs`` (subclasses supply a preset)."""
+        return self.rhs
+
+    def _param_specs(self):
+        """``name -> float`` (fixed) or ``name -> (low, high, log)`` (searched)."""
+        params = {} if self.params is None else self.params
+        if not isinstance(params, dict):
+            raise ValueError(f"params must be a dict name -> value or (low, high[, log]); got {params!r}.")
+        out = {}
+        for name, spec in params.items():
+            if isinstance(spec, numbers.Real) and not isinstance(spec, bool):
+                if not np.isfinite(spec):
+                    raise ValueError(f"params[{name!r}] = {spec!r}; expected a finite number.")
+                out[name] = float(spec)
+            else:
+                out[name] = _check_range(spec, f"params[{name!r}]")
+        return out
+
+    def _x0_specs(self):
+        """One entry per hidden state: a fixed float or a range ``(low, high, False)``."""
+        x0 = self.x0_bounds
+        if x0 is None:
+            raise ValueError("x0_bounds is None; expected (low, high) for each hidden state.")
+        arr = np.asarray(x0, dtype=object)
+        pairs = [x0] if arr.ndim == 1 else list(x0)
+        return [_check_range(p, "x0_bounds")[:2] + (False,) for p in pairs]
+
+    def _x0_names(self, n):
+        return ["x0"] if n == 1 else [f"x0_{i}" for i in range(n)]
+
+    def _validate(self):
+        if not callable(self._hidden_rhs()):
+            raise ValueError(f"rhs must be a callable rhs(x_h, y, u, **params); got {self.rhs!r}.")
+        if self.init not in _INITS:
+            raise ValueError(f"init must be one of {_INITS}; got {self.init!r}.")
+        for name, low in (("init_size", 1), ("grid_size", 2), ("n_substeps", 1)):
+            value = getattr(self, name)
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
+                raise ValueError(f"{name} must be an integer >= {low}; got {value!r}.")
+        n_hidden = len(self._x0_specs())
+        self._hidden_bounds(n_hidden)
+        if self.hidden_names is not None and len(self.hidden_names) != n_hidden:
+            raise ValueError(f"hidden_names has {len(self.hidden_names)} names; expected {n_hidden}.")
+        self.search_space()
+
+    def _hidden_bounds(self, n_hidden):
+        return check_bounds(self.bounds, n_hidden)
+
+    def search_space(self):
+        space = {k: v for k, v in self._param_specs().items() if not isinstance(v, float)}
+        specs = self._x0_specs()
+        for name, spec in zip(self._x0_names(len(specs)), specs):
+            if not isinstance(spec, float):
+                space[name] = spec
+        return space
+
+    def resolve_params(self, values=None):
+        values = {} if values is None else dict(values)
+        out = {}
+        specs = self._x0_specs()
+        named = list(self._param_specs().items()) + list(zip(self._x0_names(len(specs)), specs))
+        for name, spec in named:
+            if isinstance(spec, float):
+                out[name] = spec
+            elif name in values:
+                out[name] = float(values[name])
+            else:
+                raise ValueError(f"no value for the searched parameter {name!r}.")
+        return out
+
+    def _init_ranges(self):
+        """Search range of each initial hidden state on new data: its ``x0_bounds``,
+        or the simulation bounds when the training value is fixed."""
+        specs = self._x0_specs()
+        lo, hi = self._hidden_bounds(len(specs))
+        ranges = []
+        for i, spec in enumerate(specs):
+            if not isinstance(spec, float):
+                ranges.append(spec[:2])
+            elif np.isfinite(lo[i]) and np.isfinite(hi[i]):
+                ranges.append((float(lo[i]), float(hi[i])))
+            else:
+                ranges.append((spec, spec))
+        return ranges
+
+    def _split(self, params):
+        """Physical parameters for ``rhs`` and the training initial hidden state."""
+        n = len(self._x0_specs())
+        x0_names = self._x0_names(n)
+        phys = {k: v for k, v in params.items() if k not in x0_names}
+        return phys, np.array([params[k] for k in x0_names], dtype=float)
+
+    # -------------------------------------------------------------- protocol
+    def structure(self, params, *, n_outputs, n_inputs):
+        p = n_outputs
+        q = len(self._x0_specs())
+        phys, _ = self._split(params)
+        rhs = self._hidden_rhs()
+
+        def fixed_rhs(x, u):
+            dx = np.zeros(p + q)
+            dx[p:] = np.asarray(rhs(x[p:], x[:p], u, **phys), dtype=float).reshape(q)
+            return dx
+
+        lo, hi = self._hidden_bounds(q)
+        return Structure(
+            n_states=p + q,
+            learned=tuple(range(p)),
+            output_index=tuple(range(p)),
+            state_names=self._state_names(p, q),
+            bounds=(np.r_[np.full(p, -np.inf), lo], np.r_[np.full(p, np.inf), hi]),
+            fixed_rhs=fixed_rhs,
+        )
+
+    def _state_names(self, p, q):
+        hidden = list(self.hidden_names) if self.hidden_names is not None else [f"h{i}" for i in range(q)]
+        return [f"y{j}" for j in range(p)] + hidden
+
+    def _simulate_hidden(self, u, y, dt, params):
+        """Hidden trajectory driven by the inputs and the measured outputs."""
+        phys, x0 = self._split(params)
+        rhs, q, p = self._hidden_rhs(), len(x0), y.shape[1]
+
+        def f(xh, uy):
+            return np.asarray(rhs(xh, uy[-p:], uy[:-p], **phys), dtype=float).reshape(q)
+
+        return simulate(f, x0, np.hstack([u, y]), dt, n_substeps=self.n_substeps, input_hold="linear",
+                        bounds=self._hidden_bounds(q))
+
+    def design(self, u, y, dt, *, derivative, params):
+        hidden = self._simulate_hidden(u, y, dt, params)
+        return Design(states=np.hstack([y, hidden]), targets=derivative(y, 1))
+
+    def initial_state(self, u, y_init, dt, *, derivative, params, model):
+        p = y_init.shape[1]
+        n_w = max(2, min(self.init_size, y_init.shape[0], u.shape[0]))
+        y_w, u_w = y_init[:n_w], u[:n_w]
+        ranges = self._init_ranges()
+        grids = [np.linspace(lo, hi, self.grid_size) if lo < hi else np.array([lo]) for lo, hi in ranges]
+        candidates = np.array(list(itertools.product(*grids)))
+        y0 = y_w[0]
+
+        if self.init == "derivative":
+            yd0 = derivative(y_w, 1)[0]
+
+            def cost(xh):
+                return float(np.sum((model.rhs(np.r_[y0, xh], u_w[0])[:p] - yd0) ** 2))
+        else:
+            def cost(xh):
+                y_sim = model.simulate(np.r_[y0, xh], u_w)[:, :p]
+                err = np.mean((y_sim - y_w) ** 2)
+                return float(err) if np.isfinite(err) else np.inf
+
+        costs = np.array([cost(c) for c in candidates])
+        best = candidates[int(np.argmin(costs))]
+        if self.init == "simulation" and np.isfinite(costs.min()):
+            best = self._refine(cost, best, ranges, grids)
+        return np.r_[y0, best]
+
+    @staticmethod
+    def _refine(cost, best, ranges, grids):
+        free = [i for i, (lo, hi) in enumerate(ranges) if lo < hi]
+        if len(free) == 1:
+            i = free[0]
+            step = grids[i][1] - grids[i][0]
+            lo, hi = max(ranges[i][0], best[i] - step), min(ranges[i][1], best[i] + step)
+
+            def cost1(v):
+                x = best.copy()
+                x[i] = v
+                return cost(x)
+
+            res = minimize_scalar(cost1, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3 * step})
+            if res.fun <= cost(best):
+                best = best.copy()
+                best[i] = res.x
+            return best
+        if free:
+            res = scipy_minimize(cost, best, method="Powell", bounds=ranges)
+            if np.isfinite(res.fun) and res.fun <= cost(best):
+                return np.asarray(res.x, dtype=float)
+        return best

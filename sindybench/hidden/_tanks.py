@@ -1,0 +1,146 @@
+"""The cascaded tanks' hidden upper tank: ``x1' = -k1 sqrt(x1) + k2 u`` within its bounds."""
+
+import numbers
+
+import numpy as np
+
+from .._validation import check_bounds
+from ..libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary
+from ..libraries._terms import POW, SQRT
+from ..simulate import TermsRHS, simulate
+from ._base import Structure
+from ._parametric import ParametricHiddenState, _check_range
+
+__all__ = ["TanksHiddenState"]
+
+
+class TanksHiddenState(ParametricHiddenState):
+    """Hidden upper-tank level of a cascaded-tanks system.
+
+    A :class:`ParametricHiddenState` with the preset dynamics
+    ``x1' = -k1 sqrt(x1) + k2 u`` (Torricelli outflow, pump inflow), simulated
+    within ``bounds`` (the tank overflows at its upper bound). The measured
+    lower tank is learned as ``y' = Theta^T phi(y, x1, u)``. The model is
+    expressed in library terms, so it is simulated by the compiled simulator.
+
+    Parameters
+    ----------
+    k1, k2 : float, optional
+        Outflow and inflow coefficients; None = searched within ``k_bounds``
+        (log scale).
+    x0 : float, optional
+        Upper-tank level at the start of the training data; None = searched
+        within ``bounds``.
+    bounds : (float, float), default=(0.0, 10.0)
+        Range of the upper-tank level (same units as ``y``).
+    k_bounds : (float, float), default=(0.005, 0.2)
+        Search range of ``k1`` and ``k2``.
+    output_bounds : (float, float), optional
+        Simulation bounds of the measured level (e.g. the sensor range).
+    init : {"simulation", "derivative"}, default="simulation"
+        Initial upper-tank level on new data: minimum simulation error over
+        the first ``init_size`` samples (grid + local refinement), or the
+        study's grid search matching the model's ``y'(0)`` to the measured one.
+    init_size : int, default=50
+    grid_size : int, default=41
+    n_substeps : int, default=4
+        RK4 steps per sample when reconstructing the upper tank.
+
+    Examples
+    --------
+    >>> s = TanksHiddenState(k1=0.04, k2=0.03)
+    >>> sorted(s.search_space())
+    ['x0']
+    >>> s.structure({"k1": 0.04, "k2": 0.03, "x0": 5.0}, n_outputs=1, n_inputs=1).state_names
+    ['y0', 'x1']
+    """
+
+    def __init__(self, *, k1=None, k2=None, x0=None, bounds=(0.0, 10.0), k_bounds=(0.005, 0.2),
+                 output_bounds=None, init="simulation", init_size=50, grid_size=41, n_substeps=4):
+        self.k1 = k1
+        self.k2 = k2
+        self.x0 = x0
+        self.bounds = bounds
+        self.k_bounds = k_bounds
+        self.output_bounds = output_bounds
+        self.init = init
+        self.init_size = init_size
+        self.grid_size = grid_size
+        self.n_substeps = n_substeps
+
+    hidden_names = ("x1",)
+    rhs = params = x0_bounds = None
+
+    def _tank_bounds(self):
+        lo, hi = check_bounds(self.bounds, 1)
+        if lo[0] < 0 or not np.isfinite(hi[0]):
+            raise ValueError(f"bounds must be (lower >= 0, finite upper) for the tank level; got {self.bounds!r}.")
+        return float(lo[0]), float(hi[0])
+
+    def _hidden_rhs(self):
+        lo, hi = self._tank_bounds()
+
+        def rhs(xh, y, u, *, k1, k2):
+            return -k1 * np.sqrt(np.clip(xh, lo, hi)) + k2 * u[:1]
+
+        return rhs
+
+    def _param_specs(self):
+        k_range = _check_range(self.k_bounds, "k_bounds")[:2] + (True,)
+        if k_range[0] <= 0:
+            raise ValueError(f"k_bounds must be positive (log-scaled search); got {self.k_bounds!r}.")
+        out = {}
+        for name in ("k1", "k2"):
+            value = getattr(self, name)
+            if value is None:
+                out[name] = k_range
+            elif isinstance(value, numbers.Real) and not isinstance(value, bool) and np.isfinite(value):
+                out[name] = float(value)
+            else:
+                raise ValueError(f"{name} must be a finite number or None (searched); got {value!r}.")
+        return out
+
+    def _x0_specs(self):
+        lo, hi = self._tank_bounds()
+        if self.x0 is None:
+            return [(lo, hi, False)]
+        if isinstance(self.x0, bool) or not isinstance(self.x0, numbers.Real) or not lo <= self.x0 <= hi:
+            raise ValueError(f"x0 must be a number within bounds {self.bounds!r} or None (searched); got {self.x0!r}.")
+        return [float(self.x0)]
+
+    def _state_names(self, p, q):
+        return ["y0", "x1"]
+
+    def default_library(self):
+        """Quadratic polynomial in ``(y, x1, u)`` plus ``sqrt(y)``, ``sqrt(x1)``."""
+        return ConcatLibrary([PolynomialLibrary(degree=2), SqrtLibrary(variables=[0, 1])])
+
+    def _hidden_terms(self, params, x_col, u_col):
+        lo, hi = self._tank_bounds()
+        terms = [((x_col, SQRT, lo, hi),), ((u_col, POW, 1.0, 0.0),)]
+        return terms, np.array([-params["k1"], params["k2"]])
+
+    def structure(self, params, *, n_outputs, n_inputs):
+        if n_outputs != 1 or n_inputs != 1:
+            raise ValueError(
+                f"TanksHiddenState models one input and one output; got {n_inputs} inputs and {n_outputs} outputs."
+            )
+        terms, coef = self._hidden_terms(params, 1, 2)
+        lo, hi = self._tank_bounds()
+        ylo, yhi = check_bounds(self.output_bounds, 1, name="output_bounds")
+        return Structure(
+            n_states=2,
+            learned=(0,),
+            output_index=(0,),
+            fixed_terms=terms,
+            fixed_coef=np.c_[np.zeros(2), coef],
+            state_names=["y0", "x1"],
+            bounds=(np.array([ylo[0], lo]), np.array([yhi[0], hi])),
+        )
+
+    def _simulate_hidden(self, u, y, dt, params):
+        terms, coef = self._hidden_terms(params, 0, 1)
+        _, x0 = self._split(params)
+        rhs = TermsRHS(coef[:, None], terms, 1)
+        return simulate(rhs, x0, u, dt, n_substeps=self.n_substeps, bounds=self._tank_bounds())
+

@@ -77,7 +77,9 @@ class GramCache:
     (``theta^T theta``, ``theta^T target``), and least squares on any subset of
     the columns of ``theta`` reduces to the same problem on the columns of
     ``R``. Building it is the only O(n_samples n_features^2) step; every
-    :func:`stls` call given this cache costs O(n_features^3).
+    :func:`stls` call given this cache costs O(n_features^3) for the solves
+    plus one O(n_samples n_features) pass to check the data (finite values,
+    fingerprint).
 
     A cache remembers a fingerprint of the data it was built from (shape,
     dtype and weighted column sums); :func:`stls` refuses a cache that does not

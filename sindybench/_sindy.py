@@ -380,10 +380,26 @@ class SINDy(RegressorMixin, BaseEstimator):
     def equations(self, precision=3):
         """Readable model equations, one line per state.
 
+        Lines look like ``y0' = -4.822 y0 + 0.740 y0 u0 + 1.742 u0^2``; a
+        constant term shows as its number, an all-zero row as ``0``.
+
+        Parameters
+        ----------
+        precision : int, default=3
+            Decimals of the coefficients.
+
+        Returns
+        -------
+        list of str
+
         Examples
         --------
-        ``["y0' = -4.822 y0 + 0.740 y0 u0 + 1.742 u0^2"]``; a constant term
-        shows as its number, an all-zero row as ``0``.
+        >>> from sindybench.libraries import PolynomialLibrary
+        >>> t = np.arange(0, 3, 0.01)
+        >>> y = np.column_stack([np.exp(-2 * t), 1 + np.exp(-t)])
+        >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01)
+        >>> model.fit(None, y).equations(precision=2)
+        ["y0' = -2.00 y0", "y1' = 1.00 - 1.00 y1"]
         """
         check_is_fitted(self)
         lines = []

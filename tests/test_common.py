@@ -10,18 +10,23 @@ import numpy as np
 import pytest
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
+import pysindy as ps
+
 from sindybench import STLS, SINDy
+from sindybench.baselines import ARX, NNARX
 from sindybench.libraries import (
     AbsProductLibrary,
     ConcatLibrary,
     CustomLibrary,
+    ExternalLibrary,
     PolynomialLibrary,
     ProductLibrary,
     SqrtLibrary,
+    TermsLibrary,
 )
 
 # Reasons shared by the open-loop simulating estimators (fit(X=inputs, y=outputs)).
-_SIMULATING = {
+_TIME_SERIES = {
     "check_methods_subset_invariance": (
         "predict is an open-loop simulation: row k depends on the inputs before it, "
         "so predicting a subset of rows is not the subset of the prediction"
@@ -29,6 +34,9 @@ _SIMULATING = {
     "check_methods_sample_order_invariance": (
         "predict is an open-loop simulation: the samples are a time series, their order is the model's input"
     ),
+}
+_SINDY = {
+    **_TIME_SERIES,
     "check_estimators_empty_data_messages": (
         "X with zero columns is valid: an autonomous system has no inputs"
     ),
@@ -48,10 +56,16 @@ ESTIMATORS = [
     CustomLibrary(functions=[np.tanh]),
     ConcatLibrary([PolynomialLibrary(degree=1), SqrtLibrary()]),
     ProductLibrary(PolynomialLibrary(degree=1), PolynomialLibrary(degree=1, include_bias=False)),
+    TermsLibrary(terms=[[], [[0, 0, 2, 0]]]),
+    ExternalLibrary(ps.PolynomialLibrary(degree=2)),
+    ARX(),
+    NNARX(hidden_layer_sizes=(8,), max_iter=200, random_state=0),
 ]
 
 EXPECTED_FAILED = {
-    "SINDy": _SIMULATING,
+    "SINDy": _SINDY,
+    "ARX": _TIME_SERIES,
+    "NNARX": _TIME_SERIES,
 }
 
 

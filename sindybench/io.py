@@ -129,6 +129,8 @@ def _sindy_to_dict(model):
         "n_states": int(model.n_states_),
         "n_inputs": int(model.n_inputs_),
         "dt": model.dt_,
+        "x0": model.x0_.tolist(),
+        "output_1d": bool(getattr(model, "_y_1d", False)),
     }
     return params, fitted
 
@@ -159,6 +161,8 @@ def _sindy_from_dict(params, fitted):
     model.n_inputs_ = n_inputs
     model.n_features_in_ = n_inputs
     model.dt_ = fitted["dt"]
+    model.x0_ = np.asarray(fitted["x0"], dtype=float)
+    model._y_1d = bool(fitted["output_1d"])
     return model
 
 

@@ -176,3 +176,13 @@ def _restore_gain(params, fitted):
     model = _Gain(k=params["k"])
     model.gain_ = fitted["gain"]
     return model
+
+
+def test_one_dimensional_output_round_trip(tmp_path, rng):
+    u, y = _data(rng, n=400)
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=DT).fit(u, y[:, 0])
+    model.to_json(tmp_path / "m.json")
+    loaded = load_model(tmp_path / "m.json")
+    np.testing.assert_array_equal(loaded.x0_, model.x0_)
+    assert loaded.predict(u, y_init=y[:, 0]).shape == (400,)
+    np.testing.assert_array_equal(loaded.predict(u, y_init=y[:, 0]), model.predict(u, y_init=y[:, 0]))

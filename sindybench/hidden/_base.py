@@ -138,11 +138,17 @@ class Design(NamedTuple):
     rows : slice or ndarray of bool or None
         Rows used for the regression (e.g. to drop derivative edge effects);
         None = all rows.
+    feature_filter : callable or None
+        ``f(theta) -> theta`` applied to the library features of the whole
+        block (n_samples, n_features) before the rows are taken, to smooth them
+        like the targets (filtered regression, see ``BoucWenStructure``);
+        None = raw features.
     """
 
     states: np.ndarray
     targets: np.ndarray
     rows: object = None
+    feature_filter: Callable = None
 
 
 class ModelView(NamedTuple):

@@ -349,7 +349,10 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
             rows &= keep
         Z = np.hstack([states, X])
         library.fit(Z[rows])
-        theta = library.transform(Z[rows])
+        if design.feature_filter is None:
+            theta = library.transform(Z[rows])
+        else:
+            theta = check_signal(design.feature_filter(library.transform(Z)), "filtered features")[rows]
         check_n_samples(int(rows.sum()), theta.shape[1])
         optimizer.fit(theta, targets[rows])
         coef = np.asarray(optimizer.coef_, dtype=float).reshape(len(structure.learned), theta.shape[1]).T

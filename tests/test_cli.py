@@ -216,4 +216,4 @@ def test_docs_build_with_generated_figures(quick_run, tmp_path):
     status = sphinx.build_main(["-W", "-q", "-b", "html", str(tmp_path / "docs"), str(tmp_path / "html")])
     assert status == 0
     page = (tmp_path / "html" / "case_studies" / "bouc_wen.html").read_text()
-    assert "hysteresis_low_frequency.png" in page and "Hidden SINDy" in page
+    assert "hysteresis_sine.png" in page and "Hidden SINDy" in page

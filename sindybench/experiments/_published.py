@@ -31,22 +31,22 @@ PUBLISHED = {
     "bouc-wen": {
         # Table 2 reports RMSE only (in 1e-4 m).
         "sindy_second_order": {
-            "low_frequency": {"rmse": 10.99e-4, "r2": None},
+            "sine": {"rmse": 10.99e-4, "r2": None},
             "multisine": {"rmse": 2.75e-4, "r2": None},
             "sinesweep": {"rmse": 3.32e-4, "r2": None},
         },
         "hidden_bouc_wen": {
-            "low_frequency": {"rmse": 11.26e-4, "r2": None},
+            "sine": {"rmse": 11.26e-4, "r2": None},
             "multisine": {"rmse": 1.83e-4, "r2": None},
             "sinesweep": {"rmse": 1.72e-4, "r2": None},
         },
         "hidden_bouc_wen_ideal": {
-            "low_frequency": {"rmse": 8.87e-4, "r2": None},
+            "sine": {"rmse": 8.87e-4, "r2": None},
             "multisine": {"rmse": 2.52e-4, "r2": None},
             "sinesweep": {"rmse": 3.03e-4, "r2": None},
         },
-        "arx": {name: {"rmse": None, "r2": None} for name in ("low_frequency", "multisine", "sinesweep")},
-        "nnarx": {name: {"rmse": None, "r2": None} for name in ("low_frequency", "multisine", "sinesweep")},
+        "arx": {name: {"rmse": None, "r2": None} for name in ("sine", "multisine", "sinesweep")},
+        "nnarx": {name: {"rmse": None, "r2": None} for name in ("sine", "multisine", "sinesweep")},
     },
     "cascaded-tanks": {
         # Table 3 reports both; "BFR" 0 means R^2 <= 0 (clipped).
@@ -90,7 +90,7 @@ def published(benchmark, model, test_set):
     --------
     >>> published("cascaded-tanks", "hidden_tanks_poly", "test")
     {'rmse': 0.55, 'r2': 0.9324}
-    >>> published("bouc-wen", "hidden_bouc_wen", "low_frequency")["r2"] is None
+    >>> published("bouc-wen", "hidden_bouc_wen", "sine")["r2"] is None
     True
     """
     cell = PUBLISHED.get(benchmark, {}).get(model, {}).get(test_set)

@@ -14,6 +14,7 @@ import time
 import warnings
 
 import numpy as np
+from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
 from .. import __version__
@@ -113,10 +114,13 @@ def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, s
     Returns
     -------
     estimator : object
-        The fitted estimator (refitted on all of ``X, y`` at the best parameters).
+        The fitted estimator: with an outer search, the best candidate fitted
+        on the training block (without the validation block), as the study
+        did; otherwise the estimator fitted on all of ``X, y`` (estimators
+        that search inside ``fit`` hold the validation block out themselves).
     info : dict
-        ``n_trials``, ``best_params``, ``best_value`` (validation RMSE) and
-        ``fit_time_s``.
+        ``n_trials``, ``best_params`` (outer search, or the estimator's own
+        ``best_params_``), ``best_value`` (validation RMSE) and ``fit_time_s``.
     """
     start = time.perf_counter()
     estimator = spec.make(random_state=seed, quick=quick, dt=dt, n_val=n_val)
@@ -128,6 +132,9 @@ def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, s
             spec, estimator, X, y, info, n_val=n_val, n_trials=n_trials, n_init=n_init, seed=seed, quick=quick,
             storage=storage, n_jobs=n_jobs, study_name=study_name, show_progress_bar=show_progress_bar,
         )
+    inner = getattr(estimator, "best_params_", None)
+    if not info["best_params"] and inner:
+        info["best_params"] = {k: _jsonable(v) for k, v in inner.items()}
     info["fit_time_s"] = time.perf_counter() - start
     return estimator, info
 
@@ -137,20 +144,22 @@ def _search_and_fit(spec, estimator, X, y, info, *, n_val, n_trials, n_init, see
     if n_trials > 0:
         from ..model_selection import HoldoutSplit, tune
 
-        # the study's split: fit on the first block, validate on the last n_val samples
-        estimator, study = tune(
+        # the study's protocol: fit on the training block, choose on the last n_val samples ...
+        best, study = tune(
             estimator, spec.search_space(quick, n_init), X, y, cv=HoldoutSplit(validation_size=n_val), scoring="rmse",
             n_trials=n_trials, storage=storage, study_name=study_name, n_jobs=n_jobs,
             random_state=seed, show_progress_bar=show_progress_bar,
         )
-        best = study.best_trial
+        trial = study.best_trial
         info["n_trials"] = len(study.trials)
-        info["best_params"] = {k: _jsonable(v) for k, v in best.user_attrs.get("params", best.params).items()}
-        value = abs(float(best.value))
+        info["best_params"] = {k: _jsonable(v) for k, v in trial.user_attrs.get("params", trial.params).items()}
+        value = abs(float(trial.value))
         info["best_value"] = value if np.isfinite(value) else None
-    else:
-        estimator.fit(X, y)
-    return estimator
+        # ... and keep the model fitted on the training block, the one the validation chose
+        # (a thresholded fit on more data can select other terms than the validated one)
+        return clone(best).fit(X[:-n_val], y[:-n_val])
+    # estimators with an inner search validate on the last n_val samples themselves
+    return estimator.fit(X, y)
 
 
 def evaluate(estimator, test, n_init):

@@ -49,7 +49,7 @@ BENCHMARK = Benchmark(
     output_label="displacement y [m]",
     input_label="force u [N]",
     n_init=10,
-    hysteresis_test="low_frequency",
+    hysteresis_test="sine",
     n_train_quick=8000,
     models=(
         ModelSpec("sindy_second_order", "Naive SINDy, 2nd order", _naive,

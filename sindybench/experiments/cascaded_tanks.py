@@ -15,6 +15,8 @@ __all__ = ["BENCHMARK"]
 
 # level sensor range (V); the lower tank overflows at the top of it
 _BOUNDS = (0.0, 10.0)
+# total-variation regularisation of the derivative (units V s; dt = 4 s)
+_GAMMA = (1e-2, 1e2)
 
 
 def _load(**kwargs):
@@ -49,8 +51,8 @@ def _hidden(library):
         from ..hidden import TanksHiddenState
 
         return HiddenStateSINDy(
-            hidden=TanksHiddenState(bounds=_BOUNDS), library=library(), optimizer=STLS(threshold=1e-3),
-            dt=dt, bounds=_BOUNDS, validation_size=n_val, n_trials=15 if quick else 150,
+            hidden=TanksHiddenState(bounds=_BOUNDS, output_bounds=_BOUNDS), library=library(),
+            optimizer=STLS(threshold=1e-3), dt=dt, validation_size=n_val, n_trials=15 if quick else 150,
             random_state=random_state,
         )
 
@@ -65,11 +67,11 @@ BENCHMARK = Benchmark(
     input_label="pump voltage u [V]",
     n_init=5,
     models=(
-        ModelSpec("sindy_poly", "SINDy, polynomial", sindy_model(_poly, bounds=_BOUNDS),
-                  stls_space(threshold=(1e-5, 1.0)), n_trials=60, n_trials_quick=6,
+        ModelSpec("sindy_poly", "SINDy, polynomial", sindy_model(_poly, bounds=_BOUNDS, gamma=1.0),
+                  stls_space(threshold=(1e-5, 1.0), gamma=_GAMMA), n_trials=60, n_trials_quick=6,
                   description="naive first-order SINDy, y' = f(y, u), quadratic polynomial library"),
-        ModelSpec("sindy_sqrt", "SINDy, square root", sindy_model(_sqrt, bounds=_BOUNDS),
-                  stls_space(threshold=(1e-5, 1.0)), n_trials=60, n_trials_quick=6,
+        ModelSpec("sindy_sqrt", "SINDy, square root", sindy_model(_sqrt, bounds=_BOUNDS, gamma=1.0),
+                  stls_space(threshold=(1e-5, 1.0), gamma=_GAMMA), n_trials=60, n_trials_quick=6,
                   description="naive first-order SINDy with [1, y, u, sqrt(y), sqrt(u)]"),
         ModelSpec("sindy_second_order", "SINDy, 2nd order", _second_order,
                   stls_space(threshold=(1e-5, 1.0)), n_trials=30, n_trials_quick=4,

@@ -11,7 +11,7 @@ import warnings
 
 import optuna
 from optuna.storages import BaseStorage, InMemoryStorage, JournalStorage, RDBStorage
-from optuna.storages.journal import JournalFileBackend
+from optuna.storages.journal import JournalFileBackend, JournalFileOpenLock
 from optuna.trial import TrialState
 
 __all__ = ["count_done", "fail_dead_workers", "make_storage", "worker_id"]
@@ -29,15 +29,24 @@ _SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
 
 
 def _rdb(url):
-    engine_kwargs = None
-    if url.startswith("sqlite"):
+    engine_kwargs, path = None, None
+    if url.startswith("sqlite:///"):
         # several local workers write to one file: wait for the lock instead of failing
         engine_kwargs = {"connect_args": {"timeout": 60}}
+        path = url[len("sqlite:///") :]
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-        return RDBStorage(
-            url, engine_kwargs=engine_kwargs, heartbeat_interval=HEARTBEAT_INTERVAL, grace_period=GRACE_PERIOD
-        )
+        if not path:
+            return RDBStorage(url, heartbeat_interval=HEARTBEAT_INTERVAL, grace_period=GRACE_PERIOD)
+        # two workers creating the tables of a new SQLite file at once collide: take turns
+        lock = JournalFileOpenLock(path)
+        lock.acquire()  # blocks; a lock older than 30 s (a killed worker) is broken
+        try:
+            return RDBStorage(
+                url, engine_kwargs=engine_kwargs, heartbeat_interval=HEARTBEAT_INTERVAL, grace_period=GRACE_PERIOD
+            )
+        finally:
+            lock.release()
 
 
 def make_storage(storage):

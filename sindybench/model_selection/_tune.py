@@ -117,18 +117,18 @@ def _open_study(storage, study_name, estimator, search_space, direction, scoring
         direction=direction,
         load_if_exists=True,
     )
+    # one attribute, written at once: a second worker never sees half of it
     signature = {"estimator": type(estimator).__name__, "search_space": space_text, "scoring": repr(scoring)}
-    stored = {k: study.user_attrs[k] for k in signature if k in study.user_attrs}
-    if stored and stored != signature:
+    stored = study.user_attrs.get("tune_call")
+    if stored is not None and stored != signature:
         raise ValueError(
             f"study {study.study_name!r} in this storage was made by another call ({stored}); got {signature}. "
             "Expected the same estimator class, search space and scoring to resume it: pass another study_name."
         )
     if study.direction.name.lower() != direction:
         raise ValueError(f"study {study.study_name!r} has direction {study.direction.name}; expected {direction}.")
-    for key, value in signature.items():
-        if key not in stored:
-            study.set_user_attr(key, value)
+    if stored is None:
+        study.set_user_attr("tune_call", signature)
     return study
 
 

@@ -1,0 +1,364 @@
+"""HoldoutSplit, search spaces and tune; scikit-learn and Optuna searches scored by simulation."""
+
+import math
+import subprocess
+import sys
+import warnings
+
+import numpy as np
+import optuna
+import pytest
+from optuna.trial import TrialState
+from scipy.special import ndtr
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.model_selection import GridSearchCV, RandomizedSearchCV, TimeSeriesSplit, cross_val_score
+
+from sindybench import STLS, SimulationError, SINDy
+from sindybench.baselines import ARX
+from sindybench.libraries import PolynomialLibrary
+from sindybench.metrics import make_simulation_scorer, rmse
+from sindybench.model_selection import (
+    AllTrialsFailedError,
+    Categorical,
+    HoldoutSplit,
+    IntRange,
+    LogNormal,
+    LogUniform,
+    Normal,
+    Uniform,
+    tune,
+)
+from sindybench.model_selection._storage import make_storage, worker_id
+from sindybench.simulate import simulate
+
+optuna.logging.set_verbosity(optuna.logging.WARNING)
+SCORER = make_simulation_scorer("rmse")
+SPLITTERS = [HoldoutSplit(validation_size=100), TimeSeriesSplit(n_splits=3)]
+ARX_SPACE = {"na": IntRange(1, 4), "nb": IntRange(1, 3)}
+
+
+@pytest.fixture(scope="module")
+def arx_data():
+    """A second-order ARX system with a little output noise (400 samples)."""
+    rng = np.random.default_rng(1)
+    u = rng.standard_normal((400, 1))
+    y = np.zeros((400, 1))
+    for t in range(2, 400):
+        y[t] = 1.5 * y[t - 1] - 0.7 * y[t - 2] + u[t - 1]
+    return u, y + 0.01 * rng.standard_normal(y.shape)
+
+
+@pytest.fixture(scope="module")
+def sindy_data():
+    """x' = -x + 2u - 0.3 x^3, sampled at 0.05 s (600 samples)."""
+    t = np.arange(600) * 0.05
+    u = (np.sin(0.7 * t) + np.sin(1.9 * t + 1) + 0.5 * np.sin(3.1 * t))[:, None]
+    y = simulate(lambda x, v: -x + 2 * v - 0.3 * x**3, [0.0], u, 0.05, n_substeps=4, input_hold="linear")
+    return u, y
+
+
+def _sindy():
+    return SINDy(library=PolynomialLibrary(degree=3), optimizer=STLS(threshold=0.05), dt=0.05, input_hold="linear")
+
+
+def _holdout_rmse(model, u, y, n_val):
+    model.fit(u[:-n_val], y[:-n_val])
+    return rmse(y[-n_val:], model.predict(u[-n_val:], y_init=y[-n_val:]))
+
+
+# --- HoldoutSplit ---------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("size, n_val", [(3, 3), (0.25, 3), (0.2, 2), (0.01, 1), (9, 9)])
+def test_holdout_split_keeps_the_last_block(size, n_val):
+    splitter = HoldoutSplit(validation_size=size)
+    (train, val), *rest = list(splitter.split(np.zeros((10, 2))))
+    assert rest == [] and splitter.get_n_splits() == 1
+    np.testing.assert_array_equal(train, np.arange(10 - n_val))
+    np.testing.assert_array_equal(val, np.arange(10 - n_val, 10))
+
+
+@pytest.mark.parametrize(
+    "size, match",
+    [(0, r"validation_size=0 samples"), (10, r"expected an int in \[1, 9\]"), (1.0, "int >= 1"), (-0.5, "float in"),
+     ("big", "got 'big'"), (True, "got True"), (0.95, "leaves no training data")],
+)
+def test_holdout_split_rejects_bad_sizes(size, match):
+    with pytest.raises(ValueError, match=match):
+        next(HoldoutSplit(validation_size=size).split(np.zeros((10, 1))))
+
+
+# --- scikit-learn and Optuna searches, unchanged ----------------------------------------------------
+
+
+@pytest.mark.parametrize("cv", SPLITTERS, ids=["holdout", "timeseries"])
+def test_grid_and_randomized_search_choose_the_true_order(arx_data, cv):
+    u, y = arx_data
+    grid = GridSearchCV(ARX(nb=1), {"na": [1, 2]}, cv=cv, scoring=SCORER).fit(u, y)
+    assert grid.best_params_ == {"na": 2}
+    expected = np.mean([SCORER(ARX(na=2, nb=1).fit(u[tr], y[tr]), u[te], y[te]) for tr, te in cv.split(u)])
+    assert grid.best_score_ == pytest.approx(expected)
+    assert grid.best_score_ > -0.05 > grid.cv_results_["mean_test_score"][0]
+    rand = RandomizedSearchCV(ARX(), {"na": [1, 2], "nb": [1, 2]}, n_iter=4, cv=cv, scoring=SCORER, random_state=0)
+    assert rand.fit(u, y).best_params_["na"] == 2
+
+
+@pytest.mark.parametrize("cv", SPLITTERS, ids=["holdout", "timeseries"])
+def test_cross_val_score(arx_data, cv):
+    u, y = arx_data
+    scores = cross_val_score(ARX(na=2, nb=1), u, y, cv=cv, scoring=SCORER)
+    assert len(scores) == cv.get_n_splits() and np.all(-0.05 < scores) and np.all(scores < 0)
+    assert np.all(cross_val_score(ARX(na=1, nb=1), u, y, cv=cv, scoring=SCORER) < scores)
+
+
+@pytest.mark.parametrize("cv", SPLITTERS, ids=["holdout", "timeseries"])
+def test_optuna_search_cv(arx_data, cv):
+    optuna_integration = pytest.importorskip("optuna_integration")
+    u, y = arx_data
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # experimental-API and terminator warnings of optuna-integration
+        search = optuna_integration.OptunaSearchCV(
+            ARX(nb=1), {"na": optuna.distributions.IntDistribution(1, 3)}, cv=cv, scoring=SCORER, n_trials=6,
+            random_state=0,
+        ).fit(u, y)
+    assert search.best_params_["na"] >= 2 and search.best_score_ > -0.05
+
+
+@pytest.mark.parametrize("cv", SPLITTERS, ids=["holdout", "timeseries"])
+def test_searches_over_sindy_threshold(sindy_data, cv):
+    u, y = sindy_data
+    grid = GridSearchCV(_sindy(), {"optimizer__threshold": [0.05, 3.0]}, cv=cv, scoring=SCORER).fit(u, y)
+    assert grid.best_params_ == {"optimizer__threshold": 0.05}
+    assert grid.cv_results_["mean_test_score"][0] > -0.01 > grid.cv_results_["mean_test_score"][1]
+    assert np.all(cross_val_score(_sindy(), u, y, cv=cv, scoring=SCORER) > -0.01)
+    best, study = tune(_sindy(), {"optimizer__threshold": LogUniform(1e-3, 10.0)}, u, y, cv=cv, n_trials=8,
+                       random_state=0)
+    assert best.optimizer.threshold < 1.0 and study.best_value < 0.01
+
+
+def test_sindy_randomized_and_optuna_search(sindy_data):
+    optuna_integration = pytest.importorskip("optuna_integration")
+    u, y = sindy_data
+    cv = HoldoutSplit(validation_size=150)
+    rand = RandomizedSearchCV(_sindy(), {"optimizer__threshold": [0.01, 0.05, 3.0, 5.0]}, n_iter=3, cv=cv,
+                              scoring=SCORER, random_state=0).fit(u, y)
+    assert rand.best_params_["optimizer__threshold"] < 1.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        search = optuna_integration.OptunaSearchCV(
+            _sindy(), {"optimizer__threshold": optuna.distributions.FloatDistribution(1e-3, 10.0, log=True)}, cv=cv,
+            scoring=SCORER, n_trials=6, random_state=0,
+        ).fit(u, y)
+    assert search.best_score_ > -0.01
+
+
+# --- tune ------------------------------------------------------------------------------------------
+
+
+def test_tune_finds_the_order_and_refits_on_all_data(arx_data):
+    u, y = arx_data
+    best, study = tune(ARX(), ARX_SPACE, u, y, n_trials=20, random_state=0)
+    assert best.na >= 2 and len(study.trials) == 20
+    assert study.direction == optuna.study.StudyDirection.MINIMIZE
+    # the value is the validation RMSE of the simulation (default cv: the last 20 %)
+    trial = study.best_trial
+    assert trial.value == pytest.approx(_holdout_rmse(ARX(**trial.params), u, y, 80))
+    assert trial.user_attrs["params"] == trial.params and trial.user_attrs["worker"] == worker_id()
+    np.testing.assert_allclose(best.coef_, ARX(**trial.params).fit(u, y).coef_)
+
+
+def test_tune_is_reproducible_with_a_seed(arx_data):
+    u, y = arx_data
+    space = {**ARX_SPACE, "nk": IntRange(0, 2)}
+    runs = [tune(ARX(), space, u, y, n_trials=15, random_state=seed)[1] for seed in (3, 3, 4)]
+    params = [[t.params for t in study.trials] for study in runs]
+    assert params[0] == params[1] != params[2]
+
+
+def test_tune_scoring_and_cv_options(arx_data):
+    u, y = arx_data
+    _, study = tune(ARX(nb=1), {"na": IntRange(1, 3)}, u, y, scoring="r2", cv=3, n_trials=4, random_state=0)
+    assert study.direction == optuna.study.StudyDirection.MAXIMIZE and 0.99 < study.best_value <= 1.0
+    assert all(len(t.user_attrs["split_scores"]) == 3 for t in study.trials)
+    scorer = make_simulation_scorer("fit_index", skip=5)
+    _, study = tune(ARX(nb=1), {"na": IntRange(1, 3)}, u, y, scoring=scorer, n_trials=4, random_state=0)
+    assert study.direction == optuna.study.StudyDirection.MAXIMIZE and 90 < study.best_value < 100
+
+
+def test_tune_with_threads(arx_data):
+    u, y = arx_data
+    _, study = tune(ARX(), ARX_SPACE, u, y, n_trials=8, n_jobs=2, random_state=0)
+    assert len(study.trials) == 8 and all(t.state == TrialState.COMPLETE for t in study.trials)
+
+
+def test_search_space_dimensions():
+    trial = optuna.trial.FixedTrial({"a": 0.3, "b": 1e-3, "c": 4, "d": "(16, 16)", "e:quantile": ndtr(1.0),
+                                     "f:quantile": ndtr(-2.0)})
+    assert Uniform(0.0, 1.0).suggest(trial, "a") == 0.3
+    assert LogUniform(1e-4, 1.0).suggest(trial, "b") == 1e-3
+    assert IntRange(1, 8).suggest(trial, "c") == 4
+    assert Categorical([(8,), (16, 16)]).suggest(trial, "d") == (16, 16)
+    assert LogNormal(math.log(5e4), 0.5).suggest(trial, "e") == pytest.approx(5e4 * math.exp(0.5))
+    assert Normal(1.0, 0.1).suggest(trial, "f") == pytest.approx(0.8)
+
+
+def test_lognormal_prior_is_followed_by_random_sampling():
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
+    prior = LogNormal(math.log(2.0), 0.5, n_sigma=3.0)
+    values = []
+    for _ in range(2000):
+        trial = study.ask()
+        values.append(prior.suggest(trial, "k"))
+        study.tell(trial, 0.0)
+    logs = np.log(values)
+    assert abs(np.mean(logs) - math.log(2.0)) < 0.03 and abs(np.std(logs) - 0.5 * 0.986) < 0.03
+    assert np.all(np.abs(logs - math.log(2.0)) <= 1.5 + 1e-9)  # truncated at 3 sigma
+
+
+def test_tune_with_priors_categoricals_and_a_callable_space(arx_data):
+    u, y = arx_data
+    space = {"na": Categorical([1, 2, 3]), "nb": IntRange(1, 2), "fit_intercept": Categorical([True, False])}
+    best, study = tune(ARX(), space, u, y, n_trials=10, random_state=0)
+    assert best.na == study.best_trial.params["na"]
+
+    def conditional(trial):
+        na = trial.suggest_int("na", 1, 3)
+        return {"na": na, "nb": trial.suggest_int("nb", 1, na)}
+
+    best, study = tune(ARX(), conditional, u, y, n_trials=8, random_state=0)
+    assert all(t.params["nb"] <= t.params["na"] for t in study.trials)
+    assert (best.na, best.nb) == (study.best_trial.params["na"], study.best_trial.params["nb"])
+
+
+class Fragile(RegressorMixin, BaseEstimator):
+    """ARX(na=2, nb=1) that fails on purpose depending on ``mode``."""
+
+    def __init__(self, *, mode="ok", scale=1.0):
+        self.mode = mode
+        self.scale = scale
+
+    def fit(self, X, y):
+        if self.mode == "fit":
+            raise np.linalg.LinAlgError("singular matrix on purpose")
+        self.arx_ = ARX(na=2, nb=1).fit(X, y)
+        return self
+
+    def predict(self, X, *, y_init=None):
+        if self.mode == "raise":
+            raise SimulationError("simulation diverged at step 7 on purpose", step=7)
+        y = self.arx_.predict(X, y_init=y_init) * self.scale
+        if self.mode == "nan":
+            y[5:] = np.nan
+        return y
+
+
+def test_failed_trials_are_recorded_not_raised(arx_data):
+    u, y = arx_data
+    space = {"mode": Categorical(["ok", "fit", "raise", "nan"]), "scale": Uniform(0.9, 1.1)}
+    best, study = tune(Fragile(), space, u, y, n_trials=24, random_state=0)
+    reasons = {t.params["mode"]: t.user_attrs.get("fail_reason") for t in study.trials}
+    assert set(reasons) == {"ok", "fit", "raise", "nan"}
+    assert reasons["ok"] is None
+    assert reasons["fit"] == "fit failed on split 0: LinAlgError: singular matrix on purpose"
+    assert reasons["raise"].startswith("simulation failed on split 0: SimulationError: simulation diverged at step 7")
+    assert reasons["nan"] == "simulation diverged on split 0 (non-finite prediction, score -inf)"
+    for t in study.trials:
+        assert t.state == (TrialState.COMPLETE if t.params["mode"] == "ok" else TrialState.PRUNED)
+    assert best.mode == "ok" and abs(best.scale - 1.0) < 0.1
+
+
+def test_all_trials_failing_raises_a_clear_error(arx_data):
+    u, y = arx_data
+    with pytest.raises(AllTrialsFailedError, match=r"no trial of study .* completed \(3 trials\).*3 x fit failed") as info:
+        tune(Fragile(), {"mode": Categorical(["fit"])}, u, y, n_trials=3, random_state=0)
+    assert len(info.value.study.trials) == 3
+
+
+def test_resume_runs_only_the_missing_trials(arx_data, tmp_path):
+    u, y = arx_data
+    storage = tmp_path / "study.log"
+    _, first = tune(ARX(), ARX_SPACE, u, y, n_trials=5, storage=storage, random_state=0)
+    assert first.study_name == "tune-ARX" and len(first.trials) == 5
+    done = [t.params for t in first.trials]
+    _, second = tune(ARX(), ARX_SPACE, u, y, n_trials=8, storage=storage, random_state=0)
+    assert len(second.trials) == 8
+    assert [t.params for t in second.trials[:5]] == done
+    _, third = tune(ARX(), ARX_SPACE, u, y, n_trials=8, storage=f"journal://{storage}", random_state=0)
+    assert len(third.trials) == 8
+
+
+@pytest.mark.filterwarnings("ignore:Heartbeat of storage is supposed to be used with Study.optimize")
+def test_resume_fails_trials_of_dead_workers(arx_data, tmp_path):
+    u, y = arx_data
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    tune(ARX(), ARX_SPACE, u, y, n_trials=3, storage=storage, study_name="s", random_state=0)
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    study = optuna.load_study(study_name="s", storage=make_storage(storage))
+    orphan = study.ask()
+    orphan.set_user_attr("worker", f"{worker_id().rpartition(':')[0]}:{int(dead.stdout)}")
+    alive = study.ask()
+    alive.set_user_attr("worker", worker_id())  # this process: still running
+    _, study = tune(ARX(), ARX_SPACE, u, y, n_trials=5, storage=storage, study_name="s", random_state=0)
+    states = [t.state for t in study.trials]
+    assert states[orphan.number] == TrialState.FAIL and states[alive.number] == TrialState.RUNNING
+    assert states.count(TrialState.COMPLETE) == 5  # the interrupted trial does not count
+
+
+def test_resume_refuses_another_search(arx_data, tmp_path):
+    u, y = arx_data
+    storage = tmp_path / "study.db"
+    tune(ARX(), ARX_SPACE, u, y, n_trials=2, storage=storage, random_state=0)
+    with pytest.raises(ValueError, match="made by another call.*pass another study_name"):
+        tune(ARX(), {"na": IntRange(1, 9)}, u, y, n_trials=2, storage=storage, random_state=0)
+    with pytest.raises(ValueError, match="made by another call"):
+        tune(ARX(), ARX_SPACE, u, y, scoring="r2", n_trials=2, storage=storage, random_state=0)
+
+
+@pytest.mark.parametrize(
+    "storage, kind",
+    [(None, "InMemoryStorage"), ("x.db", "RDBStorage"), ("x.log", "JournalStorage"),
+     ("journal://x.journal", "JournalStorage"), ("sqlite:///x.sqlite", "RDBStorage")],
+)
+def test_make_storage(storage, kind, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    made = make_storage(storage)
+    assert type(made).__name__ == kind and make_storage(made) is made
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [(dict(n_trials=0), "n_trials must be an integer >= 1; got 0"),
+     (dict(timeout=-1), "timeout must be None or a number of seconds > 0; got -1"),
+     (dict(n_jobs=0), "n_jobs must be an integer >= 1, or -1"),
+     (dict(random_state=1.5), "random_state must be None or an integer seed; got 1.5"),
+     (dict(scoring="mse"), "scoring must be one of .*got 'mse'"),
+     (dict(storage="x.csv"), "storage 'x.csv' is not understood"),
+     (dict(search_space={"order": IntRange(1, 3)}), "search_space names 'order', which ARX has not"),
+     (dict(search_space={"na": [1, 2]}), r"search_space\['na'\] is \[1, 2\]; expected Uniform"),
+     (dict(search_space={}), "search_space must be a non-empty dict"),
+     (dict(y=np.zeros((10, 1))), "X has 400 samples and y has 10")],
+)
+def test_tune_rejects_bad_arguments(arx_data, kwargs, match):
+    u, y = arx_data
+    args = dict(search_space=ARX_SPACE, y=y)
+    args.update(kwargs)
+    space, y = args.pop("search_space"), args.pop("y")
+    with pytest.raises(ValueError, match=match):
+        tune(ARX(), space, u, y, **args)
+
+
+@pytest.mark.parametrize(
+    "make, match",
+    [(lambda: LogUniform(0.0, 1.0), "expected low > 0 on a log scale"),
+     (lambda: Uniform(2.0, 1.0), "low=2.0 >= high=1.0"),
+     (lambda: Uniform(0.0, float("inf")), "high must be a finite number"),
+     (lambda: IntRange(1, 5, step=0), "step=0; expected step >= 1"),
+     (lambda: IntRange(1.5, 5), "low must be an integer"),
+     (lambda: IntRange(1, 8, step=2, log=True), "a log scale needs step=1"),
+     (lambda: Categorical([]), "choices is empty"),
+     (lambda: Normal(0.0, 0.0), "sigma must be > 0"),
+     (lambda: LogNormal(0.0, 1.0, n_sigma=-1.0), "n_sigma must be > 0")],
+)
+def test_dimensions_reject_bad_arguments(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()

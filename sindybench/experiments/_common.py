@@ -81,27 +81,32 @@ def arx_space(max_na=10, max_nb=10):
     return space
 
 
-def nnarx_model(*, hidden_layer_sizes=(16,), max_iter=300, quick_max_iter=100):
-    """Factory of an :class:`~sindybench.baselines.NNARX` model (seeded)."""
+def nnarx_model(*, hidden_layer_sizes=(16,), max_iter=300, quick_max_iter=60):
+    """Factory of an :class:`~sindybench.baselines.NNARX` model (seeded; smaller with ``quick``)."""
     def make(*, random_state, quick, dt, n_val):
         from ..baselines import NNARX
 
-        return NNARX(na=2, nb=2, hidden_layer_sizes=hidden_layer_sizes,
+        return NNARX(na=2, nb=2, hidden_layer_sizes=(8,) if quick else hidden_layer_sizes,
                      max_iter=quick_max_iter if quick else max_iter, random_state=random_state)
 
     return make
 
 
 def nnarx_space(max_na=5, max_nb=5, sizes=((8,), (16,), (32,), (16, 16))):
-    """Search space of NN-ARX orders, network size and weight penalty (see :func:`arx_space`)."""
+    """Search space of NN-ARX orders, network size and weight penalty (see :func:`arx_space`).
+
+    With ``quick`` the network size is not searched (it stays small).
+    """
     def space(quick, n_init):
         from ..model_selection import Categorical, IntRange, LogUniform
 
-        return {
+        dims = {
             "na": IntRange(1, min(max_na, n_init)),
             "nb": IntRange(1, min(max_nb, n_init)),
-            "hidden_layer_sizes": Categorical(sizes),
             "alpha": LogUniform(1e-6, 1e-1),
         }
+        if not quick:
+            dims["hidden_layer_sizes"] = Categorical(sizes)
+        return dims
 
     return space

@@ -210,7 +210,7 @@ def plot_test(results, test_name, test, simulations):
     dt = float(test.get("dt", results["dt"]))
     t = np.arange(len(y)) * dt
     k = _stride(len(y))
-    fig, axes = _figure(2, 1, figsize=(9, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    fig, axes = _figure(2, 1, figsize=(11, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     ax, ax_u = axes[0, 0], axes[1, 0]
     ax.plot(t[::k], y[::k], color="black", lw=1.6, label="measured")
     for m in results["models"]:
@@ -222,7 +222,7 @@ def plot_test(results, test_name, test, simulations):
                 label=f"{m['label']} (R^2 {score['r2']:.2f})")
     ax.set_ylabel(results["output_label"])
     ax.set_title(f"{results['title']}: open-loop simulation, test set '{test_name}'")
-    ax.legend(fontsize=7, loc="best")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax_u.plot(t[::k], u[::k], color="gray", lw=0.8)
     ax_u.set_ylabel(results["input_label"])
     ax_u.set_xlabel("time [s]")
@@ -233,7 +233,7 @@ def plot_hysteresis(results, test_name, test, simulations):
     """Figure: force-displacement loops (input vs output) on one test set."""
     y = np.asarray(test["y"], float).reshape(len(test["y"]), -1)[:, 0]
     u = np.asarray(test["u"], float).reshape(len(y), -1)[:, 0]
-    fig, axes = _figure(figsize=(6.5, 5))
+    fig, axes = _figure(figsize=(9, 5))
     ax = axes[0, 0]
     ax.plot(y, u, color="black", lw=1.8, label="true system")
     for m in results["models"]:
@@ -243,7 +243,7 @@ def plot_hysteresis(results, test_name, test, simulations):
     ax.set_xlabel(results["output_label"])
     ax.set_ylabel(results["input_label"])
     ax.set_title(f"{results['title']}: hysteresis loops, test set '{test_name}'")
-    ax.legend(fontsize=7, loc="best")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     return fig
 
 

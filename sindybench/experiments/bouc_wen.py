@@ -50,7 +50,7 @@ BENCHMARK = Benchmark(
     input_label="force u [N]",
     n_init=10,
     hysteresis_test="sine",
-    n_train_quick=8000,
+    n_train_quick=4000,
     models=(
         ModelSpec("sindy_second_order", "Naive SINDy, 2nd order", _naive,
                   stls_space(threshold=(1e-6, 1e-1)), n_trials=30, n_trials_quick=4,

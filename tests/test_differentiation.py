@@ -1,11 +1,14 @@
 """Tests of sindybench.differentiation: exactness, accuracy, noise, interface, errors."""
 
+import warnings
+
 import numpy as np
 import pytest
 from derivative import Kalman as DerivativeKalman
 from pysindy.differentiation import FiniteDifference as PySINDyFD
 from pysindy.differentiation import SmoothedFiniteDifference
 from scipy.interpolate import make_smoothing_spline
+from scipy.optimize import minimize
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
@@ -17,6 +20,7 @@ from sindybench.differentiation import (
     SmoothingSpline,
     TotalVariation,
     as_differentiation,
+    tv_smooth,
 )
 
 DT = 0.01
@@ -217,6 +221,53 @@ def test_total_variation_warns_when_not_converged(noisy_sine):
     t, y = noisy_sine
     with pytest.warns(ConvergenceWarning, match="did not converge in 1 iterations"):
         TotalVariation(gamma=1e-2, max_iter=1).derivative(y, dt=DT)
+
+
+def _tv_objective(t, y, gamma, tv_order, epsilon):
+    """The objective of tv_smooth written out with dense divided differences."""
+    n = t.size
+    jumps = np.eye(n)
+    for q in range(1, tv_order + 1):  # divided differences of order 1..tv_order
+        jumps = q * np.diff(jumps, axis=0) / (t[q:] - t[:-q])[:, None]
+    jumps = np.diff(jumps, axis=0)  # jumps between neighbouring derivative estimates
+    e = epsilon * np.ptp(y) / (t[-1] - t[0]) ** tv_order
+
+    def fun(x):
+        j = jumps @ x
+        root = np.sqrt(j**2 + e**2)
+        return 0.5 * np.sum((x - y) ** 2) + gamma * np.sum(root), x - y + gamma * jumps.T @ (j / root)
+
+    def hess(x):
+        root = np.sqrt((jumps @ x) ** 2 + e**2)
+        return np.eye(n) + gamma * jumps.T @ ((e**2 / root**3)[:, None] * jumps)
+
+    return fun, hess
+
+
+# a sharper rounding (smaller epsilon) costs the reference solver thousands of steps for tv_order=2
+@pytest.mark.parametrize("tv_order, epsilon", [(1, 0.3), (1, 1e-3), (2, 0.3), (2, 1e-2)])
+def test_tv_smooth_minimizes_its_objective(tv_order, epsilon, rng, nonuniform_t):
+    t = nonuniform_t
+    y = np.sin(3 * t) + np.abs(t - 1.5) + 0.02 * rng.standard_normal(t.size)
+    gamma = 1e-3 if tv_order == 1 else 1e-4
+    fun, hess = _tv_objective(t, y, gamma, tv_order, epsilon)
+    x, _ = tv_smooth(y[:, None], t, gamma=gamma, tv_order=tv_order, epsilon=epsilon)
+    ref = minimize(fun, y, jac=True, hess=hess, method="trust-exact", options=dict(gtol=1e-10)).x
+    # the same point as a general-purpose trust-region Newton solver
+    np.testing.assert_allclose(x[:, 0], ref, atol=1e-6)
+    assert fun(x[:, 0])[0] <= fun(ref)[0] + 1e-12
+
+
+@pytest.mark.parametrize("tv_order, gamma", [(1, 1e-2), (2, 1e-3)])
+def test_tv_smooth_newton_steps_hardly_grow_with_the_number_of_samples(tv_order, gamma, rng):
+    steps = []
+    for n in (500, 20_000):
+        t = np.arange(n) * DT
+        y = np.sin(t) + 0.01 * rng.standard_normal(n)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", ConvergenceWarning)
+            steps.append(tv_smooth(y[:, None], t, gamma=gamma, tv_order=tv_order)[1])
+    assert max(steps) <= 40, steps  # without continuation in the rounding: 51 (tv_order=1), 112 (2)
 
 
 ALL = [

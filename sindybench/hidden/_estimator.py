@@ -10,6 +10,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._stls import STLS
 from .._validation import check_dt, check_inputs_outputs, check_n_samples, check_signal
+from ..differentiation import as_differentiation
 from ..libraries import as_library, evaluate_terms, term_name
 from ..metrics import r2
 from ..simulate import _HOLDS, SimulationError, TermsRHS, simulate
@@ -22,16 +23,6 @@ logger = logging.getLogger(__name__)
 
 _PENALTY = 1e3  # validation score of a diverged or failed candidate (scores are normalized RMSEs)
 _HIDDEN_PREFIX = "hidden__"
-
-
-def _as_differentiation(obj):
-    try:
-        from ..differentiation import as_differentiation
-    except ImportError:  # TODO(H6): drop once sindybench.differentiation has landed
-        from .._sindy import _PysindyDerivative
-
-        return _PysindyDerivative(obj)
-    return as_differentiation(obj)
 
 
 def make_derivative(differentiation, dt):
@@ -76,6 +67,15 @@ def _build_rhs(structure, library, coef):
         full[len(lib_terms) :] = fixed_coef
         return TermsRHS(full, list(lib_terms) + list(structure.fixed_terms), n_states)
     fixed_terms, fixed_rhs = structure.fixed_terms, structure.fixed_rhs
+    if lib_terms is not None:  # evaluate only the active terms, without the transformer's checks
+        active = np.flatnonzero(np.any(coef != 0, axis=1))
+        active_terms, active_coef = [lib_terms[j] for j in active], coef[active]
+
+        def learned_rows(z):
+            return evaluate_terms(active_terms, z)[0] @ active_coef
+    else:
+        def learned_rows(z):
+            return library.transform(z)[0] @ coef
 
     def rhs(x, u):
         z = np.concatenate([x, u])[None, :]
@@ -83,7 +83,7 @@ def _build_rhs(structure, library, coef):
             dx = np.array(fixed_rhs(x, u), dtype=float).reshape(n_states)
         else:
             dx = evaluate_terms(fixed_terms, z)[0] @ fixed_coef if fixed_terms else np.zeros(n_states)
-        dx[learned] = library.transform(z)[0] @ coef
+        dx[learned] = learned_rows(z)
         return dx
 
     return rhs
@@ -306,11 +306,9 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
                     objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=_PENALTY
                 )
             if min(s for _, s in self.search_results_) >= _PENALTY:
-                warnings.warn(
+                raise ValueError(
                     f"all {self.n_trials} candidates of the inner search diverged or failed on the validation "
-                    "block; check the bounds of the searched parameters.",
-                    UserWarning,
-                    stacklevel=2,
+                    "block; expected bounds of the searched parameters that contain a stable model."
                 )
             n_rows = n if self.refit else n_fit
         cand = self._candidate(hidden, self.best_params_, X, y1, dt, n_rows)
@@ -322,7 +320,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         est = clone(self).set_params(**est_values) if est_values else self
         library = est.library if est.library is not None else None
         optimizer = clone(est.optimizer) if est.optimizer is not None else STLS(threshold=0.0)
-        differentiation = clone(_as_differentiation(est.differentiation))
+        differentiation = clone(as_differentiation(est.differentiation))
         return library, optimizer, differentiation
 
     def _candidate(self, hidden, values, X, y, dt, n_rows):

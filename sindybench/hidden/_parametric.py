@@ -65,8 +65,9 @@ class ParametricHiddenState(HiddenStrategy):
         How the initial hidden state is estimated on new data.
     init_size : int, default=50
         Samples of the initialisation window on new data.
-    grid_size : int, default=41
-        Grid points per hidden state for the initial-state search.
+    grid_size : int, default=11
+        Grid points per hidden state for the initial-state search (the best
+        point is then refined locally with ``init="simulation"``).
     n_substeps : int, default=4
         RK4 steps per sample when reconstructing the hidden states.
     hidden_names : sequence of str, optional
@@ -82,7 +83,7 @@ class ParametricHiddenState(HiddenStrategy):
     """
 
     def __init__(self, rhs=None, params=None, x0_bounds=None, *, bounds=None, init="simulation", init_size=50,
-                 grid_size=41, n_substeps=4, hidden_names=None):
+                 grid_size=11, n_substeps=4, hidden_names=None):
         self.rhs = rhs
         self.params = params
         self.x0_bounds = x0_bounds

@@ -94,10 +94,10 @@ class TanksHiddenState(ParametricHiddenState):
             value = getattr(self, name)
             if value is None:
                 out[name] = k_range
-            elif isinstance(value, numbers.Real) and not isinstance(value, bool) and np.isfinite(value):
+            elif isinstance(value, numbers.Real) and not isinstance(value, bool) and np.isfinite(value) and value > 0:
                 out[name] = float(value)
             else:
-                raise ValueError(f"{name} must be a finite number or None (searched); got {value!r}.")
+                raise ValueError(f"{name} must be a finite number > 0 or None (searched); got {value!r}.")
         return out
 
     def _x0_specs(self):

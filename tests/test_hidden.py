@@ -1,0 +1,160 @@
+"""HiddenStateSINDy: the estimator contract (fit, search, simulate, errors)."""
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+
+from sindybench import STLS, HiddenStateSINDy
+from sindybench.hidden import DerivativeAugmentation, ParametricHiddenState
+from sindybench.libraries import PolynomialLibrary
+from sindybench.simulate import TermsRHS, simulate
+
+DT = 0.01
+
+
+def _oscillator(rng, n=1500):
+    """y'' = -4 y - 0.5 y' + 2 u, a known second-order truth."""
+    t = np.arange(n) * DT
+    u = (np.sin(1.3 * t) + np.sin(2.9 * t + 1.0) + 0.1 * rng.standard_normal(n).cumsum() / 30)[:, None]
+    y, v = ((0, 0, 1, 0),), ((1, 0, 1, 0),)
+    truth = TermsRHS.from_equations([{v: 1.0}, {y: -4.0, v: -0.5, ((2, 0, 1, 0),): 2.0}])
+    x = simulate(truth, [0.3, 0.0], u, dt=DT, n_substeps=4, input_hold="linear")
+    return u, x[:, :1], x
+
+
+@pytest.fixture
+def oscillator(rng):
+    return _oscillator(rng)
+
+
+def _model(**kw):
+    params = dict(hidden=DerivativeAugmentation(order=2), library=PolynomialLibrary(degree=1),
+                  optimizer=STLS(threshold=0.05), dt=DT)
+    params.update(kw)
+    return HiddenStateSINDy(**params)
+
+
+def test_fit_attributes_and_scores(oscillator):
+    u, y, x = oscillator
+    model = _model()
+    assert model.fit(u, y) is model
+    assert model.states_.shape == (len(y), 2)
+    assert model.hidden_states_.shape == (len(y), 1)
+    assert np.corrcoef(model.hidden_states_[:, 0], x[:, 1])[0, 1] > 0.999
+    assert model.coef_.shape == (1, 4)
+    assert model.best_params_ == {} and model.search_results_ == []
+    assert model.score(u, y) > 0.99
+    lines = model.equations()
+    assert lines[0] == "y0' = 1 y0'"
+    assert lines[1].startswith("y0'' = ")
+
+
+def test_simulate_and_initial_state(oscillator):
+    u, y, x = oscillator
+    model = _model().fit(u, y)
+    x0 = model.estimate_initial_state(u[500:], y[500:520])
+    np.testing.assert_allclose(x0, x[500], atol=2e-3)
+    states = model.simulate(u[500:], y_init=y[500:])
+    np.testing.assert_allclose(states[:, 0], y[500:, 0], atol=0.02)
+    np.testing.assert_allclose(model.simulate(u[500:], x0=x[500])[:, 1], x[500:, 1], atol=0.05)
+    pred = model.predict(u[500:], y_init=y[500:])
+    assert pred.shape == (len(y) - 500, 1)
+    with pytest.warns(UserWarning, match="without y_init"):
+        assert model.predict(u).shape == (len(y), 1)
+
+
+def test_one_dimensional_output_round_trip(oscillator):
+    u, y, _ = oscillator
+    model = _model().fit(u[:, 0], y[:, 0])
+    assert model.predict(u, y_init=y).shape == (len(y),)
+
+
+@pytest.mark.parametrize(
+    "params, match",
+    [
+        ({"dt": None}, "dt is None"),
+        ({"n_trials": 0}, "n_trials must be an integer >= 1"),
+        ({"n_substeps": 1.5}, "n_substeps must be an integer >= 1"),
+        ({"input_hold": "cubic"}, "input_hold must be one of"),
+        ({"refit": "yes"}, "refit must be True or False"),
+        ({"max_abs": -1.0}, "max_abs must be a number > 0"),
+        ({"hidden": "augment"}, "hidden must be a HiddenStrategy"),
+        ({"search_params": {"nope__x": (0.0, 1.0)}}, "unknown parameters"),
+        ({"search_params": {"hidden__order": (1, 3)}}, "name strategy parameters"),
+        ({"search_params": {"optimizer__threshold": (1.0, 0.1)}}, "expected low < high"),
+        ({"search_params": {"optimizer__threshold": (0.0, 1.0)}, "validation_size": 1.5}, "validation_size"),
+        ({"search_params": {"optimizer__threshold": (0.0, 1.0)}, "validation_size": 5000}, "validation samples"),
+        ({"hidden": DerivativeAugmentation(order=0)}, "order must be an integer >= 1"),
+    ],
+)
+def test_bad_parameters(oscillator, params, match):
+    u, y, _ = oscillator
+    with pytest.raises(ValueError, match=match):
+        _model(**params).fit(u, y)
+
+
+def test_bad_calls_after_fit(oscillator):
+    u, y, _ = oscillator
+    model = _model().fit(u, y)
+    with pytest.raises(ValueError, match="exactly one of x0 and y_init"):
+        model.simulate(u)
+    with pytest.raises(ValueError, match="exactly one of x0 and y_init"):
+        model.simulate(u, x0=[0.0, 0.0], y_init=y)
+    with pytest.raises(ValueError, match="x0 has 3 entries"):
+        model.simulate(u, x0=[0.0, 0.0, 0.0])
+    with pytest.raises(ValueError, match="input columns"):
+        model.simulate(np.hstack([u, u]), y_init=y)
+    with pytest.raises(ValueError, match="y_init has 2 columns"):
+        model.estimate_initial_state(u, np.hstack([y, y]))
+    with pytest.raises(ValueError, match="sample_weight"):
+        model.score(u, y, sample_weight=np.ones(len(y)))
+
+
+def test_nested_parameters_reachable():
+    model = HiddenStateSINDy(hidden=ParametricHiddenState(lambda xh, y, u, *, a: -a * xh, params={"a": (0.1, 1.0)},
+                                                          x0_bounds=(0.0, 1.0)),
+                             optimizer=STLS(threshold=0.1))
+    model.set_params(hidden__x0_bounds=(0.0, 2.0), optimizer__threshold=0.3)
+    assert model.hidden.x0_bounds == (0.0, 2.0) and model.optimizer.threshold == 0.3
+    assert "hidden__params" in clone(model).get_params(deep=True)
+
+
+def _leak(xh, y_, u_, *, a):
+    # a <= 0 stands for an unstable candidate: its simulation fails (NaN)
+    return -a * xh + y_ if a > 0 else np.full(1, np.nan)
+
+
+def _leaky_model(a_range, **kw):
+    hidden = ParametricHiddenState(_leak, params={"a": a_range}, x0_bounds=(-1.0, 1.0), n_substeps=1,
+                                   grid_size=5, init_size=20)
+    return HiddenStateSINDy(hidden=hidden, library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.0),
+                            dt=DT, random_state=0, max_abs=1e3, **kw)
+
+
+def test_search_params_jointly_and_diverging_trials(oscillator):
+    u, y, _ = oscillator
+    model = _leaky_model((-3.0, 3.0), n_trials=12, search_params={"optimizer__threshold": (1e-4, 1e-1, True)})
+    model.fit(u[:600], y[:600])
+    scores = np.array([s for _, s in model.search_results_])
+    assert len(scores) == 12 and np.isfinite(scores).all()
+    assert np.any(scores == 1e3) and scores.min() < 1.0  # bad trials were scored, good ones won
+    assert model.params_["a"] > 0
+    assert set(model.best_params_) == {"hidden__a", "hidden__x0", "optimizer__threshold"}
+    assert 1e-4 <= model.best_params_["optimizer__threshold"] <= 1e-1
+    assert model.optimizer_.threshold == model.best_params_["optimizer__threshold"]
+    assert model.optimizer.threshold == 0.0  # fit never changes a hyperparameter
+
+
+def test_all_candidates_failing_is_a_clear_error(oscillator):
+    u, y, _ = oscillator
+    with pytest.raises(ValueError, match="all 3 candidates of the inner search diverged"):
+        _leaky_model((-3.0, -1.0), n_trials=3).fit(u[:300], y[:300])
+
+
+def test_search_is_reproducible(oscillator):
+    u, y, _ = oscillator
+    kw = dict(search_params={"optimizer__threshold": (1e-3, 1.0, True)}, n_trials=5, validation_size=300)
+    a = _model(random_state=3, **kw).fit(u, y)
+    b = _model(random_state=3, **kw).fit(u, y)
+    assert a.best_params_ == b.best_params_
+    np.testing.assert_array_equal(a.coef_, b.coef_)

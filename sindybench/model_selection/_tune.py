@@ -39,8 +39,10 @@ def _check_args(n_trials, timeout, n_jobs, random_state, scoring):
         raise ValueError(f"timeout must be None or a number of seconds > 0; got {timeout!r}.")
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0 or n_jobs < -1:
         raise ValueError(f"n_jobs must be an integer >= 1, or -1 for one thread per CPU; got {n_jobs!r}.")
-    if random_state is not None and (isinstance(random_state, bool) or not isinstance(random_state, numbers.Integral)):
-        raise ValueError(f"random_state must be None or an integer seed; got {random_state!r}.")
+    if random_state is not None and (
+        isinstance(random_state, bool) or not isinstance(random_state, numbers.Integral) or random_state < 0
+    ):
+        raise ValueError(f"random_state must be None or an integer seed >= 0; got {random_state!r}.")
     if isinstance(scoring, str):
         if scoring not in _DIRECTIONS:
             raise ValueError(f"scoring must be one of {sorted(_DIRECTIONS)} or a scorer callable; got {scoring!r}.")

@@ -12,8 +12,9 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 
 import pysindy as ps
 
-from sindybench import STLS, SINDy
+from sindybench import STLS, HiddenStateSINDy, SINDy
 from sindybench.baselines import ARX, NNARX
+from sindybench.hidden import DerivativeAugmentation
 from sindybench.libraries import (
     AbsProductLibrary,
     ConcatLibrary,
@@ -58,12 +59,15 @@ ESTIMATORS = [
     ProductLibrary(PolynomialLibrary(degree=1), PolynomialLibrary(degree=1, include_bias=False)),
     TermsLibrary(terms=[[], [[0, 0, 2, 0]]]),
     ExternalLibrary(ps.PolynomialLibrary(degree=2)),
+    HiddenStateSINDy(dt=0.1, hidden=DerivativeAugmentation(order=1), library=PolynomialLibrary(degree=1)),
+    HiddenStateSINDy(dt=0.1, library=PolynomialLibrary(degree=1)),
     ARX(),
     NNARX(hidden_layer_sizes=(8,), max_iter=200, random_state=0),
 ]
 
 EXPECTED_FAILED = {
     "SINDy": _SINDY,
+    "HiddenStateSINDy": _SINDY,
     "ARX": _TIME_SERIES,
     "NNARX": _TIME_SERIES,
 }

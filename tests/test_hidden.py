@@ -65,8 +65,10 @@ def test_simulate_and_initial_state(oscillator):
 
 def test_one_dimensional_output_round_trip(oscillator):
     u, y, _ = oscillator
-    model = _model().fit(u[:, 0], y[:, 0])
+    model = _model().fit(u, y[:, 0])
     assert model.predict(u, y_init=y).shape == (len(y),)
+    with pytest.raises(ValueError, match="X is 1-D"):
+        model.fit(u[:, 0], y)
 
 
 @pytest.mark.parametrize(
@@ -102,7 +104,7 @@ def test_bad_calls_after_fit(oscillator):
         model.simulate(u, x0=[0.0, 0.0], y_init=y)
     with pytest.raises(ValueError, match="x0 has 3 entries"):
         model.simulate(u, x0=[0.0, 0.0, 0.0])
-    with pytest.raises(ValueError, match="input columns"):
+    with pytest.raises(ValueError, match="X has 2 features, but HiddenStateSINDy is expecting 1"):
         model.simulate(np.hstack([u, u]), y_init=y)
     with pytest.raises(ValueError, match="y_init has 2 columns"):
         model.estimate_initial_state(u, np.hstack([y, y]))

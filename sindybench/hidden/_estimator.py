@@ -8,6 +8,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
+from .._sindy import _check_array_like
 from .._stls import STLS
 from .._validation import check_dt, check_inputs_outputs, check_n_samples, check_signal
 from ..differentiation import as_differentiation
@@ -25,21 +26,24 @@ _PENALTY = 1e3  # validation score of a diverged or failed candidate (scores are
 _HIDDEN_PREFIX = "hidden__"
 
 
-def make_derivative(differentiation, dt):
-    """``derivative(a, order=1)`` bound to a differentiation method and ``dt``.
+class _Derivative:
+    """``derivative(a, order=1)`` bound to a differentiation method and ``dt`` (picklable).
 
     Orders above 2 chain second and first derivatives.
     """
 
-    def derivative(a, order=1):
+    def __init__(self, differentiation, dt):
+        self.differentiation = differentiation
+        self.dt = dt
+
+    def __call__(self, a, order=1):
         a = np.asarray(a, dtype=float)
         if order == 0:
             return a.copy()
         if order <= 2:
-            return np.asarray(differentiation.derivative(a, dt=dt, order=order), dtype=float).reshape(a.shape)
-        return derivative(derivative(a, 2), order - 2)
-
-    return derivative
+            d = self.differentiation.derivative(a, dt=self.dt, order=order)
+            return np.asarray(d, dtype=float).reshape(a.shape)
+        return self(self(a, 2), order - 2)
 
 
 class _Candidate:
@@ -66,27 +70,36 @@ def _build_rhs(structure, library, coef):
         full[: len(lib_terms), learned] = coef
         full[len(lib_terms) :] = fixed_coef
         return TermsRHS(full, list(lib_terms) + list(structure.fixed_terms), n_states)
-    fixed_terms, fixed_rhs = structure.fixed_terms, structure.fixed_rhs
-    if lib_terms is not None:  # evaluate only the active terms, without the transformer's checks
-        active = np.flatnonzero(np.any(coef != 0, axis=1))
-        active_terms, active_coef = [lib_terms[j] for j in active], coef[active]
+    return _PythonRHS(structure, library, coef, fixed_coef)
 
-        def learned_rows(z):
-            return evaluate_terms(active_terms, z)[0] @ active_coef
-    else:
-        def learned_rows(z):
-            return library.transform(z)[0] @ coef
 
-    def rhs(x, u):
-        z = np.concatenate([x, u])[None, :]
-        if fixed_rhs is not None:
-            dx = np.array(fixed_rhs(x, u), dtype=float).reshape(n_states)
+class _PythonRHS:
+    """Right-hand side on the Python path (non-compilable library or Python fixed rows); picklable."""
+
+    def __init__(self, structure, library, coef, fixed_coef):
+        self.n_states, self.learned = structure.n_states, list(structure.learned)
+        self.fixed_terms, self.fixed_rhs, self.fixed_coef = structure.fixed_terms, structure.fixed_rhs, fixed_coef
+        self.library, self.coef = library, coef
+        lib_terms = getattr(library, "terms_", None)
+        if lib_terms is not None:  # evaluate only the active terms, without the transformer's checks
+            active = np.flatnonzero(np.any(coef != 0, axis=1))
+            self.active_terms, self.active_coef = [lib_terms[j] for j in active], coef[active]
         else:
-            dx = evaluate_terms(fixed_terms, z)[0] @ fixed_coef if fixed_terms else np.zeros(n_states)
-        dx[learned] = learned_rows(z)
-        return dx
+            self.active_terms = None
 
-    return rhs
+    def __call__(self, x, u):
+        z = np.concatenate([x, u])[None, :]
+        if self.fixed_rhs is not None:
+            dx = np.array(self.fixed_rhs(x, u), dtype=float).reshape(self.n_states)
+        elif self.fixed_terms:
+            dx = evaluate_terms(self.fixed_terms, z)[0] @ self.fixed_coef
+        else:
+            dx = np.zeros(self.n_states)
+        if self.active_terms is not None:
+            dx[self.learned] = evaluate_terms(self.active_terms, z)[0] @ self.active_coef
+        else:
+            dx[self.learned] = self.library.transform(z)[0] @ self.coef
+        return dx
 
 
 class HiddenStateSINDy(RegressorMixin, BaseEstimator):
@@ -176,10 +189,10 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
     >>> from sindybench.libraries import PolynomialLibrary
     >>> from sindybench.simulate import TermsRHS, simulate
     >>> t = np.arange(2000) * 0.01
-    >>> u = np.sin(t) + np.sin(2.3 * t)
+    >>> u = (np.sin(t) + np.sin(2.3 * t))[:, None]
     >>> truth = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0},
     ...     {((0, 0, 1, 0),): -4.0, ((1, 0, 1, 0),): -0.5, ((2, 0, 1, 0),): 2.0}])
-    >>> y = simulate(truth, [0.0, 0.0], u[:, None], dt=0.01, n_substeps=4)[:, :1]
+    >>> y = simulate(truth, [0.0, 0.0], u, dt=0.01, n_substeps=4)[:, :1]
     >>> model = HiddenStateSINDy(hidden=DerivativeAugmentation(order=2),
     ...                          library=PolynomialLibrary(degree=1), dt=0.01).fit(u, y)
     >>> model.score(u, y) > 0.99
@@ -313,7 +326,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
             n_rows = n if self.refit else n_fit
         cand = self._candidate(hidden, self.best_params_, X, y1, dt, n_rows)
         self._set_fitted(hidden, cand, self.best_params_, dt, X, y1)
-        self._y_1d = np.ndim(y) == 1
+        self._y_1d = np.asarray(y).ndim == 1
         return self
 
     def _components(self, est_values):
@@ -328,7 +341,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         est_values = {k: v for k, v in values.items() if not k.startswith(_HIDDEN_PREFIX)}
         library, optimizer, differentiation = self._components(est_values)
         library = clone(as_library(library if library is not None else hidden.default_library()))
-        derivative = make_derivative(differentiation, dt)
+        derivative = _Derivative(differentiation, dt)
         params = hidden.resolve_params(hvals)
         structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
         design = hidden.design(X, y, dt, derivative=derivative, params=params)
@@ -410,11 +423,15 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
             if n_samples is None:
                 raise ValueError("X is None; expected inputs of shape (n_samples, n_inputs).")
             X = np.zeros((n_samples, 0))
+        _check_array_like(X, "X")
         arr = np.asarray(X, dtype=float)
         if not (arr.ndim == 2 and arr.shape[1] == 0):
             arr = check_signal(X, "X")
         if arr.shape[1] != self.n_features_in_:
-            raise ValueError(f"X has {arr.shape[1]} input columns; expected {self.n_features_in_} as in fit.")
+            raise ValueError(
+                f"X has {arr.shape[1]} features, but HiddenStateSINDy is expecting {self.n_features_in_} "
+                "features as input (the inputs seen in fit)."
+            )
         return arr
 
     def estimate_initial_state(self, X, y_init):
@@ -532,5 +549,8 @@ def _default_strategy():
 
 
 def _check_fit_data(X, y):
-    X, y1 = check_inputs_outputs(X, y)
-    return X, y1
+    if y is None:
+        raise ValueError("HiddenStateSINDy requires y to be passed, but the target y is None; expected the outputs.")
+    _check_array_like(X, "X")
+    _check_array_like(y, "y")
+    return check_inputs_outputs(X, y)

@@ -33,6 +33,18 @@ def _check_range(spec, name):
     return low, high, log
 
 
+class _HiddenRows:
+    """Fixed rows ``[0, ..., 0, rhs(x_h, y, u, **params)]`` of the full state (picklable if ``rhs`` is)."""
+
+    def __init__(self, rhs, params, n_outputs, n_hidden):
+        self.rhs, self.params, self.p, self.q = rhs, params, n_outputs, n_hidden
+
+    def __call__(self, x, u):
+        dx = np.zeros(self.p + self.q)
+        dx[self.p :] = np.asarray(self.rhs(x[self.p :], x[: self.p], u, **self.params), dtype=float).reshape(self.q)
+        return dx
+
+
 class ParametricHiddenState(HiddenStrategy):
     """Hidden states with known parametric dynamics; the outputs' dynamics are learned.
 
@@ -193,13 +205,6 @@ class ParametricHiddenState(HiddenStrategy):
         p = n_outputs
         q = len(self._x0_specs())
         phys, _ = self._split(params)
-        rhs = self._hidden_rhs()
-
-        def fixed_rhs(x, u):
-            dx = np.zeros(p + q)
-            dx[p:] = np.asarray(rhs(x[p:], x[:p], u, **phys), dtype=float).reshape(q)
-            return dx
-
         lo, hi = self._hidden_bounds(q)
         return Structure(
             n_states=p + q,
@@ -207,7 +212,7 @@ class ParametricHiddenState(HiddenStrategy):
             output_index=tuple(range(p)),
             state_names=self._state_names(p, q),
             bounds=(np.r_[np.full(p, -np.inf), lo], np.r_[np.full(p, np.inf), hi]),
-            fixed_rhs=fixed_rhs,
+            fixed_rhs=_HiddenRows(self._hidden_rhs(), phys, p, q),
         )
 
     def _state_names(self, p, q):
@@ -220,7 +225,7 @@ class ParametricHiddenState(HiddenStrategy):
         rhs, q, p = self._hidden_rhs(), len(x0), y.shape[1]
 
         def f(xh, uy):
-            return np.asarray(rhs(xh, uy[-p:], uy[:-p], **phys), dtype=float).reshape(q)
+            return np.asarray(rhs(xh, uy[u.shape[1]:], uy[: u.shape[1]], **phys), dtype=float).reshape(q)
 
         return simulate(f, x0, np.hstack([u, y]), dt, n_substeps=self.n_substeps, input_hold="linear",
                         bounds=self._hidden_bounds(q))

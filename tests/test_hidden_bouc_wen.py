@@ -1,5 +1,7 @@
 """Tests for BoucWenStructure: structural iteration on the Bouc-Wen hysteretic system."""
 
+import pickle
+
 import numpy as np
 import pytest
 
@@ -73,6 +75,13 @@ def test_true_parameters_recover_the_bouc_wen_law(synthetic):
         assert eq[name] == pytest.approx(value, rel=0.05)
     z_err = rmse(states[100:-100, 2], model.hidden_states_[100:-100, 1])
     assert z_err < 0.03 * np.std(states[:, 2])
+
+
+def test_fitted_model_pickles(synthetic):
+    u, y, _ = synthetic
+    model = _model(BoucWenStructure(**TRUE), len(u)).fit(u, y)
+    clone = pickle.loads(pickle.dumps(model))
+    np.testing.assert_allclose(clone.predict(u, y_init=y[:10]), model.predict(u, y_init=y[:10]))
 
 
 def test_filtered_regression_beats_raw_features(synthetic):

@@ -200,11 +200,7 @@ class BoucWenStructure(HiddenStrategy):
         states = np.column_stack([y, v, z])
         feature_filter = None
         if self.filter_features is not None:
-            integrate = _INTEGRATORS[self.filter_features]
-
-            def feature_filter(theta):
-                return derivative(integrate(theta, dx=dt, axis=0, initial=0.0), order=1)
-
+            feature_filter = _IntegralFilter(derivative, dt, self.filter_features)
         return Design(states=states, targets=z_dot.reshape(-1, 1), rows=slice(self.trim, n - self.trim),
                       feature_filter=feature_filter)
 
@@ -224,6 +220,19 @@ class BoucWenStructure(HiddenStrategy):
         if not self.refine_init or n < 2:
             return x0
         return _refine_initial_state(x0, y, u, model)
+
+
+class _IntegralFilter:
+    """``theta -> derivative(cumulative integral of theta)``: the target's smoothing on the features."""
+
+    def __init__(self, derivative, dt, rule):
+        self.derivative = derivative
+        self.dt = dt
+        self.rule = rule
+
+    def __call__(self, theta):
+        integral = _INTEGRATORS[self.rule](theta, dx=self.dt, axis=0, initial=0.0)
+        return self.derivative(integral, order=1)
 
 
 def _refine_initial_state(x0, y, u, model):

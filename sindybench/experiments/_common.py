@@ -42,7 +42,7 @@ def sindy_model(library, *, threshold=0.1, alpha=1e-6, gamma=None, bounds=None, 
 
     ``library`` is a zero-argument callable returning a fresh library.
     """
-    def make(*, random_state, quick, dt, n_val):
+    def make(*, random_state, quick, dt, n_val, n_samples):
         from .. import STLS, SINDy
 
         return SINDy(
@@ -59,7 +59,7 @@ def sindy_model(library, *, threshold=0.1, alpha=1e-6, gamma=None, bounds=None, 
 
 def arx_model(make_kwargs=None):
     """Factory of an :class:`~sindybench.baselines.ARX` model."""
-    def make(*, random_state, quick, dt, n_val):
+    def make(*, random_state, quick, dt, n_val, n_samples):
         from ..baselines import ARX
 
         return ARX(**(make_kwargs or {}))
@@ -83,7 +83,7 @@ def arx_space(max_na=10, max_nb=10):
 
 def nnarx_model(*, hidden_layer_sizes=(16,), max_iter=300, quick_max_iter=60):
     """Factory of an :class:`~sindybench.baselines.NNARX` model (seeded; smaller with ``quick``)."""
-    def make(*, random_state, quick, dt, n_val):
+    def make(*, random_state, quick, dt, n_val, n_samples):
         from ..baselines import NNARX
 
         return NNARX(na=2, nb=2, hidden_layer_sizes=(8,) if quick else hidden_layer_sizes,

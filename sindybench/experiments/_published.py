@@ -55,6 +55,7 @@ PUBLISHED = {
         "sindy_second_order": {"test": {"rmse": 2.12, "r2": 0.0}},
         "hidden_tanks_poly": {"test": {"rmse": 0.55, "r2": 0.9324}},
         "hidden_tanks_sqrt": {"test": {"rmse": 0.56, "r2": 0.9282}},
+        "hidden_tanks": {"test": {"rmse": None, "r2": None}},  # this library is not in the study
         "arx": {"test": {"rmse": 0.77, "r2": 0.8655}},
         "nnarx": {"test": {"rmse": 0.47, "r2": 0.9510}},
     },

@@ -123,7 +123,7 @@ def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, s
         ``best_params_``), ``best_value`` (validation RMSE) and ``fit_time_s``.
     """
     start = time.perf_counter()
-    estimator = spec.make(random_state=seed, quick=quick, dt=dt, n_val=n_val)
+    estimator = spec.make(random_state=seed, quick=quick, dt=dt, n_val=n_val, n_samples=len(y))
     info = {"n_trials": 0, "best_params": {}, "best_value": None}
     with warnings.catch_warnings():
         # small budgets stop iterative fits early on purpose (NN-ARX): say it once in the report, not per fit
@@ -265,9 +265,12 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         budget = spec.budget(quick=quick, trials=trials)
         logger.info("%s: %s (%d trials)", benchmark.name, spec.label, budget)
         entry = {"key": spec.key, "label": spec.label, "description": spec.description}
+        cap = spec.train_cap(quick=quick)
+        keep = slice(None) if cap is None or cap >= n_train else np.r_[:cap, n_train:n_train + n_val]
+        entry["n_train"] = n_train if cap is None else min(cap, n_train)
         try:
             estimator, info = fit_model(
-                spec, X, y, n_val=n_val, dt=dt, n_trials=budget, n_init=n_init, seed=seed, quick=quick,
+                spec, X[keep], y[keep], n_val=n_val, dt=dt, n_trials=budget, n_init=n_init, seed=seed, quick=quick,
                 storage=storage, n_jobs=n_jobs, study_name=f"{benchmark.name}.{spec.key}.seed{seed}",
                 show_progress_bar=show_progress_bar,
             )

@@ -17,9 +17,9 @@ class ModelSpec:
     label : str
         Human-readable name for tables and figure legends.
     make : callable
-        ``make(*, random_state, quick, dt, n_val) -> estimator`` (unfitted;
-        ``n_val`` is the size of the validation block at the end of the
-        training record, for estimators that search inside ``fit``).
+        ``make(*, random_state, quick, dt, n_val, n_samples) -> estimator``
+        (unfitted; ``n_samples`` rows of training + validation data, of which
+        the last ``n_val`` validate, for estimators that search inside ``fit``).
     search_space : callable or None
         ``search_space(quick, n_init) -> dict`` of search dimensions keyed by
         nested parameter name, for :func:`sindybench.model_selection.tune`
@@ -32,6 +32,10 @@ class ModelSpec:
         Outer search budget with ``--quick``.
     description : str
         One sentence on what the model is, for the reports.
+    max_train, max_train_quick : int or None
+        Train this model on at most the first ``max_train`` training samples
+        (the validation block is unchanged); ``None``: all of them. For
+        models whose cost grows with the record (NN-ARX on Bouc-Wen).
     """
 
     key: str
@@ -41,6 +45,12 @@ class ModelSpec:
     n_trials: int = 0
     n_trials_quick: int = 0
     description: str = ""
+    max_train: int | None = None
+    max_train_quick: int | None = None
+
+    def train_cap(self, *, quick):
+        """Largest number of training samples this model uses (``None``: all)."""
+        return self.max_train_quick if quick else self.max_train
 
     def budget(self, *, quick, trials=None):
         """Number of outer search trials for this run (0 without a search space)."""

@@ -25,7 +25,7 @@ def _poly():
     return PolynomialLibrary(degree=2)
 
 
-def _second_order(*, random_state, quick, dt, n_val):
+def _second_order(*, random_state, quick, dt, n_val, n_samples):
     from .. import STLS, HiddenStateSINDy
     from ..differentiation import TotalVariation
     from ..hidden import DerivativeAugmentation

@@ -12,6 +12,7 @@ benchmark has not been run, the snippet says how to produce it, so the build
 never refers to a missing image.
 """
 
+import re
 import sys
 from pathlib import Path
 
@@ -59,5 +60,21 @@ def _skip_sklearn_routing(app, what, name, obj, skip, options):
     return None
 
 
+_PARAM_LINE = re.compile(r"^(\s*[\w*][\w*, ]* : )(.*\|.*)$")
+
+
+def _escape_pipes_in_types(app, what, name, obj, options, lines):
+    """Escape ``|`` in numpydoc parameter type lines (``default=("x|y|", ...)``).
+
+    numpydoc renders the type text as reStructuredText, where ``|x|`` is a
+    substitution reference; a literal pipe there is never meant as one.
+    """
+    for i, line in enumerate(lines):
+        match = _PARAM_LINE.match(line)
+        if match and "``" not in match.group(2):
+            lines[i] = match.group(1) + match.group(2).replace("|", r"\|")
+
+
 def setup(app):
     app.connect("autodoc-skip-member", _skip_sklearn_routing)
+    app.connect("autodoc-process-docstring", _escape_pipes_in_types, priority=100)  # before numpydoc

@@ -60,21 +60,40 @@ def _skip_sklearn_routing(app, what, name, obj, skip, options):
     return None
 
 
-_PARAM_LINE = re.compile(r"^(\s*[\w*][\w*, ]* : )(.*\|.*)$")
+_SECTIONS = {"Parameters", "Returns", "Yields", "Attributes", "Other Parameters", "Receives"}
+_TRAILING_UNDERSCORE = re.compile(r"(\w)_(?=\W|$)")
 
 
-def _escape_pipes_in_types(app, what, name, obj, options, lines):
-    """Escape ``|`` in numpydoc parameter type lines (``default=("x|y|", ...)``).
+def _escape(text):
+    if "``" in text or ":" in text:
+        return text  # already marked up by its author
+    return _TRAILING_UNDERSCORE.sub(r"\1\\_", text.replace("|", r"\|"))
 
-    numpydoc renders the type text as reStructuredText, where ``|x|`` is a
-    substitution reference; a literal pipe there is never meant as one.
+
+def _escape_type_markup(app, what, name, obj, options, lines):
+    """Escape reST markup in the type text of numpydoc parameter and return lines.
+
+    numpydoc renders the type text (``default=("x|y|", ...)``,
+    ``ndarray of shape (n_samples, n_output_features_)``) as reStructuredText,
+    where ``|x|`` is a substitution and ``name_`` a link; neither is meant there.
     """
+    section, indent = None, None
     for i, line in enumerate(lines):
-        match = _PARAM_LINE.match(line)
-        if match and "``" not in match.group(2):
-            lines[i] = match.group(1) + match.group(2).replace("|", r"\|")
+        stripped = line.strip()
+        if i + 1 < len(lines) and stripped and set(lines[i + 1].strip()) == {"-"}:
+            section, indent = stripped, len(line) - len(line.lstrip())
+            continue
+        if section not in _SECTIONS or not stripped or set(stripped) == {"-"}:
+            continue
+        if len(line) - len(line.lstrip()) != indent:
+            continue  # a description line
+        head, sep, kind = line.partition(" : ")
+        if sep:
+            lines[i] = head + sep + _escape(kind)
+        elif section in ("Returns", "Yields", "Receives"):
+            lines[i] = _escape(line)
 
 
 def setup(app):
     app.connect("autodoc-skip-member", _skip_sklearn_routing)
-    app.connect("autodoc-process-docstring", _escape_pipes_in_types, priority=100)  # before numpydoc
+    app.connect("autodoc-process-docstring", _escape_type_markup, priority=100)  # before numpydoc

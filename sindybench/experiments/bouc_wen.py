@@ -71,14 +71,14 @@ BENCHMARK = Benchmark(
     n_train_quick=None,
     models=(
         ModelSpec("sindy_second_order", "Naive SINDy, 2nd order", _naive,
-                  stls_space(threshold=(1e-6, 1e-1)), n_trials=30, n_trials_quick=4,
+                  stls_space(threshold=(1e-6, 1e-1)), n_trials=50, n_trials_quick=4,
                   description="states (y, y'), y'' = f(y, y', u), quadratic polynomial library, no hidden force"),
         ModelSpec("hidden_bouc_wen", "Hidden SINDy, searched m, c, k", _hidden({}), None,
                   description="z = u - c y' - k y - m y'' reconstructed, z' fitted with |.| products; "
                               "m, c, k searched on the validation block"),
         ModelSpec("hidden_bouc_wen_ideal", "Hidden SINDy, Ideal (true m, c, k)", _hidden(TRUE_MCK), None,
                   description="the same with the true m = 2, c = 10, k = 5e4"),
-        ModelSpec("arx", "ARX", arx_model(), arx_space(max_na=8, max_nb=8), n_trials=30, n_trials_quick=5,
+        ModelSpec("arx", "ARX", arx_model(), arx_space(max_na=8, max_nb=8), n_trials=50, n_trials_quick=5,
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(), nnarx_space(max_na=4, max_nb=4), n_trials=10,
                   n_trials_quick=2, max_train=10000, max_train_quick=3000,

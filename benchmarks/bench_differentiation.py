@@ -22,6 +22,7 @@ from sindybench.differentiation import (
     Kalman,
     SavitzkyGolay,
     SmoothingSpline,
+    Spectral,
     TotalVariation,
     tv_smooth,
 )
@@ -34,6 +35,7 @@ METHODS = [
     ("TotalVariation(1e-2)", TotalVariation(gamma=1e-2)),
     ("TotalVariation(1e-3, tv_order=2)", TotalVariation(gamma=1e-3, tv_order=2)),
     ("Kalman(1e-4)", Kalman(alpha=1e-4)),
+    ("Spectral(cutoff=0.5)", Spectral(cutoff=0.5)),
 ]
 
 
@@ -89,7 +91,7 @@ def main(argv=None):
                     continue
                 method.derivative(y[:200], dt=dt, order=order)  # numba compilation or cache load: untimed
                 uni = best_time(lambda: method.derivative(y, dt=dt, order=order), args.repeat)
-                if isinstance(method, SavitzkyGolay):
+                if isinstance(method, (SavitzkyGolay, Spectral)):  # uniform sampling only
                     non = "n/a"
                 else:
                     non = f"{best_time(lambda: method.derivative(y, t=t_jitter, order=order), args.repeat):.3f}"

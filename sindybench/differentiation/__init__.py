@@ -3,6 +3,7 @@
 from ._base import BaseDifferentiation
 from ._local import FiniteDifference, SavitzkyGolay, finite_difference
 from ._smoothing import Kalman, SmoothingSpline, kalman_smooth
+from ._spectral import Spectral, spectral_derivative
 from ._total_variation import TotalVariation, tv_smooth
 from ._wrap import PySINDyDifferentiation, as_differentiation
 
@@ -13,9 +14,11 @@ __all__ = [
     "PySINDyDifferentiation",
     "SavitzkyGolay",
     "SmoothingSpline",
+    "Spectral",
     "TotalVariation",
     "as_differentiation",
     "finite_difference",
     "kalman_smooth",
+    "spectral_derivative",
     "tv_smooth",
 ]

@@ -158,6 +158,8 @@ def results_markdown(results, *, heading_level=1):
     out += ["", f"{h}# Models", ""]
     for m in results["models"]:
         trials = f"{m['n_trials']} search trials" if m["n_trials"] else "no outer search"
+        if m.get("inner_trials"):
+            trials += f", {m['inner_trials']} trials of its own search in fit"
         if m.get("n_train", results["n_train"]) < results["n_train"]:
             trials += f", {m['n_train']} training samples"
         fit_time = f", fit in {m['fit_time_s']:.1f} s" if m.get("fit_time_s") is not None else ""

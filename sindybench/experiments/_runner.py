@@ -135,6 +135,7 @@ def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, s
     inner = getattr(estimator, "best_params_", None)
     if not info["best_params"] and inner:
         info["best_params"] = {k: _jsonable(v) for k, v in inner.items()}
+    info["inner_trials"] = len(getattr(estimator, "search_results_", None) or ())
     info["fit_time_s"] = time.perf_counter() - start
     return estimator, info
 
@@ -263,7 +264,8 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
     fitted, simulations = {}, {name: {} for name in tests}
     for spec in specs:
         budget = spec.budget(quick=quick, trials=trials)
-        logger.info("%s: %s (%d trials)", benchmark.name, spec.label, budget)
+        logger.info("%s: %s (%s)", benchmark.name, spec.label,
+                    f"{budget} search trials" if budget else "no outer search")
         entry = {"key": spec.key, "label": spec.label, "description": spec.description}
         cap = spec.train_cap(quick=quick)
         keep = slice(None) if cap is None or cap >= n_train else np.r_[:cap, n_train:n_train + n_val]
@@ -278,7 +280,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         except Exception as exc:  # one model failing must not lose the others' results
             logger.warning("%s: %s failed to fit: %s", benchmark.name, spec.label, exc)
             estimator = None
-            entry.update(n_trials=budget, best_params={}, best_value=None, fit_time_s=None,
+            entry.update(n_trials=budget, best_params={}, best_value=None, fit_time_s=None, inner_trials=0,
                          status=f"fit failed: {type(exc).__name__}: {exc}", equations=[])
         fitted[spec.key] = estimator
         entry["scores"], entry["published"] = {}, {}

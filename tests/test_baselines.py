@@ -127,6 +127,11 @@ def test_bad_settings_and_data(rng):
         ARX(fit_intercept="yes").fit(u, y)
     with pytest.raises(ValueError, match="activation must be one of .*got 'sigmoid'"):
         NNARX(activation="sigmoid").fit(u, y)
+    with pytest.raises(ValueError, match="residual must be True or False; got 1"):
+        NNARX(residual=1).fit(u, y)
+    for bad in (0, 2.0, True):
+        with pytest.raises(ValueError, match=f"n_estimators must be an integer >= 1; got {bad!r}"):
+            NNARX(n_estimators=bad).fit(u, y)
     with pytest.raises(ValueError, match="got 3 samples; ARX.na=2, nb=2, nk=2. needs at least 4"):
         ARX(na=2, nb=2, nk=2).fit(u[:3], y[:3])
     with pytest.raises(ValueError, match="Expected 2D array"):
@@ -149,22 +154,40 @@ def test_nnarx_beats_arx_on_a_nonlinear_system(rng):
     assert not np.array_equal(other.predict(u_test, y_init=y_test), nn.predict(u_test, y_init=y_test))
 
 
-def test_nnarx_simulation_matches_the_network(rng):
-    """The hand-rolled free run equals feeding MLPRegressor.predict its own outputs."""
+@pytest.mark.parametrize("residual, n_estimators", [(False, 1), (True, 1), (True, 3)])
+def test_nnarx_simulation_matches_the_network(residual, n_estimators, rng):
+    """The hand-rolled free run equals feeding linear part + mean of MLPRegressor.predict its own outputs."""
     u, y = _nonlinear_system(rng, n=120)
     model = NNARX(na=2, nb=2, nk=1, hidden_layer_sizes=(6, 5), activation="relu", random_state=0,
-                  max_iter=50)
+                  max_iter=50, residual=residual, n_estimators=n_estimators)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", ConvergenceWarning)
         model.fit(u, y)
+    assert len(model.estimators_) == n_estimators and model.mlp_ is model.estimators_[0]
+    assert np.any(model.linear_coef_ != 0) == residual
     y_sim = model.predict(u, y_init=y)
     ys = (y - model.y_mean_) / model.y_scale_
     us = (u - model.u_mean_) / model.u_scale_
     expected = ys.copy()
     for t in range(n_lags(2, 2, 1), len(u)):
         features = np.array([[expected[t - 1, 0], expected[t - 2, 0], us[t - 1, 0], us[t - 2, 0]]])
-        expected[t] = model.mlp_.predict(features)
+        networks = np.mean([net.predict(features) for net in model.estimators_], axis=0)
+        expected[t] = networks + features @ model.linear_coef_[:, 0] + model.linear_intercept_
     np.testing.assert_allclose(y_sim, expected * model.y_scale_ + model.y_mean_, atol=1e-10)
+
+
+def test_nnarx_residual_with_a_huge_penalty_is_the_arx(rng):
+    """The networks of the residual structure only correct the linear ARX part."""
+    u, y = _nonlinear_system(rng, n=300)
+    arx = ARX(na=2, nb=2).fit(u, y)
+    nn = NNARX(na=2, nb=2, hidden_layer_sizes=(4,), alpha=1e6, n_estimators=2, random_state=0).fit(u, y)
+    y_arx = arx.predict(u, y_init=y)
+    assert np.abs(nn.predict(u, y_init=y) - y_arx).max() < 1e-5 * np.ptp(y)
+    # free networks do correct it: the nonlinear system is simulated better than by the ARX
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        free = NNARX(na=2, nb=2, hidden_layer_sizes=(8,), alpha=1e-4, max_iter=200, random_state=0).fit(u, y)
+    assert rmse(y, free.predict(u, y_init=y)) < 0.2 * rmse(y, y_arx)
 
 
 def test_orders_chosen_by_tune(rng):

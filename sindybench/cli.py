@@ -8,7 +8,7 @@ Examples
 --------
 .. code-block:: console
 
-    $ sindybench run all                       # default budgets (about 9 min on 2 cores)
+    $ sindybench run all                       # default budgets (a few minutes on 2 cores)
     $ sindybench run cascaded-tanks --quick    # a smoke run, seconds
     $ sindybench run bouc-wen --trials 200 --storage sqlite:///bw.db --n-jobs 2
 """

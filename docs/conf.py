@@ -12,7 +12,6 @@ benchmark has not been run, the snippet says how to produce it, so the build
 never refers to a missing image.
 """
 
-import re
 import sys
 from pathlib import Path
 
@@ -60,40 +59,5 @@ def _skip_sklearn_routing(app, what, name, obj, skip, options):
     return None
 
 
-_SECTIONS = {"Parameters", "Returns", "Yields", "Attributes", "Other Parameters", "Receives"}
-_TRAILING_UNDERSCORE = re.compile(r"(\w)_(?=\W|$)")
-
-
-def _escape(text):
-    if "``" in text or ":" in text:
-        return text  # already marked up by its author
-    return _TRAILING_UNDERSCORE.sub(r"\1\\_", text.replace("|", r"\|"))
-
-
-def _escape_type_markup(app, what, name, obj, options, lines):
-    """Escape reST markup in the type text of numpydoc parameter and return lines.
-
-    numpydoc renders the type text (``default=("x|y|", ...)``,
-    ``ndarray of shape (n_samples, n_output_features_)``) as reStructuredText,
-    where ``|x|`` is a substitution and ``name_`` a link; neither is meant there.
-    """
-    section, indent = None, None
-    for i, line in enumerate(lines):
-        stripped = line.strip()
-        if i + 1 < len(lines) and stripped and set(lines[i + 1].strip()) == {"-"}:
-            section, indent = stripped, len(line) - len(line.lstrip())
-            continue
-        if section not in _SECTIONS or not stripped or set(stripped) == {"-"}:
-            continue
-        if len(line) - len(line.lstrip()) != indent:
-            continue  # a description line
-        head, sep, kind = line.partition(" : ")
-        if sep:
-            lines[i] = head + sep + _escape(kind)
-        elif section in ("Returns", "Yields", "Receives"):
-            lines[i] = _escape(line)
-
-
 def setup(app):
     app.connect("autodoc-skip-member", _skip_sklearn_routing)
-    app.connect("autodoc-process-docstring", _escape_type_markup, priority=100)  # before numpydoc

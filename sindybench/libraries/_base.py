@@ -111,7 +111,7 @@ class BaseLibrary(TransformerMixin, BaseEstimator):
 
         Returns
         -------
-        ndarray of shape (n_samples, n_output_features_)
+        ndarray of shape (n_samples, ``n_output_features_``)
         """
         check_is_fitted(self)
         Z = self._validate_Z(Z, reset=False)

@@ -147,8 +147,9 @@ class AbsProductLibrary(BaseLibrary):
     pairs : sequence of (int, int), optional
         Column pairs of ``Z``; default all pairs ``i < j`` of ``variables``.
         A pair ``(i, i)`` gives ``x|x|`` (duplicate terms are dropped).
-    products : sequence of str, default=("x|y|", "|x|y", "|x||y|")
-        Which products to build, among ``"x|y|"``, ``"|x|y"``, ``"|x||y|"``, ``"xy"``.
+    products : sequence of str, optional
+        Which products to build, among ``"x|y|"``, ``"|x|y"``, ``"|x||y|"``, ``"xy"``;
+        default ``("x|y|", "|x|y", "|x||y|")``.
     include_abs : bool, default=False
         Also include ``|x|`` alone for each column in a pair.
     abs_power : float, default=1.0

@@ -188,3 +188,25 @@ def test_loader_downloads_declared_archive_member(server, tmp_path, data_home, m
     reference = load_cascaded_tanks(data_home=data_home)
     np.testing.assert_array_equal(data.test.y, reference.test.y)
     assert _leftovers(tmp_path) == ["dataBenchmark.mat"]
+
+
+@pytest.mark.parametrize("route", ["/bad.bin", "/cut.bin", "/missing.bin"])
+def test_failed_download_leaves_no_empty_folder(server, tmp_path, route):
+    remote = RemoteFile("demo/sub/good.bin", f"{server}{route}", GOOD_SHA)
+    with pytest.raises(DownloadError):
+        fetch_file(remote, data_home=tmp_path / "home")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_missing_file_is_reported_before_any_download(server, tmp_path):
+    remotes = [
+        RemoteFile("demo/good.bin", f"{server}/good.bin", GOOD_SHA),
+        RemoteFile("demo/by_hand.bin", None, GOOD_SHA),
+    ]
+    before = _Handler.hits.get("/good.bin", 0)
+    with pytest.raises(FileNotFoundError, match="no public download address"):
+        fetch_files(remotes, data_home=tmp_path / "home")
+    with pytest.raises(FileNotFoundError, match="download_if_missing=False"):
+        fetch_files(remotes, data_home=tmp_path / "home", download_if_missing=False)
+    assert _Handler.hits.get("/good.bin", 0) == before
+    assert list(tmp_path.iterdir()) == []  # not even the data home was created

@@ -74,11 +74,16 @@ def get_data_home(data_home=None):
     ...     get_data_home(tmp) == Path(tmp)
     True
     """
-    if data_home is None:
-        data_home = os.environ.get("SINDYBENCH_DATA") or os.path.join("~", "sindybench_data")
-    path = Path(data_home).expanduser()
+    path = _data_home_path(data_home)
     path.mkdir(parents=True, exist_ok=True)
     return path
+
+
+def _data_home_path(data_home):
+    """The data home :func:`get_data_home` would return, without creating it."""
+    if data_home is None:
+        data_home = os.environ.get("SINDYBENCH_DATA") or os.path.join("~", "sindybench_data")
+    return Path(data_home).expanduser()
 
 
 def sha256sum(path):
@@ -95,6 +100,25 @@ def _remove(path):
         os.unlink(path)
     except FileNotFoundError:
         pass
+
+
+def _make_folder(folder):
+    """Create ``folder`` and its missing parents; return the ones created, deepest first."""
+    created = []
+    for parent in (folder, *folder.parents):
+        if parent.exists():
+            break
+        created.append(parent)
+    folder.mkdir(parents=True, exist_ok=True)
+    return created
+
+
+def _remove_empty(folders):
+    for folder in folders:
+        try:
+            folder.rmdir()
+        except OSError:  # not empty (another file landed there) or already gone
+            return
 
 
 def _temp_path(folder, suffix):
@@ -218,13 +242,33 @@ def _extract_member(archive_path, member, folder, url):
         raise
 
 
-def _verify(path, remote, origin):
-    digest = sha256sum(path)
+def _verify(digest, remote, origin):
     if digest != remote.sha256:
         raise DownloadError(
             f"checksum mismatch for {remote.filename} from {origin}: sha256 {digest}, expected {remote.sha256}; "
             "the file was not saved."
         )
+
+
+def _fetch_group(group, source, folder, *, timeout):
+    """Download ``source`` once and move each verified file of ``group`` into place."""
+    archive, digest = _download(source, folder, timeout=timeout)
+    try:
+        for remote, path in group:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            if remote.member is None:
+                _verify(digest, remote, source)
+                tmp = archive
+            else:
+                tmp = _extract_member(archive, remote.member, path.parent, source)
+                try:
+                    _verify(sha256sum(tmp), remote, source)
+                except BaseException:
+                    _remove(tmp)
+                    raise
+            os.replace(tmp, path)
+    finally:
+        _remove(archive)
 
 
 def fetch_files(remotes, *, data_home=None, download_if_missing=True, urls=None, timeout=60.0):
@@ -250,7 +294,7 @@ def fetch_files(remotes, *, data_home=None, download_if_missing=True, urls=None,
     -------
     list of pathlib.Path
     """
-    home = get_data_home(data_home)
+    home = _data_home_path(data_home)  # created only when something is downloaded into it
     urls = dict(urls or {})
     paths = [home / PurePosixPath(r.filename) for r in remotes]
     missing = {}
@@ -264,7 +308,8 @@ def fetch_files(remotes, *, data_home=None, download_if_missing=True, urls=None,
                 )
         else:
             missing.setdefault(remote.url, []).append((remote, path))
-    for url, group in missing.items():
+    sources = {}
+    for url, group in missing.items():  # every missing file must be obtainable before anything is downloaded
         names = ", ".join(r.filename for r, _ in group)
         if not download_if_missing:
             raise FileNotFoundError(
@@ -277,30 +322,16 @@ def fetch_files(remotes, *, data_home=None, download_if_missing=True, urls=None,
                 f"{names} not found in the data home {home}, and no public download address is known for it; "
                 f"copy the file to {group[0][1]}."
             )
+        sources[url] = source
+    for url, group in missing.items():
         folder = group[0][1].parent
-        folder.mkdir(parents=True, exist_ok=True)
-        logger.info("downloading %s from %s", names, source)
-        archive, digest = _download(source, folder, timeout=timeout)
+        created = _make_folder(folder)
+        logger.info("downloading %s from %s", ", ".join(r.filename for r, _ in group), sources[url])
         try:
-            for remote, path in group:
-                path.parent.mkdir(parents=True, exist_ok=True)
-                if remote.member is None:
-                    tmp = archive
-                    if digest != remote.sha256:
-                        raise DownloadError(
-                            f"checksum mismatch for {remote.filename} from {source}: sha256 {digest}, "
-                            f"expected {remote.sha256}; the file was not saved."
-                        )
-                else:
-                    tmp = _extract_member(archive, remote.member, path.parent, source)
-                    try:
-                        _verify(tmp, remote, source)
-                    except BaseException:
-                        _remove(tmp)
-                        raise
-                os.replace(tmp, path)
-        finally:
-            _remove(archive)
+            _fetch_group(group, sources[url], folder, timeout=timeout)
+        except BaseException:
+            _remove_empty(created)  # a failed download leaves no empty folders either
+            raise
     return paths
 
 

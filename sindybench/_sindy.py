@@ -1,7 +1,6 @@
 """Continuous-time SINDy with control inputs, as a scikit-learn estimator."""
 
 import logging
-import numbers
 import warnings
 
 import numpy as np
@@ -14,7 +13,10 @@ from ._validation import (
     check_bounds,
     check_dt,
     check_inputs_outputs,
+    check_integer,
     check_n_samples,
+    check_option,
+    check_positive,
     check_signal,
     check_time,
 )
@@ -160,16 +162,10 @@ class SINDy(RegressorMixin, BaseEstimator):
     # ------------------------------------------------------------------ checks
     def _check_params(self, n_states):
         check_dt(self.dt, allow_none=True)
-        n_sub = self.n_substeps
-        if isinstance(n_sub, bool) or not isinstance(n_sub, numbers.Integral) or n_sub < 1:
-            raise ValueError(f"n_substeps must be an integer >= 1; got {n_sub!r}.")
-        if self.integrator not in _METHODS:
-            raise ValueError(f"integrator must be one of {_METHODS}; got {self.integrator!r}.")
-        if self.input_hold not in _HOLDS:
-            raise ValueError(f"input_hold must be one of {_HOLDS}; got {self.input_hold!r}.")
-        max_abs = self.max_abs
-        if isinstance(max_abs, bool) or not isinstance(max_abs, numbers.Real) or not max_abs > 0:
-            raise ValueError(f"max_abs must be a number > 0 (inf allowed); got {max_abs!r}.")
+        check_integer(self.n_substeps, "n_substeps")
+        check_option(self.integrator, "integrator", _METHODS)
+        check_option(self.input_hold, "input_hold", _HOLDS)
+        check_positive(self.max_abs, "max_abs", allow_inf=True)
         return check_bounds(self.bounds, n_states)
 
     @staticmethod

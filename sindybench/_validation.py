@@ -9,10 +9,13 @@ import numbers
 import numpy as np
 
 __all__ = [
+    "check_bool",
     "check_bounds",
     "check_dt",
     "check_inputs_outputs",
+    "check_integer",
     "check_n_samples",
+    "check_option",
     "check_positive",
     "check_signal",
     "check_time",
@@ -108,8 +111,8 @@ def check_inputs_outputs(X, y, *, x_name="X", y_name="y"):
     return X, y
 
 
-def check_positive(value, name, *, allow_none=False, strict=True):
-    """Return ``value`` as a float after checking that it is positive and finite.
+def check_positive(value, name, *, allow_none=False, strict=True, allow_inf=False):
+    """Return ``value`` as a float after checking that it is positive (and finite, unless ``allow_inf``).
 
     Examples
     --------
@@ -119,15 +122,79 @@ def check_positive(value, name, *, allow_none=False, strict=True):
     Traceback (most recent call last):
     ...
     ValueError: dt must be a finite number > 0; got 0.0.
+    >>> check_positive(float("inf"), "max_abs", allow_inf=True)
+    inf
     """
     if value is None and allow_none:
         return None
     op = ">" if strict else ">="
+    expected = f"a number {op} 0 (inf allowed)" if allow_inf else f"a finite number {op} 0"
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be a finite number {op} 0; got {value!r}.")
+        raise ValueError(f"{name} must be {expected}; got {value!r}.")
     value = float(value)
-    if not np.isfinite(value) or value < 0 or (strict and value == 0):
-        raise ValueError(f"{name} must be a finite number {op} 0; got {value!r}.")
+    if np.isnan(value) or (np.isinf(value) and not allow_inf) or value < 0 or (strict and value == 0):
+        raise ValueError(f"{name} must be {expected}; got {value!r}.")
+    return value
+
+
+def check_integer(value, name, *, low=1, high=None):
+    """Return ``value`` as an int after checking that it is an integer in ``[low, high]``.
+
+    ``bool`` is rejected (``True`` is not a count); ``high=None`` means no upper limit.
+
+    Examples
+    --------
+    >>> check_integer(3, "n_substeps")
+    3
+    >>> check_integer(2.0, "n_substeps")
+    Traceback (most recent call last):
+    ...
+    ValueError: n_substeps must be an integer >= 1; got 2.0.
+    >>> check_integer(5, "order", low=1, high=2)
+    Traceback (most recent call last):
+    ...
+    ValueError: order must be an integer in [1, 2]; got 5.
+    """
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
+    if not ok or value < low or (high is not None and value > high):
+        expected = f">= {low}" if high is None else f"in [{low}, {high}]"
+        raise ValueError(f"{name} must be an integer {expected}; got {value!r}.")
+    return int(value)
+
+
+def check_bool(value, name):
+    """Return ``value`` as a bool after checking that it is ``True`` or ``False``.
+
+    Examples
+    --------
+    >>> check_bool(1, "unbias")
+    Traceback (most recent call last):
+    ...
+    ValueError: unbias must be True or False; got 1.
+    """
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"{name} must be True or False; got {value!r}.")
+    return bool(value)
+
+
+def check_option(value, name, options):
+    """Return ``value`` after checking that it is one of ``options`` (shown as given in the message).
+
+    Examples
+    --------
+    >>> check_option("rk4", "method", ("rk4", "euler"))
+    'rk4'
+    >>> check_option("rk2", "method", ("rk4", "euler"))
+    Traceback (most recent call last):
+    ...
+    ValueError: method must be one of ('rk4', 'euler'); got 'rk2'.
+    """
+    try:
+        known = value in options
+    except TypeError:  # unhashable value, dict options
+        known = False
+    if not known:
+        raise ValueError(f"{name} must be one of {options}; got {value!r}.")
     return value
 
 

@@ -8,12 +8,11 @@ semantics (sub-steps, input hold, bounds, divergence).
 """
 
 import logging
-import numbers
 
 import numpy as np
 from numba import njit
 
-from ._validation import check_bounds, check_dt, check_signal, check_time
+from ._validation import check_bounds, check_dt, check_integer, check_option, check_positive, check_signal, check_time
 from .libraries._terms import check_terms, evaluate_terms, terms_to_arrays
 
 __all__ = ["SimulationError", "TermsRHS", "make_rhs", "simulate"]
@@ -72,8 +71,7 @@ class TermsRHS:
     """
 
     def __init__(self, coef, terms, n_states):
-        if isinstance(n_states, bool) or not isinstance(n_states, numbers.Integral) or n_states < 1:
-            raise ValueError(f"n_states must be an integer >= 1; got {n_states!r}.")
+        n_states = check_integer(n_states, "n_states")
         coef = np.asarray(coef, dtype=float)
         if coef.ndim == 1 and n_states == 1:
             coef = coef.reshape(-1, 1)
@@ -88,7 +86,7 @@ class TermsRHS:
             )
         self.coef = coef
         self.terms = terms
-        self.n_states = int(n_states)
+        self.n_states = n_states
         self.n_variables = 1 + max((f[0] for t in terms for f in t), default=-1)
         active = np.flatnonzero(np.any(coef != 0, axis=1))
         sub = coef[active]
@@ -296,11 +294,6 @@ def _run_python(f, x0, u, h, n_sub, method, linear, lo, hi, max_abs, out):
 
 
 # ------------------------------------------------------------------ public entry
-def _check_choice(value, name, choices):
-    if value not in choices:
-        raise ValueError(f"{name} must be one of {choices}; got {value!r}.")
-
-
 def _check_steps(dt, t, n_samples):
     if (dt is None) == (t is None):
         raise ValueError(f"give exactly one of dt and t; got dt={dt!r} and t={'None' if t is None else 'an array'}.")
@@ -398,22 +391,19 @@ def simulate(rhs, x0, u, dt=None, *, t=None, n_substeps=1, method="rk4", input_h
         raise ValueError(f"rhs must be a TermsRHS or a callable f(x, u); got {rhs!r}.")
     lo, hi = check_bounds(bounds, n_states)
     x0 = _check_x0(x0, n_states, lo, hi)
-    if isinstance(n_substeps, bool) or not isinstance(n_substeps, numbers.Integral) or n_substeps < 1:
-        raise ValueError(f"n_substeps must be an integer >= 1; got {n_substeps!r}.")
-    _check_choice(method, "method", _METHODS)
-    _check_choice(input_hold, "input_hold", _HOLDS)
-    _check_choice(on_divergence, "on_divergence", _ON_DIVERGENCE)
-    if isinstance(max_abs, bool) or not isinstance(max_abs, numbers.Real) or not max_abs > 0:
-        raise ValueError(f"max_abs must be a number > 0 (inf allowed); got {max_abs!r}.")
+    n_substeps = check_integer(n_substeps, "n_substeps")
+    check_option(method, "method", _METHODS)
+    check_option(input_hold, "input_hold", _HOLDS)
+    check_option(on_divergence, "on_divergence", _ON_DIVERGENCE)
+    max_abs = check_positive(max_abs, "max_abs", allow_inf=True)
     linear = input_hold == "linear"
     out = np.empty((n_samples, n_states))
     if isinstance(rhs, TermsRHS):
         offsets, weights = (np.array(v) for v in _STAGES[method])
-        step = _run_terms(x0, u, h, int(n_substeps), offsets, weights, linear, lo, hi, float(max_abs),
-                          rhs._arrays, out)
+        step = _run_terms(x0, u, h, n_substeps, offsets, weights, linear, lo, hi, max_abs, rhs._arrays, out)
     else:
         with np.errstate(over="ignore", invalid="ignore"):  # divergence is reported below
-            step = _run_python(rhs, x0, u, h, int(n_substeps), method, linear, lo, hi, float(max_abs), out)
+            step = _run_python(rhs, x0, u, h, n_substeps, method, linear, lo, hi, max_abs, out)
     if step < 0:
         return out
     when = t[step] if t is not None else step * h[0]

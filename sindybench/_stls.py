@@ -35,7 +35,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from ._validation import check_positive, check_signal
+from ._validation import check_bool, check_integer, check_positive, check_signal
 
 __all__ = ["STLS", "GramCache", "clear_stls_cache", "stls"]
 
@@ -194,12 +194,10 @@ def clear_stls_cache():
 def _check_params(threshold, alpha, max_iter, normalize_columns, unbias):
     threshold = check_positive(threshold, "threshold", strict=False)
     alpha = check_positive(alpha, "alpha", strict=False)
-    if isinstance(max_iter, bool) or not isinstance(max_iter, (int, np.integer)) or max_iter < 1:
-        raise ValueError(f"max_iter must be an integer >= 1; got {max_iter!r}.")
-    for name, value in (("normalize_columns", normalize_columns), ("unbias", unbias)):
-        if not isinstance(value, (bool, np.bool_)):
-            raise ValueError(f"{name} must be True or False; got {value!r}.")
-    return threshold, alpha, int(max_iter)
+    max_iter = check_integer(max_iter, "max_iter")
+    check_bool(normalize_columns, "normalize_columns")
+    check_bool(unbias, "unbias")
+    return threshold, alpha, max_iter
 
 
 def _solve_groups(a, c, ind, rows, alpha):
@@ -426,8 +424,7 @@ class STLS(RegressorMixin, BaseEstimator):
         threshold, alpha, max_iter = _check_params(
             self.threshold, self.alpha, self.max_iter, self.normalize_columns, self.unbias
         )
-        if not isinstance(self.cache, (bool, np.bool_)):
-            raise ValueError(f"cache must be True or False; got {self.cache!r}.")
+        check_bool(self.cache, "cache")
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=float)
         target_1d = y.ndim == 1
         y2 = y.reshape(-1, 1) if target_1d else y

@@ -6,11 +6,9 @@
 with R^2 = 0.75 the fit index is 50 %.
 """
 
-import numbers
-
 import numpy as np
 
-from ._validation import check_signal
+from ._validation import check_integer, check_option, check_signal
 
 __all__ = ["fit_index", "make_simulation_scorer", "nrmse", "r2", "rmse"]
 
@@ -18,8 +16,7 @@ _MULTIOUTPUT = ("uniform_average", "raw_values")
 
 
 def _prepare(y_true, y_pred, skip, multioutput):
-    if multioutput not in _MULTIOUTPUT:
-        raise ValueError(f"multioutput must be one of {_MULTIOUTPUT}; got {multioutput!r}.")
+    check_option(multioutput, "multioutput", _MULTIOUTPUT)
     y_true = check_signal(y_true, "y_true")
     y_pred = np.asarray(y_pred, dtype=float)
     if y_pred.ndim == 1:
@@ -28,10 +25,7 @@ def _prepare(y_true, y_pred, skip, multioutput):
         raise ValueError(f"y_pred has shape {y_pred.shape}; expected the shape of y_true, {y_true.shape}.")
     if not np.all(np.isfinite(y_pred)):
         raise ValueError("y_pred contains NaN or inf (a diverged simulation?); expected finite values.")
-    if isinstance(skip, bool) or not isinstance(skip, numbers.Integral) or not 0 <= skip < y_true.shape[0]:
-        # int(2.5) would silently score from sample 2
-        raise ValueError(f"skip must be an integer in [0, {y_true.shape[0] - 1}]; got {skip!r}.")
-    skip = int(skip)
+    skip = check_integer(skip, "skip", low=0, high=y_true.shape[0] - 1)  # int(2.5) would score from sample 2
     return y_true[skip:], y_pred[skip:]
 
 
@@ -160,8 +154,5 @@ def make_simulation_scorer(metric="rmse", *, skip=0):
     >>> make_simulation_scorer("fit_index")
     make_simulation_scorer('fit_index', skip=0)
     """
-    if metric not in _METRICS:
-        raise ValueError(f"metric must be one of {sorted(_METRICS)}; got {metric!r}.")
-    if int(skip) != skip or skip < 0:
-        raise ValueError(f"skip must be an integer >= 0; got {skip!r}.")
-    return _SimulationScorer(metric, int(skip))
+    check_option(metric, "metric", sorted(_METRICS))
+    return _SimulationScorer(metric, check_integer(skip, "skip", low=0))

@@ -69,15 +69,6 @@ def check_order(order):
     return int(order)
 
 
-def check_int(value, name, *, low, high=None):
-    """Return ``value`` as an int in ``[low, high]`` or raise a ValueError."""
-    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
-    if not ok or value < low or (high is not None and value > high):
-        expected = f">= {low}" if high is None else f"in [{low}, {high}]"
-        raise ValueError(f"{name} must be an integer {expected}; got {value!r}.")
-    return int(value)
-
-
 def resolve_time(n_samples, dt, t):
     """Return ``(t, step)``: sample times and the uniform step (``None`` if not uniform).
 

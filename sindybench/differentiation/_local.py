@@ -4,7 +4,8 @@ import numpy as np
 from pysindy.differentiation import FiniteDifference as _PySINDyFiniteDifference
 from scipy.signal import savgol_filter
 
-from ._base import BaseDifferentiation, check_int
+from .._validation import check_integer
+from ._base import BaseDifferentiation
 
 __all__ = ["FiniteDifference", "SavitzkyGolay", "finite_difference"]
 
@@ -106,10 +107,10 @@ class SavitzkyGolay(BaseDifferentiation):
         self.polyorder = polyorder
 
     def _validate_params(self):
-        check_int(self.window_length, "window_length", low=3)
+        check_integer(self.window_length, "window_length", low=3)
         if self.window_length % 2 == 0:
             raise ValueError(f"window_length must be odd; got {self.window_length}.")
-        check_int(self.polyorder, "polyorder", low=0, high=self.window_length - 1)
+        check_integer(self.polyorder, "polyorder", low=0, high=self.window_length - 1)
 
     def _min_samples(self, order):
         return self.window_length

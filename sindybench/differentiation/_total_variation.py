@@ -7,8 +7,8 @@ import numpy as np
 from numba import njit
 from sklearn.exceptions import ConvergenceWarning
 
-from .._validation import check_positive
-from ._base import BaseDifferentiation, check_int
+from .._validation import check_integer, check_positive
+from ._base import BaseDifferentiation
 from ._local import finite_difference
 
 __all__ = ["TotalVariation", "tv_smooth"]
@@ -318,10 +318,10 @@ class TotalVariation(BaseDifferentiation):
     def _validate_params(self):
         check_positive(self.gamma, "gamma")
         if self.tv_order is not None:
-            check_int(self.tv_order, "tv_order", low=1, high=2)
+            check_integer(self.tv_order, "tv_order", low=1, high=2)
         check_positive(self.epsilon, "epsilon")
         check_positive(self.tol, "tol")
-        check_int(self.max_iter, "max_iter", low=1)
+        check_integer(self.max_iter, "max_iter", low=1)
 
     def _min_samples(self, order):
         return (self.tv_order or order) + 2

@@ -1,27 +1,16 @@
 """Built-in, compilable libraries: polynomial, thresholded square root,
 absolute-value products, and a fixed list of terms."""
 
-import numbers
 from collections import Counter
 from itertools import combinations, combinations_with_replacement
 
 import numpy as np
 
+from .._validation import check_bool, check_integer, check_positive
 from ._base import BaseLibrary, canonical_term, check_variables
 from ._terms import ABS_POW, POW, SQRT, check_terms
 
 __all__ = ["AbsProductLibrary", "PolynomialLibrary", "SqrtLibrary", "TermsLibrary"]
-
-
-def _check_bool(value, name):
-    if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be True or False; got {value!r}.")
-
-
-def _check_int(value, name, *, minimum):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}; got {value!r}.")
-    return int(value)
 
 
 def _per_variable(value, n, name):
@@ -72,9 +61,9 @@ class PolynomialLibrary(BaseLibrary):
         self.variables = variables
 
     def _make_terms(self, n_features):
-        degree = _check_int(self.degree, "degree", minimum=0)
-        _check_bool(self.include_bias, "include_bias")
-        _check_bool(self.interaction_only, "interaction_only")
+        degree = check_integer(self.degree, "degree", low=0)
+        check_bool(self.include_bias, "include_bias")
+        check_bool(self.interaction_only, "interaction_only")
         cols = sorted(check_variables(self.variables, n_features))
         terms = [()] if self.include_bias else []
         pick = combinations if self.interaction_only else combinations_with_replacement
@@ -198,20 +187,18 @@ class AbsProductLibrary(BaseLibrary):
 
     def _make_terms(self, n_features):
         pairs = self._check_pairs(n_features)
-        _check_bool(self.include_abs, "include_abs")
-        p = self.abs_power
-        if isinstance(p, bool) or not isinstance(p, numbers.Real) or not np.isfinite(p) or p <= 0:
-            raise ValueError(f"abs_power must be a finite number > 0; got {p!r}.")
+        check_bool(self.include_abs, "include_abs")
+        p = check_positive(self.abs_power, "abs_power")
         if isinstance(self.products, str) or not self.products:
             raise ValueError(f"products must be a non-empty sequence of strings; got {self.products!r}.")
         unknown = [k for k in self.products if k not in _ABS_PRODUCTS]
         if unknown:
             raise ValueError(f"products contains {unknown}; expected entries among {sorted(_ABS_PRODUCTS)}.")
         terms, seen = [], set()
-        candidates = [_ABS_PRODUCTS[k](i, j, float(p)) for i, j in pairs for k in self.products]
+        candidates = [_ABS_PRODUCTS[k](i, j, p) for i, j in pairs for k in self.products]
         if self.include_abs:
             cols = list(dict.fromkeys(c for pair in pairs for c in pair))
-            candidates += [((c, ABS_POW, float(p), 0.0),) for c in cols]
+            candidates += [((c, ABS_POW, p, 0.0),) for c in cols]
         for term in candidates:
             key = canonical_term(term)
             if key not in seen:

@@ -102,7 +102,7 @@ class SavitzkyGolay(BaseDifferentiation):
     True
     """
 
-    def __init__(self, window_length=11, polyorder=3):
+    def __init__(self, window_length=11, *, polyorder=3):
         self.window_length = window_length
         self.polyorder = polyorder
 

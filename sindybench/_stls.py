@@ -62,6 +62,10 @@ def _fingerprint(a):
     return (a.shape, a.dtype.str, sums.tobytes())
 
 
+def _data_key(theta, target):
+    return (_fingerprint(theta), _fingerprint(target))
+
+
 def _check_data(theta, target):
     theta = check_signal(theta, "theta")
     target_1d = np.ndim(target) == 1
@@ -112,14 +116,13 @@ class GramCache:
     """
 
     def __init__(self, theta, target):
-        theta, target, target_1d = _check_data(theta, target)
-        self._init_from_checked(theta, target, target_1d)
+        theta, target, _ = _check_data(theta, target)
+        self._init_from_checked(theta, target)
 
-    def _init_from_checked(self, theta, target, target_1d):
+    def _init_from_checked(self, theta, target, key=None):
         n, p = theta.shape
         self.n_samples, self.n_features, self.n_targets = n, p, target.shape[1]
-        self.target_1d = target_1d
-        self._key = (_fingerprint(theta), _fingerprint(target))
+        self._key = _data_key(theta, target) if key is None else key
         r = None
         for start in range(0, n, _QR_CHUNK):
             block = np.hstack([theta[start : start + _QR_CHUNK], target[start : start + _QR_CHUNK]])
@@ -132,9 +135,10 @@ class GramCache:
         self.col_norms = np.sqrt(np.sum(self._a**2, axis=0))
 
     @classmethod
-    def _from_checked(cls, theta, target, target_1d):
+    def _from_checked(cls, theta, target, key=None):
+        """Build from arrays already checked by :func:`_check_data` (``key``: their :func:`_data_key`)."""
         self = cls.__new__(cls)
-        self._init_from_checked(theta, target, target_1d)
+        self._init_from_checked(theta, target, key)
         return self
 
     @property
@@ -153,7 +157,7 @@ class GramCache:
         target = np.asarray(target, dtype=float)
         if target.ndim == 1:
             target = target.reshape(-1, 1)
-        return (_fingerprint(theta), _fingerprint(target)) == self._key
+        return _data_key(theta, target) == self._key
 
     def __repr__(self):
         return f"GramCache(n_samples={self.n_samples}, n_features={self.n_features}, n_targets={self.n_targets})"
@@ -163,16 +167,16 @@ _shared = OrderedDict()
 _shared_lock = threading.Lock()
 
 
-def _shared_cache(theta, target, target_1d):
+def _shared_cache(theta, target):
     """Return a :class:`GramCache` for checked arrays from a small content-keyed LRU."""
-    key = (_fingerprint(theta), _fingerprint(target))
+    key = _data_key(theta, target)
     with _shared_lock:
         cache = _shared.get(key)
         if cache is not None:
             _shared.move_to_end(key)
             logger.debug("STLS Gram cache hit (%d x %d)", *theta.shape)
             return cache
-    cache = GramCache._from_checked(theta, target, target_1d)
+    cache = GramCache._from_checked(theta, target, key)
     with _shared_lock:
         _shared[key] = cache
         while len(_shared) > _SHARED_CACHE_SIZE:
@@ -332,10 +336,10 @@ def stls(theta, target, *, threshold, alpha=0.0, max_iter=20, normalize_columns=
     threshold, alpha, max_iter = _check_params(threshold, alpha, max_iter, normalize_columns, unbias)
     theta, target, target_1d = _check_data(theta, target)
     if cache is None:
-        cache = GramCache._from_checked(theta, target, target_1d)
+        cache = GramCache._from_checked(theta, target)
     elif not isinstance(cache, GramCache):
         raise ValueError(f"cache must be a GramCache or None; got {type(cache).__name__}.")
-    elif (_fingerprint(theta), _fingerprint(target)) != cache._key:
+    elif not cache.matches(theta, target):
         raise ValueError(
             "cache was built from other data than the given theta and target "
             f"({cache!r}); build a new GramCache for this data."
@@ -428,10 +432,7 @@ class STLS(RegressorMixin, BaseEstimator):
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=float)
         target_1d = y.ndim == 1
         y2 = y.reshape(-1, 1) if target_1d else y
-        if self.cache:
-            gram = _shared_cache(X, y2, target_1d)
-        else:
-            gram = GramCache._from_checked(X, y2, target_1d)
+        gram = _shared_cache(X, y2) if self.cache else GramCache._from_checked(X, y2)
         coef, self.n_iter_ = _stls_core(gram, threshold, alpha, max_iter, self.normalize_columns, self.unbias)
         self.coef_ = coef[0] if target_1d else coef
         self.ind_ = self.coef_ != 0

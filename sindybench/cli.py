@@ -47,6 +47,15 @@ def _n_jobs(text):
     return value
 
 
+def _storage(text):
+    from .model_selection import check_storage
+
+    try:
+        return check_storage(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def build_parser():
     """Return the argument parser of the ``sindybench`` command."""
     parser = argparse.ArgumentParser(
@@ -67,7 +76,7 @@ def build_parser():
     run.add_argument("--trials", type=_non_negative_int, default=None, metavar="N",
                      help="search trials per model (default: each model's own budget)")
     run.add_argument("--seed", type=_non_negative_int, default=0, metavar="S", help="random seed (default: 0)")
-    run.add_argument("--storage", default=None, metavar="URL",
+    run.add_argument("--storage", type=_storage, default=None, metavar="URL",
                      help="Optuna storage URL, e.g. sqlite:///study.db, to resume or share searches")
     run.add_argument("--n-jobs", type=_n_jobs, default=1, metavar="J", help="parallel trials per search")
     run.add_argument("--out", type=Path, default=Path("sindybench_results"), metavar="DIR",

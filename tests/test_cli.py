@@ -109,6 +109,12 @@ def test_missing_data_is_reported_before_training(tmp_path):
     assert not (tmp_path / "out").exists()
 
 
+def test_bad_storage_is_reported_before_training(tmp_path):
+    with pytest.raises(ValueError, match="storage 'study.csv' is not understood"):
+        run_benchmarks([_synthetic()], tmp_path / "out", quick=True, storage="study.csv")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_published_figures_name_existing_models():
     for name, models in PUBLISHED.items():
         keys = {m.key for m in get_benchmark(name).models}
@@ -124,6 +130,8 @@ def test_published_figures_name_existing_models():
         (["run", "all", "--trials", "-1"], "expected an integer >= 0"),
         (["run", "all", "--seed", "x"], "expected an integer >= 0"),
         (["run", "all", "--n-jobs", "0"], "positive integer or -1"),
+        (["run", "all", "--storage", "study.csv"], "argument --storage: storage 'study.csv' is not understood"),
+        (["run", "all", "--storage", "sqlite:///no_such_folder/s.db"], "'no_such_folder' does not exist"),
         ([], "the following arguments are required"),
     ],
 )

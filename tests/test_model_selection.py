@@ -26,6 +26,7 @@ from sindybench.model_selection import (
     LogUniform,
     Normal,
     Uniform,
+    check_storage,
     tune,
 )
 from sindybench.model_selection._storage import make_storage, worker_id
@@ -325,6 +326,15 @@ def test_make_storage(storage, kind, tmp_path, monkeypatch):
     assert type(made).__name__ == kind and make_storage(made) is made
 
 
+def test_check_storage_opens_nothing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    for storage in ("x.db", "sqlite:///x.sqlite", "x.log", "journal://x.journal", "postgresql://u@127.0.0.1:1/db"):
+        assert check_storage(storage) == storage
+    assert list(tmp_path.iterdir()) == []
+    with pytest.raises(ValueError, match=r"folder '.*/sub' does not exist"):
+        check_storage("sub/x.db")
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [(dict(n_trials=0), "n_trials must be an integer >= 1; got 0"),
@@ -334,6 +344,8 @@ def test_make_storage(storage, kind, tmp_path, monkeypatch):
      (dict(random_state=-1), "random_state must be None or an integer seed >= 0; got -1"),
      (dict(scoring="mse"), "scoring must be one of .*got 'mse'"),
      (dict(storage="x.csv"), "storage 'x.csv' is not understood"),
+     (dict(storage="sqlite:///no_such_folder/x.db"), "folder 'no_such_folder' does not exist"),
+     (dict(storage="journal:///no_such_folder/x.log"), "folder '/no_such_folder' does not exist"),
      (dict(search_space={"order": IntRange(1, 3)}), "search_space names 'order', which ARX has not"),
      (dict(search_space={"na": [1, 2]}), r"search_space\['na'\] is \[1, 2\]; expected Uniform"),
      (dict(search_space={}), "search_space must be a non-empty dict"),

@@ -42,7 +42,8 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
                    data_home=None, download_if_missing=True, show_progress_bar=False, write_report=None):
     """Run several benchmarks and write their results under ``out``.
 
-    All records are loaded first, so missing data fail before any training.
+    The storage is checked and all records are loaded first, so a bad
+    storage or missing data fail before any training.
     Results go to ``out/<benchmark>/`` (``results.json``, ``results.md``,
     ``models/``, figures) and, with several benchmarks, ``out/report.md``.
     Files appear only when the whole run succeeded.
@@ -63,6 +64,9 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
     Path
         ``out/report.md`` when written, else the single benchmark's ``results.md``.
     """
+    from ..model_selection import check_storage
+
+    check_storage(storage)
     out = Path(out)
     write_report_md = len(benchmarks) > 1 if write_report is None else write_report
     data = {b.name: load_data(b, data_home=data_home, download_if_missing=download_if_missing) for b in benchmarks}

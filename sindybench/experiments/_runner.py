@@ -250,7 +250,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         "seed": seed,
         "quick": bool(quick),
         "n_jobs": n_jobs,
-        "storage": storage,
+        "storage": None if storage is None else str(storage),
         "n_train": n_train,
         "n_validation": n_val,
         "dt": dt,

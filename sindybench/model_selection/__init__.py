@@ -2,6 +2,7 @@
 
 from ._space import Categorical, IntRange, LogNormal, LogUniform, Normal, Uniform
 from ._split import HoldoutSplit
+from ._storage import check_storage
 from ._tune import AllTrialsFailedError, tune
 
 __all__ = [
@@ -13,5 +14,6 @@ __all__ = [
     "LogUniform",
     "Normal",
     "Uniform",
+    "check_storage",
     "tune",
 ]

@@ -14,7 +14,7 @@ from optuna.storages import BaseStorage, InMemoryStorage, JournalStorage, RDBSto
 from optuna.storages.journal import JournalFileBackend, JournalFileOpenLock
 from optuna.trial import TrialState
 
-__all__ = ["count_done", "fail_dead_workers", "make_storage", "worker_id"]
+__all__ = ["check_storage", "count_done", "fail_dead_workers", "make_storage", "worker_id"]
 
 logger = logging.getLogger(__name__)
 
@@ -49,6 +49,76 @@ def _rdb(url):
             lock.release()
 
 
+def _parse(storage):
+    """Return ``(kind, target)`` for ``storage`` without opening anything (see :func:`make_storage`)."""
+    if storage is None:
+        return "memory", None
+    if isinstance(storage, BaseStorage):
+        return "object", storage
+    if isinstance(storage, (str, os.PathLike)):
+        text = os.fspath(storage)
+        if text.startswith(_JOURNAL_PREFIX):
+            return "journal", text[len(_JOURNAL_PREFIX) :]
+        if "://" in text:
+            return "rdb", text
+        if text.endswith(_JOURNAL_SUFFIXES):
+            return "journal", text
+        if text.endswith(_SQLITE_SUFFIXES):
+            return "rdb", "sqlite:///" + os.path.abspath(text)
+    raise ValueError(
+        f"storage {storage!r} is not understood; expected None, a database URL ('sqlite:///study.db', "
+        "'postgresql://...'), 'journal:///path/study.log', a path ending in .log/.journal (journal file) "
+        "or .db/.sqlite/.sqlite3 (SQLite), or an optuna storage."
+    )
+
+
+def check_storage(storage):
+    """Check a ``storage`` argument of :func:`~sindybench.model_selection.tune` without opening it.
+
+    Raises ``ValueError`` when the form is not understood (see :func:`make_storage`)
+    or when the folder of a journal or SQLite file does not exist. Nothing is
+    created and no database is contacted, so a command line can check its
+    arguments before any work starts.
+
+    Parameters
+    ----------
+    storage : None, str, path-like or optuna.storages.BaseStorage
+
+    Returns
+    -------
+    storage
+        The argument, unchanged.
+
+    Examples
+    --------
+    >>> check_storage("sqlite:///study.db")
+    'sqlite:///study.db'
+    >>> check_storage("no_such_folder/study.log")
+    Traceback (most recent call last):
+    ...
+    ValueError: storage 'no_such_folder/study.log': the folder 'no_such_folder' does not exist; expected an existing folder for the journal file.
+    """
+    _parse_checked(storage)
+    return storage
+
+
+def _parse_checked(storage):
+    kind, target = _parse(storage)
+    if kind == "journal":
+        path, noun = target, "journal"
+    elif kind == "rdb" and target.startswith("sqlite:///"):
+        path, noun = target[len("sqlite:///") :], "SQLite"
+    else:
+        return kind, target
+    folder = os.path.dirname(path)
+    if folder and not os.path.isdir(folder):
+        raise ValueError(
+            f"storage {storage!r}: the folder {folder!r} does not exist; expected an existing folder for the "
+            f"{noun} file."
+        )
+    return kind, target
+
+
 def make_storage(storage):
     """Turn ``storage`` into an Optuna storage.
 
@@ -76,25 +146,14 @@ def make_storage(storage):
     ...
     ValueError: storage 'study.csv' is not understood; expected None, a database URL ('sqlite:///study.db', 'postgresql://...'), 'journal:///path/study.log', a path ending in .log/.journal (journal file) or .db/.sqlite/.sqlite3 (SQLite), or an optuna storage.
     """
-    if storage is None:
+    kind, target = _parse_checked(storage)
+    if kind == "memory":
         return InMemoryStorage()
-    if isinstance(storage, BaseStorage):
-        return storage
-    if isinstance(storage, (str, os.PathLike)):
-        text = os.fspath(storage)
-        if text.startswith(_JOURNAL_PREFIX):
-            return JournalStorage(JournalFileBackend(text[len(_JOURNAL_PREFIX) :]))
-        if "://" in text:
-            return _rdb(text)
-        if text.endswith(_JOURNAL_SUFFIXES):
-            return JournalStorage(JournalFileBackend(text))
-        if text.endswith(_SQLITE_SUFFIXES):
-            return _rdb("sqlite:///" + os.path.abspath(text))
-    raise ValueError(
-        f"storage {storage!r} is not understood; expected None, a database URL ('sqlite:///study.db', "
-        "'postgresql://...'), 'journal:///path/study.log', a path ending in .log/.journal (journal file) "
-        "or .db/.sqlite/.sqlite3 (SQLite), or an optuna storage."
-    )
+    if kind == "object":
+        return target
+    if kind == "journal":
+        return JournalStorage(JournalFileBackend(target))
+    return _rdb(target)
 
 
 def worker_id():

@@ -54,22 +54,6 @@ def register_model(cls, *, to_dict, from_dict):
 
 
 # ------------------------------------------------------------ plain helpers
-def plain(value):
-    """JSON-able copy of numbers, strings, None and nested sequences (inf as ``"inf"``).
-
-    Examples
-    --------
-    >>> plain((0.0, [np.inf, None]))
-    [0.0, ['inf', None]]
-    """
-    return _plain(value)
-
-
-def unplain(value):
-    """Inverse of :func:`plain` (lists stay lists)."""
-    return _unplain(value)
-
-
 def estimator_spec(obj):
     """``{"class": name, "params": {...}}`` of an estimator with plain parameters, else None.
 

@@ -16,14 +16,12 @@ steps) in under 10 s.
 """
 
 import argparse
-import os
 import time
-from pathlib import Path
 
 import numpy as np
 from numba import njit
-from scipy.io import loadmat
 
+from sindybench.datasets import load_bouc_wen
 from sindybench.systems import BoucWen, decimate_fir, upsample
 
 P = dict(m=2.0, c=10.0, k=5e4, alpha=5e4, beta=1e3, gamma=0.8, delta=-1.1)
@@ -79,12 +77,12 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeat", type=int, default=3)
     args = parser.parse_args()
-    home = Path(os.environ.get("SINDYBENCH_DATA", "~/sindybench_data")).expanduser() / "bouc_wen"
-    cases = []
-    for name, periodic, stages in (("multisine", True, (2, 2, 5)), ("sinesweep", False, (20,))):
-        u = loadmat(home / f"uval_{name}.mat")[f"uval_{name}"].ravel()
-        y = loadmat(home / f"yval_{name}.mat")[f"yval_{name}"].ravel()
-        cases.append((name, periodic, stages, u, y))
+    try:
+        tests = load_bouc_wen(download_if_missing=False).test
+    except FileNotFoundError as exc:
+        parser.exit(2, f"{parser.prog}: error: {exc}\n")
+    cases = [(name, periodic, stages, tests[name].u.ravel(), tests[name].y.ravel())
+             for name, periodic, stages in (("multisine", True, (2, 2, 5)), ("sinesweep", False, (20,)))]
 
     print(f"{'test':<10} {'samples':>8} {'steps':>9} {'newmark s':>10} {'rk4 ref s':>10} {'ratio':>6} "
           f"{'newmark rmse/std':>17} {'rk4 rmse/std':>13}")

@@ -37,7 +37,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._validation import check_bool, check_integer, check_positive, check_signal
 
-__all__ = ["STLS", "GramCache", "clear_stls_cache", "stls"]
+__all__ = ["GramCache", "STLS", "clear_stls_cache", "stls"]
 
 logger = logging.getLogger(__name__)
 

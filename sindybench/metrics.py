@@ -66,6 +66,17 @@ def rmse(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
 def nrmse(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
     """RMSE divided by the standard deviation of ``y_true``.
 
+    Parameters
+    ----------
+    y_true, y_pred : array-like of shape (n_samples,) or (n_samples, n_outputs)
+    skip : int, default=0
+        Leave out the first ``skip`` samples (e.g. a transient).
+    multioutput : {"uniform_average", "raw_values"}
+
+    Returns
+    -------
+    float or ndarray
+
     Examples
     --------
     >>> nrmse([0.0, 1.0, 2.0], [0.0, 1.0, 3.0])
@@ -82,6 +93,17 @@ def r2(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
     This is what ``sklearn.metrics.r2_score`` returns, and what the benchmarking
     study reports under the name "BFR". It is not the fit index.
 
+    Parameters
+    ----------
+    y_true, y_pred : array-like of shape (n_samples,) or (n_samples, n_outputs)
+    skip : int, default=0
+        Leave out the first ``skip`` samples (e.g. a transient).
+    multioutput : {"uniform_average", "raw_values"}
+
+    Returns
+    -------
+    float or ndarray
+
     Examples
     --------
     >>> r2([0.0, 1.0, 2.0], [0.0, 1.0, 3.0])
@@ -97,6 +119,17 @@ def fit_index(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
 
     The system-identification literature's BFR (MATLAB's ``compare`` fit).
     Related to R^2 by ``fit = 100 (1 - sqrt(1 - R^2))``.
+
+    Parameters
+    ----------
+    y_true, y_pred : array-like of shape (n_samples,) or (n_samples, n_outputs)
+    skip : int, default=0
+        Leave out the first ``skip`` samples (e.g. a transient).
+    multioutput : {"uniform_average", "raw_values"}
+
+    Returns
+    -------
+    float or ndarray
 
     Examples
     --------

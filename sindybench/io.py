@@ -157,11 +157,32 @@ register_model(SINDy, to_dict=_sindy_to_dict, from_dict=_sindy_from_dict)
 def model_to_dict(model):
     """The JSON-able dict :func:`save_model` writes.
 
+    Parameters
+    ----------
+    model : fitted estimator of a registered class (e.g. :class:`~sindybench.SINDy`)
+
+    Returns
+    -------
+    dict
+        ``format``, ``format_version``, ``sindybench_version``, ``class``,
+        ``params`` and ``fitted`` (see the module docstring).
+
     Raises
     ------
     ValueError
         For an unfitted model, an unregistered class, or a model that cannot be
         stored as plain data (e.g. custom library functions).
+
+    Examples
+    --------
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
+    >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01).fit(None, y)
+    >>> data = model_to_dict(model)
+    >>> data["class"], data["fitted"]["terms"]
+    ('SINDy', [[], [[0, 0, 1.0, 0.0]]])
+    >>> model_from_dict(data).equations()
+    ["y0' = -1.000 y0"]
     """
     name = type(model).__name__
     if name not in _REGISTRY or not isinstance(model, _REGISTRY[name][0]):
@@ -183,7 +204,24 @@ def model_to_dict(model):
 
 
 def model_from_dict(data):
-    """Rebuild a fitted model from the dict of :func:`model_to_dict`."""
+    """Rebuild a fitted model from the dict of :func:`model_to_dict`.
+
+    Parameters
+    ----------
+    data : dict
+        As written by :func:`model_to_dict` (or read back from a model file).
+
+    Returns
+    -------
+    fitted estimator
+
+    Examples
+    --------
+    >>> model_from_dict({"format": "sindybench-model", "format_version": 2})
+    Traceback (most recent call last):
+    ...
+    ValueError: model file format_version 2 is not supported; expected 1.
+    """
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise ValueError(f"not a sindybench model: expected a JSON object with format = {FORMAT!r}.")
     version = data.get("format_version")

@@ -11,6 +11,7 @@ import math
 import os
 import shutil
 import tempfile
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -217,18 +218,27 @@ def plot_test(results, test_name, test, simulations):
     fig, axes = _figure(2, 1, figsize=(11, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
     ax, ax_u = axes[0, 0], axes[1, 0]
     ax.plot(t[::k], y[::k], color="black", lw=1.6, label="measured")
+    # a simulation far outside the measured range would flatten every other curve: keep the frame on the data
+    span = float(np.ptp(y)) or 1.0
+    low, high = float(y.min()) - 0.5 * span, float(y.max()) + 0.5 * span
+    off_scale = False
     for m in results["models"]:
         y_pred = simulations.get(m["key"])
         if y_pred is None:
             continue
-        score = m["scores"][test_name]
-        ax.plot(t[::k], np.asarray(y_pred).reshape(len(y), -1)[::k, 0], lw=1.0,
-                label=f"{m['label']} (R^2 {score['r2']:.2f})")
+        y_pred = np.asarray(y_pred).reshape(len(y), -1)[:, 0]
+        label = f"{m['label']} (R^2 {m['scores'][test_name]['r2']:.2f})"
+        if y_pred.min() < low or y_pred.max() > high:
+            off_scale = True
+            label += ", leaves the frame"
+        ax.plot(t[::k], y_pred[::k], lw=1.0, label=label)
+    if off_scale:
+        ax.set_ylim(low, high)
     ax.set_ylabel(results["output_label"])
     ax.set_title(f"{results['title']}: open-loop simulation, test set '{test_name}'")
     ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax_u.plot(t[::k], u[::k], color="gray", lw=0.8)
-    ax_u.set_ylabel(results["input_label"])
+    ax_u.set_ylabel(textwrap.fill(results["input_label"], 18))  # the input axes are short
     ax_u.set_xlabel("time [s]")
     return fig
 

@@ -259,9 +259,7 @@ class SINDy(RegressorMixin, BaseEstimator):
                 raise ValueError("X is None; expected inputs of shape (n_samples, n_inputs) (0 columns if none).")
             X = np.zeros((n_samples, 0))
         _check_array_like(X, "X")
-        arr = np.asarray(X, dtype=float)
-        if not (arr.ndim == 2 and arr.shape[1] == 0 and arr.shape[0] > 0):
-            arr = check_signal(arr, "X")
+        arr = check_signal(X, "X")  # (n_samples, 0) passes: no inputs
         if arr.shape[1] != self.n_inputs_:
             raise ValueError(
                 f"X has {arr.shape[1]} features, but {type(self).__name__} is expecting {self.n_inputs_} "

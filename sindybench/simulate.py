@@ -372,10 +372,7 @@ def simulate(rhs, x0, u, dt=None, *, t=None, n_substeps=1, method="rk4", input_h
     """
     if u is None:
         raise ValueError("u is None; expected inputs of shape (n_samples, n_inputs), with 0 columns if there are none.")
-    u_arr = np.asarray(u, dtype=float)
-    if not (u_arr.ndim == 2 and u_arr.shape[1] == 0 and u_arr.shape[0] > 0):
-        u_arr = check_signal(u_arr, "u")
-    u = np.ascontiguousarray(u_arr)
+    u = np.ascontiguousarray(check_signal(u, "u"))  # (n_samples, 0) passes: no inputs
     n_samples = u.shape[0]
     h, t = _check_steps(dt, t, n_samples)
     if isinstance(rhs, TermsRHS):

@@ -202,9 +202,8 @@ class BoucWen:
             raise ValueError(f"x0 must hold 3 finite values (y, dy/dt, z); got {x0!r}.")
         return x0
 
-    def _integrate(self, u, x0, periodic, n_periods):
+    def _integrate(self, u, x0, periodic, n_periods, up):
         """Return the fine-grid displacement and the sampled states of the returned record."""
-        up, _ = self._check_params()
         u = check_signal(u, "u")
         if u.shape[1] != 1:
             raise ValueError(f"u has {u.shape[1]} columns; expected 1 (the force).")
@@ -251,7 +250,7 @@ class BoucWen:
             Displacement (m).
         """
         up, stages = self._check_params()
-        y_fine, _ = self._integrate(u, x0, periodic, n_periods)
+        y_fine, _ = self._integrate(u, x0, periodic, n_periods, up)
         if noise and self.noise_std > 0:
             rng = check_rng(random_state)
             white = rng.standard_normal(y_fine.size // up) * self.noise_std
@@ -277,5 +276,6 @@ class BoucWen:
         >>> x.shape, x[0].tolist()
         ((1000, 3), [0.0, 0.0, 0.0])
         """
-        _, states = self._integrate(u, x0, periodic, n_periods)
+        up, _ = self._check_params()
+        _, states = self._integrate(u, x0, periodic, n_periods, up)
         return states.copy()

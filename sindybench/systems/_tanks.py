@@ -11,13 +11,11 @@ level's start free) to the estimation record of the cascaded-tanks benchmark
 0.62 V on its test record, a plausible stand-in for the real plant.
 """
 
-import numbers
-
 import numpy as np
 from numba import njit
 
 from .._validation import check_dt, check_positive, check_signal
-from ._signals import check_rng
+from ._signals import _check_count, check_rng
 
 __all__ = ["CascadedTanks"]
 
@@ -98,9 +96,7 @@ class CascadedTanks:
         for name in ("k1", "k2", "k3", "k4", "x_max"):
             check_positive(getattr(self, name), name)
         check_positive(self.noise_std, "noise_std", strict=False)
-        n = self.n_substeps
-        if isinstance(n, bool) or not isinstance(n, numbers.Integral) or n < 1:
-            raise ValueError(f"n_substeps must be an integer >= 1; got {n!r}.")
+        _check_count(self.n_substeps, "n_substeps")
 
     def equilibrium(self, u):
         """Steady levels ``(x1, x2)`` for a constant input ``u`` (clipped to ``[0, x_max]``)."""

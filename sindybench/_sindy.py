@@ -19,6 +19,7 @@ from ._validation import (
     check_positive,
     check_signal,
     check_time,
+    uniform_step,
 )
 from .differentiation import as_differentiation
 from .libraries import as_library
@@ -244,7 +245,7 @@ class SINDy(RegressorMixin, BaseEstimator):
         self.n_states_ = n_states
         self.n_inputs_ = X.shape[1]
         self.n_features_in_ = X.shape[1]
-        self.dt_ = dt if dt is not None else _uniform_step(t)
+        self.dt_ = dt if dt is not None else uniform_step(t)
         self.x0_ = y[0].copy()
         self._y_1d = y_1d
         return self
@@ -420,8 +421,3 @@ class SINDy(RegressorMixin, BaseEstimator):
         tags.regressor_tags.poor_score = True
         tags.input_tags.allow_nan = False
         return tags
-
-
-def _uniform_step(t, rtol=1e-9):
-    d = np.diff(t)
-    return float(np.mean(d)) if np.allclose(d, d[0], rtol=rtol, atol=0) else None

@@ -19,7 +19,11 @@ __all__ = [
     "check_positive",
     "check_signal",
     "check_time",
+    "uniform_step",
 ]
+
+# Relative spread of the sampling steps below which sample times count as uniform.
+UNIFORM_RTOL = 1e-6
 
 
 def check_signal(a, name, *, allow_none=False, n_samples=None, ensure_2d=True):
@@ -227,6 +231,22 @@ def check_time(t, n_samples=None, *, name="t"):
             f"{name} must be strictly increasing; {name}[{i}] = {t[i]:g} <= {name}[{i - 1}] = {t[i - 1]:g}."
         )
     return t
+
+
+def uniform_step(t):
+    """The sampling interval of checked sample times ``t`` if uniform (within ``UNIFORM_RTOL``), else None.
+
+    Examples
+    --------
+    >>> uniform_step(np.array([0.0, 0.5, 1.0]))
+    0.5
+    >>> uniform_step(np.array([0.0, 1.0, 3.0])) is None
+    True
+    """
+    if t.shape[0] < 2:
+        return None
+    mean = (t[-1] - t[0]) / (t.shape[0] - 1)
+    return float(mean) if np.max(np.abs(np.diff(t) - mean)) <= UNIFORM_RTOL * mean else None
 
 
 def check_n_samples(n_samples, n_features, *, what="library terms"):

@@ -5,12 +5,9 @@ import numbers
 import numpy as np
 from sklearn.base import BaseEstimator
 
-from .._validation import check_dt, check_signal, check_time
+from .._validation import check_dt, check_signal, check_time, uniform_step
 
 __all__ = ["BaseDifferentiation"]
-
-# Relative spread of the sampling steps below which ``t`` counts as uniform.
-UNIFORM_RTOL = 1e-6
 
 
 class BaseDifferentiation(BaseEstimator):
@@ -87,9 +84,4 @@ def resolve_time(n_samples, dt, t):
         dt = check_dt(dt)
         return np.arange(n_samples) * dt, dt
     t = check_time(t, n_samples)
-    if n_samples < 2:
-        return t, None
-    steps = np.diff(t)
-    mean = (t[-1] - t[0]) / (n_samples - 1)
-    uniform = np.max(np.abs(steps - mean)) <= UNIFORM_RTOL * mean
-    return t, (float(mean) if uniform else None)
+    return t, uniform_step(t)

@@ -14,6 +14,7 @@ EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 @pytest.mark.parametrize(
     "script, expected",
     [
+        ("quickstart.py", "identical simulation: True"),  # the README's first command (no --quick needed)
         ("pick_and_place.py", "SINDy, 2nd order"),
         ("bouc_wen.py", "Ideal"),
         ("cascaded_tanks.py", "Hidden SINDy"),

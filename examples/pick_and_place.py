@@ -52,7 +52,7 @@ def main(argv=None):
     print(f"{'model':<20}{'RMSE':>8}{'R^2':>8}{'fit %':>8}   study R^2")
     for label, model in models.items():
         best, search = tune(model, space, u, y, cv=HoldoutSplit(validation_size=len(val.y)),
-                            n_trials=6 if args.quick else 60, random_state=0)
+                            n_trials=6 if args.quick else 60, random_state=0, refit=False)
         model = best.fit(train.u, train.y)  # the validated candidate, fitted on the training block
         y_sim = model.predict(test.u, y_init=test.y[: data.n_init])
         print(f"{label:<20}{rmse(test.y, y_sim):>8.3f}{r2(test.y, y_sim):>8.3f}{fit_index(test.y, y_sim):>8.1f}"

@@ -168,6 +168,13 @@ def test_tune_finds_the_order_and_refits_on_all_data(arx_data):
     np.testing.assert_allclose(best.coef_, ARX(**trial.params).fit(u, y).coef_)
 
 
+def test_tune_without_refit_returns_the_best_unfitted(arx_data):
+    u, y = arx_data
+    best, study = tune(ARX(), ARX_SPACE, u, y, n_trials=8, random_state=0, refit=False)
+    assert best.get_params() == ARX(**study.best_trial.params).get_params()
+    assert not hasattr(best, "coef_")
+
+
 def test_tune_is_reproducible_with_a_seed(arx_data):
     u, y = arx_data
     space = {**ARX_SPACE, "nk": IntRange(0, 2)}
@@ -344,6 +351,7 @@ def test_check_storage_opens_nothing(tmp_path, monkeypatch):
      (dict(random_state=-1), "random_state must be None or an integer seed >= 0; got -1"),
      (dict(scoring="mse"), "scoring must be one of .*got 'mse'"),
      (dict(storage="x.csv"), "storage 'x.csv' is not understood"),
+     (dict(refit="yes"), "refit must be True or False; got 'yes'"),
      (dict(storage="sqlite:///no_such_folder/x.db"), "folder 'no_such_folder' does not exist"),
      (dict(storage="journal:///no_such_folder/x.log"), "folder '/no_such_folder' does not exist"),
      (dict(search_space={"order": IntRange(1, 3)}), "search_space names 'order', which ARX has not"),

@@ -14,7 +14,6 @@ import time
 import warnings
 
 import numpy as np
-from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
 from .. import __version__
@@ -149,7 +148,7 @@ def _search_and_fit(spec, estimator, X, y, info, *, n_val, n_trials, n_init, see
         best, study = tune(
             estimator, spec.search_space(quick, n_init), X, y, cv=HoldoutSplit(validation_size=n_val), scoring="rmse",
             n_trials=n_trials, storage=storage, study_name=study_name, n_jobs=n_jobs,
-            random_state=seed, show_progress_bar=show_progress_bar,
+            random_state=seed, show_progress_bar=show_progress_bar, refit=False,
         )
         trial = study.best_trial
         info["n_trials"] = len(study.trials)
@@ -158,7 +157,7 @@ def _search_and_fit(spec, estimator, X, y, info, *, n_val, n_trials, n_init, see
         info["best_value"] = value if np.isfinite(value) else None
         # ... and keep the model fitted on the training block, the one the validation chose
         # (a thresholded fit on more data can select other terms than the validated one)
-        return clone(best).fit(X[:-n_val], y[:-n_val])
+        return best.fit(X[:-n_val], y[:-n_val])
     # estimators with an inner search validate on the last n_val samples themselves
     return estimator.fit(X, y)
 

@@ -157,6 +157,7 @@ def tune(
     n_jobs=1,
     random_state=None,
     show_progress_bar=False,
+    refit=True,
 ):
     """Choose hyperparameters by Bayesian optimisation of the simulation error.
 
@@ -214,11 +215,16 @@ def tune(
         ``(random_state, n)``, so concurrent or restarted workers do not
         repeat each other's points.
     show_progress_bar : bool, default=False
+    refit : bool, default=True
+        Fit the best estimator on all of ``X, y``. ``False`` returns it
+        unfitted, for a caller that fits it on other data (the study fits the
+        chosen model on the training block only), saving one fit.
 
     Returns
     -------
     best_estimator : estimator
-        A clone with the best trial's parameters, fitted on all of ``X, y``.
+        A clone with the best trial's parameters, fitted on all of ``X, y``
+        (unfitted with ``refit=False``).
     study : optuna.study.Study
         All trials. ``user_attrs`` of a trial: ``params`` (the values set on
         the estimator), ``split_scores``, ``worker`` (``host:pid``) and, for a
@@ -256,6 +262,8 @@ def tune(
     (True, True)
     """
     scorer, direction, sign = _check_args(n_trials, timeout, n_jobs, random_state, scoring)
+    if not isinstance(refit, (bool, np.bool_)):
+        raise ValueError(f"refit must be True or False; got {refit!r}.")
     check_search_space(search_space, estimator)
     X = None if X is None else np.asarray(X)
     y = np.asarray(y)
@@ -290,5 +298,7 @@ def tune(
         )
     best = study.best_trial
     params = sample_params(search_space, optuna.trial.FixedTrial(best.params, best.number))
-    best_estimator = clone(estimator).set_params(**params).fit(X, y)
+    best_estimator = clone(estimator).set_params(**params)
+    if refit:
+        best_estimator.fit(X, y)
     return best_estimator, study

@@ -97,12 +97,9 @@ def _configure_logging(quiet):
     root.handlers[:] = [handler]
     root.setLevel(logging.WARNING if quiet else logging.INFO)
     root.propagate = False
-    try:
-        import optuna
+    import optuna  # a dependency of sindybench; imported here so that --help stays fast
 
-        optuna.logging.set_verbosity(optuna.logging.WARNING)
-    except ImportError:  # optuna is a dependency; only its log level is set here
-        pass
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
 
 
 def _run(args):

@@ -92,9 +92,11 @@ def nnarx_model(*, hidden_layer_sizes=(16,), max_iter=300, quick_max_iter=60):
     return make
 
 
-def nnarx_space(max_na=5, max_nb=5, sizes=((8,), (16,), (32,), (16, 16))):
+def nnarx_space(max_na=5, max_nb=5, sizes=((8,), (16,), (32,), (16, 16)), alpha=(1e-1, 1e1)):
     """Search space of NN-ARX orders, network size and weight penalty (see :func:`arx_space`).
 
+    The default penalty range suits ``NNARX(residual=True)`` (the default): the
+    networks fit a small residual of a linear ARX part on standardised data.
     With ``quick`` the network size is not searched (it stays small).
     """
     def space(quick, n_init):
@@ -103,7 +105,7 @@ def nnarx_space(max_na=5, max_nb=5, sizes=((8,), (16,), (32,), (16, 16))):
         dims = {
             "na": IntRange(1, min(max_na, n_init)),
             "nb": IntRange(1, min(max_nb, n_init)),
-            "alpha": LogUniform(1e-6, 1e-1),
+            "alpha": LogUniform(*alpha),
         }
         if not quick:
             dims["hidden_layer_sizes"] = Categorical(sizes)

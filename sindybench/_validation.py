@@ -144,7 +144,8 @@ def check_positive(value, name, *, allow_none=False, strict=True, allow_inf=Fals
 def check_integer(value, name, *, low=1, high=None):
     """Return ``value`` as an int after checking that it is an integer in ``[low, high]``.
 
-    ``bool`` is rejected (``True`` is not a count); ``high=None`` means no upper limit.
+    ``bool`` is rejected (``True`` is not a count); ``low=None`` / ``high=None`` mean no
+    lower / upper limit.
 
     Examples
     --------
@@ -158,11 +159,16 @@ def check_integer(value, name, *, low=1, high=None):
     Traceback (most recent call last):
     ...
     ValueError: order must be an integer in [1, 2]; got 5.
+    >>> check_integer(-3, "low", low=None)
+    -3
     """
     ok = isinstance(value, numbers.Integral) and not isinstance(value, (bool, np.bool_))
-    if not ok or value < low or (high is not None and value > high):
-        expected = f">= {low}" if high is None else f"in [{low}, {high}]"
-        raise ValueError(f"{name} must be an integer {expected}; got {value!r}.")
+    if not ok or (low is not None and value < low) or (high is not None and value > high):
+        if high is None:
+            expected = "" if low is None else f" >= {low}"
+        else:
+            expected = f" <= {high}" if low is None else f" in [{low}, {high}]"
+        raise ValueError(f"{name} must be an integer{expected}; got {value!r}.")
     return int(value)
 
 

@@ -21,6 +21,8 @@ def test_check_integer_accepts_integers(value):
         ("3", {}, r"n must be an integer >= 1; got '3'\."),
         (-1, {"low": 0}, r"n must be an integer >= 0; got -1\."),
         (3, {"low": 1, "high": 2}, r"n must be an integer in \[1, 2\]; got 3\."),
+        (1.5, {"low": None}, r"n must be an integer; got 1\.5\."),
+        (3, {"low": None, "high": 2}, r"n must be an integer <= 2; got 3\."),
     ],
 )
 def test_check_integer_rejects(value, kwargs, match):

@@ -1,22 +1,14 @@
 """What the ARX-type baselines share: orders, data checks, initial outputs, scoring."""
 
-import numbers
-
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
-from .._validation import check_signal
+from .._validation import check_integer, check_signal
 from ..metrics import r2
 from ._lags import lagged_regressors, n_lags
 
 __all__ = ["LagModel"]
-
-
-def _check_order(value, name):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
-        raise ValueError(f"{name} must be an integer >= 0; got {value!r}.")
-    return int(value)
 
 
 class LagModel(RegressorMixin, BaseEstimator):
@@ -27,9 +19,9 @@ class LagModel(RegressorMixin, BaseEstimator):
     """
 
     def _check_orders(self):
-        na = _check_order(self.na, "na")
-        nb = _check_order(self.nb, "nb")
-        nk = _check_order(self.nk, "nk")
+        na = check_integer(self.na, "na", low=0)
+        nb = check_integer(self.nb, "nb", low=0)
+        nk = check_integer(self.nk, "nk", low=0)
         if na + nb == 0:
             raise ValueError("na and nb are both 0; expected at least one output or input lag.")
         return na, nb, nk

@@ -1,12 +1,11 @@
 """NN-ARX: the ARX lags feeding multilayer perceptrons, simulated in free run."""
 
-import numbers
-
 import numpy as np
 from scipy.linalg import block_diag
 from sklearn.neural_network import MLPRegressor
 from sklearn.utils import check_random_state
 
+from .._validation import check_bool, check_integer, check_option
 from ._base import LagModel
 from ._lags import free_run, input_lags
 
@@ -159,13 +158,9 @@ class NNARX(LagModel):
         self.random_state = random_state
 
     def _check_settings(self):
-        if self.activation not in _ACTIVATIONS:
-            raise ValueError(f"activation must be one of {sorted(_ACTIVATIONS)}; got {self.activation!r}.")
-        if not isinstance(self.residual, (bool, np.bool_)):
-            raise ValueError(f"residual must be True or False; got {self.residual!r}.")
-        n = self.n_estimators
-        if isinstance(n, (bool, np.bool_)) or not isinstance(n, numbers.Integral) or n < 1:
-            raise ValueError(f"n_estimators must be an integer >= 1; got {n!r}.")
+        check_option(self.activation, "activation", sorted(_ACTIVATIONS))
+        check_bool(self.residual, "residual")
+        check_integer(self.n_estimators, "n_estimators")
 
     def fit(self, X, y):
         """Train the networks on the one-step-ahead regressors.

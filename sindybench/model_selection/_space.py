@@ -21,6 +21,8 @@ from dataclasses import dataclass
 
 from scipy.special import ndtr, ndtri
 
+from .._validation import check_integer
+
 __all__ = [
     "Categorical",
     "IntRange",
@@ -112,9 +114,7 @@ class IntRange(Dimension):
 
     def __post_init__(self):
         for name in ("low", "high", "step"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral):
-                raise ValueError(f"{self}: {name} must be an integer; got {value!r}.")
+            check_integer(getattr(self, name), f"{self}: {name}", low=None)
         if self.step < 1:
             raise ValueError(f"{self}: step={self.step}; expected step >= 1.")
         if self.log and self.step != 1:

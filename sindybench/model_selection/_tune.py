@@ -9,6 +9,7 @@ import optuna
 from sklearn.base import clone
 from sklearn.model_selection import TimeSeriesSplit
 
+from .._validation import check_bool, check_integer
 from ..metrics import make_simulation_scorer
 from ._sampler import make_sampler
 from ._space import check_search_space, sample_params
@@ -31,8 +32,7 @@ class AllTrialsFailedError(RuntimeError):
 
 
 def _check_args(n_trials, timeout, n_jobs, random_state, scoring):
-    if isinstance(n_trials, bool) or not isinstance(n_trials, numbers.Integral) or n_trials < 1:
-        raise ValueError(f"n_trials must be an integer >= 1; got {n_trials!r}.")
+    check_integer(n_trials, "n_trials")
     if timeout is not None and (
         isinstance(timeout, bool) or not isinstance(timeout, numbers.Real) or not timeout > 0
     ):
@@ -262,8 +262,7 @@ def tune(
     (True, True)
     """
     scorer, direction, sign = _check_args(n_trials, timeout, n_jobs, random_state, scoring)
-    if not isinstance(refit, (bool, np.bool_)):
-        raise ValueError(f"refit must be True or False; got {refit!r}.")
+    check_bool(refit, "refit")
     check_search_space(search_space, estimator)
     X = None if X is None else np.asarray(X)
     y = np.asarray(y)

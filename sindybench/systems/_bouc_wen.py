@@ -16,9 +16,9 @@ import numbers
 import numpy as np
 from numba import njit
 
-from .._validation import check_positive, check_signal
+from .._validation import check_integer, check_positive, check_signal
 from ._resample import decimate_fir, upsample
-from ._signals import _check_count, check_rng
+from ._signals import check_rng
 
 __all__ = ["BoucWen"]
 
@@ -184,10 +184,10 @@ class BoucWen:
         nu = self.nu
         if isinstance(nu, bool) or not isinstance(nu, numbers.Real) or not (np.isfinite(nu) and nu >= 1):
             raise ValueError(f"nu must be a finite number >= 1 (the hysteresis law is not differentiable below); got {nu!r}.")
-        up = _check_count(self.upsampling, "upsampling", 1)
-        _check_count(self.max_newton, "max_newton", 1)
+        up = check_integer(self.upsampling, "upsampling", low=1)
+        check_integer(self.max_newton, "max_newton", low=1)
         try:
-            stages = tuple(_check_count(r, "each decimation stage", 1) for r in self.decimation)
+            stages = tuple(check_integer(r, "each decimation stage", low=1) for r in self.decimation)
         except TypeError as exc:
             raise ValueError(f"decimation must be a tuple of integer factors; got {self.decimation!r}.") from exc
         if int(np.prod(stages)) != up:
@@ -210,7 +210,7 @@ class BoucWen:
         u = u[:, 0]
         x0 = self._check_x0(x0)
         if periodic:
-            n_periods = _check_count(n_periods, "n_periods", 2)
+            n_periods = check_integer(n_periods, "n_periods", low=2)
         fine = upsample(u, up, periodic=periodic)
         if periodic:
             fine = np.tile(fine, n_periods)

@@ -1,11 +1,9 @@
 """Excitation signals of the Bouc-Wen benchmark: random-phase multisine, low-frequency sine."""
 
-import numbers
-
 import numpy as np
 from sklearn.utils import check_random_state
 
-from .._validation import check_positive
+from .._validation import check_integer, check_positive
 
 __all__ = ["check_rng", "low_frequency_sine", "multisine"]
 
@@ -15,12 +13,6 @@ def check_rng(random_state):
     if isinstance(random_state, np.random.Generator):
         return random_state
     return check_random_state(random_state)
-
-
-def _check_count(value, name, minimum=1):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}; got {value!r}.")
-    return int(value)
 
 
 def multisine(n_samples=8192, *, n_periods=1, fs=750.0, f_min=5.0, f_max=150.0, std=50.0, random_state=None):
@@ -57,8 +49,8 @@ def multisine(n_samples=8192, *, n_periods=1, fs=750.0, f_min=5.0, f_max=150.0, 
     >>> u.shape, bool(np.allclose(u[:1024], u[1024:])), round(float(u[:1024].std(ddof=1)), 6)
     ((2048, 1), True, 50.0)
     """
-    n_samples = _check_count(n_samples, "n_samples", 4)
-    n_periods = _check_count(n_periods, "n_periods")
+    n_samples = check_integer(n_samples, "n_samples", low=4)
+    n_periods = check_integer(n_periods, "n_periods")
     fs = check_positive(fs, "fs")
     std = check_positive(std, "std")
     f_min = check_positive(f_min, "f_min", strict=False)
@@ -97,7 +89,7 @@ def low_frequency_sine(*, amplitude=150.0, frequency=0.75, fs=750.0, n_periods=1
     amplitude = check_positive(amplitude, "amplitude")
     frequency = check_positive(frequency, "frequency")
     fs = check_positive(fs, "fs")
-    n_periods = _check_count(n_periods, "n_periods")
+    n_periods = check_integer(n_periods, "n_periods")
     n = int(round(n_periods * fs / frequency))
     if n < 2:
         raise ValueError(f"the sine gives {n} samples at fs={fs:g} Hz; expected at least 2 (lower the frequency).")

@@ -14,8 +14,8 @@ level's start free) to the estimation record of the cascaded-tanks benchmark
 import numpy as np
 from numba import njit
 
-from .._validation import check_dt, check_positive, check_signal
-from ._signals import _check_count, check_rng
+from .._validation import check_dt, check_integer, check_positive, check_signal
+from ._signals import check_rng
 
 __all__ = ["CascadedTanks"]
 
@@ -96,7 +96,7 @@ class CascadedTanks:
         for name in ("k1", "k2", "k3", "k4", "x_max"):
             check_positive(getattr(self, name), name)
         check_positive(self.noise_std, "noise_std", strict=False)
-        _check_count(self.n_substeps, "n_substeps")
+        check_integer(self.n_substeps, "n_substeps")
 
     def equilibrium(self, u):
         """Steady levels ``(x1, x2)`` for a constant input ``u`` (clipped to ``[0, x_max]``)."""

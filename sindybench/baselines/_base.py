@@ -14,8 +14,11 @@ __all__ = ["LagModel"]
 class LagModel(RegressorMixin, BaseEstimator):
     """Base class of models ``y[t] = f(y[t-1..t-na], u[t-nk..t-nk-nb+1])``.
 
-    Subclasses implement ``_fit_regression(phi, target)`` (on the lagged
-    regressors of :func:`lagged_regressors`) and ``_simulate(u, y_start)``.
+    Subclasses implement ``fit(X, y)``, which starts with ``_fit_lags(X, y)``
+    (checks the orders and data, sets ``n_outputs_``, ``n_lags_``, ``y_mean_``
+    and returns the lagged regressors ``(phi, target)`` of
+    :func:`lagged_regressors`), and ``_simulate(u, y_start)``, the free run
+    from the first ``n_lags_`` outputs ``y_start``.
     """
 
     def _check_orders(self):

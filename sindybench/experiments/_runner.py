@@ -17,6 +17,7 @@ import numpy as np
 from sklearn.exceptions import ConvergenceWarning
 
 from .. import __version__
+from .._json import jsonable
 from ..metrics import fit_index, r2, rmse
 from ._published import published
 
@@ -93,16 +94,6 @@ def _training_record(benchmark, data, quick):
     return X, y, len(y_tr), len(y_va)
 
 
-def _jsonable(value):
-    if isinstance(value, (np.floating, np.integer)):
-        return value.item()
-    if isinstance(value, (str, int, float, bool)) or value is None:
-        return value
-    if isinstance(value, (list, tuple)):
-        return [_jsonable(v) for v in value]
-    return repr(value)
-
-
 def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, storage=None,
               n_jobs=1, study_name=None, show_progress_bar=False):
     """Tune (when the spec has a search space and a budget) and fit one model.
@@ -133,7 +124,7 @@ def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, s
         )
     inner = getattr(estimator, "best_params_", None)
     if not info["best_params"] and inner:
-        info["best_params"] = {k: _jsonable(v) for k, v in inner.items()}
+        info["best_params"] = {k: jsonable(v) for k, v in inner.items()}
     info["inner_trials"] = len(getattr(estimator, "search_results_", None) or ())
     info["fit_time_s"] = time.perf_counter() - start
     return estimator, info
@@ -152,7 +143,7 @@ def _search_and_fit(spec, estimator, X, y, info, *, n_val, n_trials, n_init, see
         )
         trial = study.best_trial
         info["n_trials"] = len(study.trials)
-        info["best_params"] = {k: _jsonable(v) for k, v in trial.user_attrs.get("params", trial.params).items()}
+        info["best_params"] = {k: jsonable(v) for k, v in trial.user_attrs.get("params", trial.params).items()}
         value = abs(float(trial.value))
         info["best_value"] = value if np.isfinite(value) else None
         # ... and keep the model fitted on the training block, the one the validation chose

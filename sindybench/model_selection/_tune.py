@@ -9,6 +9,7 @@ import optuna
 from sklearn.base import clone
 from sklearn.model_selection import TimeSeriesSplit
 
+from .._json import jsonable
 from .._validation import check_bool, check_integer
 from ..metrics import make_simulation_scorer
 from ._sampler import make_sampler
@@ -68,14 +69,6 @@ def _take(a, idx):
     return None if a is None else a[idx]
 
 
-def _jsonable(value):
-    if isinstance(value, np.generic):
-        return value.item()
-    if value is None or isinstance(value, (bool, int, float, str)):
-        return value
-    return repr(value)
-
-
 def _fail(trial, reason):
     trial.set_user_attr("fail_reason", reason)
     raise optuna.TrialPruned(reason)
@@ -87,7 +80,7 @@ def _objective(estimator, search_space, X, y, splits, scorer, sign):
     def objective(trial):
         trial.set_user_attr("worker", worker)
         params = sample_params(search_space, trial)
-        trial.set_user_attr("params", {k: _jsonable(v) for k, v in params.items()})
+        trial.set_user_attr("params", {k: jsonable(v) for k, v in params.items()})
         scores = []
         for k, (train, test) in enumerate(splits):
             stage = "set_params"

@@ -49,6 +49,27 @@ def register_model(cls, *, to_dict, from_dict):
         ``ValueError`` for a model that cannot be stored as plain data.
     from_dict : callable
         ``from_dict(params, fitted) -> model``, the fitted model.
+
+    Examples
+    --------
+    >>> from sklearn.base import BaseEstimator
+    >>> class Gain(BaseEstimator):
+    ...     def __init__(self, *, k=1.0):
+    ...         self.k = k
+    ...     def fit(self, X, y):
+    ...         self.gain_ = self.k * float(np.mean(y))
+    ...         return self
+    >>> def gain_from_dict(params, fitted):
+    ...     model = Gain(**params)
+    ...     model.gain_ = fitted["gain"]
+    ...     return model
+    >>> register_model(Gain, to_dict=lambda m: ({"k": m.k}, {"gain": m.gain_}), from_dict=gain_from_dict)
+    >>> data = model_to_dict(Gain(k=2.0).fit(None, [1.0, 2.0]))
+    >>> data["class"], data["params"], data["fitted"]
+    ('Gain', {'k': 2.0}, {'gain': 3.0})
+    >>> model_from_dict(data).gain_
+    3.0
+    >>> _ = _REGISTRY.pop("Gain")  # unregister the example class again
     """
     _REGISTRY[cls.__name__] = (cls, to_dict, from_dict)
 
@@ -285,6 +306,18 @@ def load_model(path):
     -------
     fitted estimator
         Simulates exactly like the saved one.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
+    >>> model = SINDy(library=PolynomialLibrary(degree=1), dt=0.01).fit(None, y)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     model.to_json(pathlib.Path(folder) / "model.json")
+    ...     loaded = load_model(pathlib.Path(folder) / "model.json")
+    >>> loaded.equations() == model.equations(), bool(np.array_equal(loaded.coef_, model.coef_))
+    (True, True)
     """
     with open(path, encoding="utf-8") as f:
         try:

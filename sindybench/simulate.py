@@ -35,6 +35,22 @@ class SimulationError(RuntimeError):
         Index of the first output sample whose state is invalid.
     state : ndarray or None
         That state.
+
+    Examples
+    --------
+    ``dx/dt = x^2`` from ``x(0) = 1`` blows up at ``t = 1``:
+
+    >>> try:
+    ...     simulate(lambda x, u: x**2, [1.0], np.zeros((30, 0)), 0.1)
+    ... except SimulationError as exc:
+    ...     print(exc.step, exc.state)
+    13 [inf]
+
+    With ``on_divergence="nan"`` the samples from that step on are NaN instead:
+
+    >>> x = simulate(lambda x, u: x**2, [1.0], np.zeros((30, 0)), 0.1, on_divergence="nan")
+    >>> int(np.argmax(np.isnan(x[:, 0])))
+    13
     """
 
     def __init__(self, message, *, step, state=None):

@@ -17,6 +17,20 @@ class BaseDifferentiation(BaseEstimator):
     ``(n_samples, n_channels)``, ``t`` the sample times and ``step`` the sampling
     interval when it is uniform (``None`` otherwise), and ``_min_samples(order)``.
     Columns are differentiated independently.
+
+    Examples
+    --------
+    A method built on ``numpy.gradient`` (second-order accurate, uniform or not):
+
+    >>> class Gradient(BaseDifferentiation):
+    ...     def _derivative(self, y, t, step, order):
+    ...         d = np.gradient(y, t, axis=0, edge_order=2)
+    ...         return d if order == 1 else np.gradient(d, t, axis=0, edge_order=2)
+    >>> t = np.linspace(0.0, 1.0, 11)
+    >>> Gradient().derivative(t**2, dt=0.1)[:3]
+    array([0. , 0.2, 0.4])
+    >>> Gradient().derivative(t**2, t=t, order=2)[:3]
+    array([2., 2., 2.])
     """
 
     def derivative(self, y, *, dt=None, t=None, order=1):

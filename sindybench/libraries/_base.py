@@ -80,6 +80,23 @@ class BaseLibrary(TransformerMixin, BaseEstimator):
     parameters) and get ``fit``, ``transform`` and ``get_feature_names_out``.
     ``lib1 + lib2`` is a :class:`ConcatLibrary`, ``lib1 * lib2`` a
     :class:`ProductLibrary`.
+
+    Examples
+    --------
+    A library of the signs of all columns, in one method (terms as in
+    :mod:`sindybench.libraries._terms`):
+
+    >>> from sindybench.libraries import SIGN
+    >>> class SignLibrary(BaseLibrary):
+    ...     def _make_terms(self, n_features):
+    ...         return [((col, SIGN, 0.0, 0.0),) for col in range(n_features)]
+    >>> Z = np.array([[-2.0, 3.0], [0.5, -1.0]])
+    >>> lib = SignLibrary().fit(Z)
+    >>> lib.get_feature_names_out(["y0", "u0"]).tolist()
+    ['sign(y0)', 'sign(u0)']
+    >>> lib.transform(Z)
+    array([[-1.,  1.],
+           [ 1., -1.]])
     """
 
     def _validate_Z(self, Z, *, reset):

@@ -79,6 +79,9 @@ def test_one_dimensional_output_round_trip(oscillator):
         ({"n_substeps": 1.5}, "n_substeps must be an integer >= 1"),
         ({"input_hold": "cubic"}, "input_hold must be one of"),
         ({"refit": "yes"}, "refit must be True or False"),
+        ({"validation": "test"}, "validation must be one of"),
+        ({"local_trials": -1}, "local_trials must be an integer in"),
+        ({"local_trials": 50, "n_trials": 50}, "local_trials must be an integer in"),
         ({"max_abs": -1.0}, "max_abs must be a number > 0"),
         ({"hidden": "augment"}, "hidden must be a HiddenStrategy"),
         ({"search_params": {"nope__x": (0.0, 1.0)}}, "unknown parameters"),
@@ -160,3 +163,28 @@ def test_search_is_reproducible(oscillator):
     b = _model(random_state=3, **kw).fit(u, y)
     assert a.best_params_ == b.best_params_
     np.testing.assert_array_equal(a.coef_, b.coef_)
+
+
+@pytest.mark.parametrize("validation", ["block", "continued", "full"])
+def test_validation_modes_and_local_refinement(oscillator, validation):
+    u, y, _ = oscillator
+    model = _leaky_model((0.1, 3.0), n_trials=16, local_trials=6, validation=validation, validation_size=200)
+    model.fit(u[:600], y[:600])
+    scores = np.array([s for _, s in model.search_results_])
+    assert len(scores) == 16 and np.isfinite(scores).all()
+    best_tpe = scores[:10].min()
+    assert np.min(np.abs(scores[10:] - best_tpe)) < 0.5 * best_tpe  # the refinement starts at the best trial
+    assert model.search_results_[int(np.argmin(scores))][0] == model.best_params_
+    assert model.params_["a"] == model.best_params_["hidden__a"]
+
+
+def test_long_horizon_validation_scores_from_the_training_start(oscillator):
+    """"continued" scores the validation block of a simulation started at sample 0, "full" the whole record."""
+    u, y, _ = oscillator
+    fits = {v: _leaky_model((0.5, 0.5 + 1e-9), n_trials=1, validation=v, validation_size=200).fit(u[:600], y[:600])
+            for v in ("block", "continued", "full")}
+    model = fits["full"]
+    y_sim = model._simulate(model._candidate_, model.states_[0], u[:600], DT, "nan")[:, :1]
+    assert np.isfinite(y_sim).all()
+    scores = {v: m.search_results_[0][1] for v, m in fits.items()}
+    assert len(set(scores.values())) == 3  # three different criteria

@@ -6,7 +6,7 @@ import pytest
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.datasets import load_cascaded_tanks
 from sindybench.hidden import TanksHiddenState
-from sindybench.libraries import SqrtLibrary
+from sindybench.libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary
 from sindybench.metrics import rmse
 from sindybench.simulate import TermsRHS
 from sindybench.systems import CascadedTanks
@@ -57,6 +57,8 @@ def test_fixed_coefficients_search_only_the_start_level(tanks_data):
         ({"k1": -0.1}, "k1 must be a finite number > 0"),
         ({"k2": "big"}, "k2 must be a finite number > 0"),
         ({"k_bounds": (0.0, 0.1)}, "log-scaled"),
+        ({"ratio_bounds": (0.0, 3.0)}, "ratio_bounds must be positive"),
+        ({"ratio_bounds": (3.0, 0.3)}, "expected finite low < high"),
         ({"x0": 12.0}, "x0 must be a number within bounds"),
         ({"init": "guess"}, "init must be one of"),
     ],
@@ -73,20 +75,70 @@ def test_one_input_one_output_only(tanks_data):
         HiddenStateSINDy(hidden=TanksHiddenState(k1=0.04, k2=0.03, x0=3.0), dt=DT).fit(u, np.hstack([y, y]))
 
 
+def test_ratio_search(tanks_data):
+    """k1 and k2 / k1 searched (the valley of good (k1, k2) along one axis), whole-record validation."""
+    system, u, y, x = tanks_data
+    hidden = TanksHiddenState(ratio_bounds=(0.3, 3.0), k_bounds=(0.01, 0.1))
+    model = HiddenStateSINDy(hidden=hidden, library=SqrtLibrary(variables=[0, 1]), dt=DT, n_substeps=4, n_trials=40,
+                             local_trials=10, validation="full", random_state=0).fit(u, y)
+    assert set(model.best_params_) == {"hidden__k1", "hidden__ratio", "hidden__x0"}
+    assert set(model.params_) == {"k1", "k2", "x0"}
+    assert model.params_["k2"] == pytest.approx(model.params_["k1"] * model.best_params_["hidden__ratio"])
+    assert model.params_["k2"] / model.params_["k1"] == pytest.approx(system.k2 / system.k1, rel=0.1)
+    assert model.score(u[500:], y[500:]) > 0.95
+    # a fixed k1 leaves k2 to k_bounds
+    fixed = TanksHiddenState(k1=system.k1, ratio_bounds=(0.3, 3.0), k_bounds=(0.01, 0.1))
+    assert sorted(fixed.search_space()) == ["k2", "x0"]
+
+
 # ------------------------------------------------------------------ real benchmark
-def _fit_benchmark(data_home, *, k_bounds, n_trials, random_state):
+_LIBRARIES = {
+    "polynomial": lambda: PolynomialLibrary(degree=2),
+    "square root": lambda: ConcatLibrary([PolynomialLibrary(degree=1), SqrtLibrary(lower=0.0)]),
+    "polynomial + square root": lambda: None,  # the strategy's default library
+}
+
+
+def _fit_benchmark(data_home, *, library="polynomial + square root", k_bounds=(0.02, 0.08), n_trials=60,
+                   random_state=0, **kw):
     data = load_cascaded_tanks(data_home=data_home)
     train, val, test = data.train, data.validation, data.test
+    hidden_kw = {k: kw.pop(k) for k in ("ratio_bounds",) if k in kw}
     model = HiddenStateSINDy(
-        hidden=TanksHiddenState(k_bounds=k_bounds, output_bounds=(0.0, 10.0)), optimizer=STLS(threshold=0.0),
-        dt=train.dt, validation_size=len(val.y), n_trials=n_trials, random_state=random_state, n_substeps=4,
+        hidden=TanksHiddenState(k_bounds=k_bounds, output_bounds=(0.0, 10.0), **hidden_kw),
+        library=_LIBRARIES[library](), optimizer=STLS(threshold=0.0), dt=train.dt, validation_size=len(val.y),
+        n_trials=n_trials, random_state=random_state, n_substeps=4, **kw,
     ).fit(np.vstack([train.u, val.u]), np.vstack([train.y, val.y]))
-    return rmse(test.y, model.predict(test.u, y_init=test.y))
+    # started from the first n_init = 5 test samples, as in the benchmark
+    return rmse(test.y, model.predict(test.u, y_init=test.y[: data.n_init]))
 
 
 def test_cascaded_tanks_beats_bar(data_home):
     """Study: 0.55 V (naive SINDy 1.09 V); bar 0.60 V. Physically narrowed k range, 60 trials, seed 0."""
-    assert _fit_benchmark(data_home, k_bounds=(0.02, 0.08), n_trials=60, random_state=0) <= 0.60
+    assert _fit_benchmark(data_home, n_trials=60, random_state=0) <= 0.60
+
+
+# the settings of ``sindybench run cascaded-tanks --quick``: whole-record validation, (k1, k2 / k1) searched
+_ROBUST = dict(validation="full", ratio_bounds=(0.3, 3.0), n_trials=60, local_trials=20)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("library", ["polynomial", "polynomial + square root"])
+def test_cascaded_tanks_robust_across_seeds(data_home, library, seed):
+    """Every seed under the bar. Scored on the 256-sample validation block alone, the polynomial library at
+    seed 0 drained the lower tank on the test (5.97 V): ``validation="full"`` rejects such candidates."""
+    assert _fit_benchmark(data_home, library=library, random_state=seed, **_ROBUST) <= 0.60
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cascaded_tanks_square_root_library_is_not_far_off(data_home, seed):
+    """The study's square-root library (study: 0.56 V) lands at 0.58-0.70 V here, never far off."""
+    assert _fit_benchmark(data_home, library="square root", random_state=seed, **_ROBUST) <= 0.75
+
+
+def test_block_validation_can_pick_a_drifting_model(data_home):
+    """The failure the whole-record validation fixes (a known outcome, kept as a check of the diagnosis)."""
+    assert _fit_benchmark(data_home, library="polynomial", n_trials=60, random_state=0) > 1.0
 
 
 @pytest.mark.slow

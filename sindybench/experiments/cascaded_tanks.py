@@ -17,6 +17,11 @@ __all__ = ["BENCHMARK"]
 _BOUNDS = (0.0, 10.0)
 # total-variation regularisation of the derivative (units V s; dt = 4 s)
 _GAMMA = (1e-2, 1e2)
+# hidden upper tank: search range of k1 and of k2 / k1, inner search budgets (each candidate takes ~10 ms;
+# below ~60 candidates the search can miss the good basin of the whole-record simulation error)
+_K1 = (0.02, 0.08)
+_RATIO = (0.3, 3.0)
+_TRIALS, _TRIALS_QUICK = 100, 60
 
 
 def _load(**kwargs):
@@ -46,21 +51,29 @@ def _second_order(*, random_state, quick, dt, n_val, n_samples):
 
 
 def _hidden(library):
-    """The hidden upper tank with the settings of ``examples/hidden_results.py``.
+    """The hidden upper tank, chosen by its simulation over the whole estimation record.
 
-    ``k1, k2`` in (0.02, 0.08) and the upper tank's start level are searched
-    on the validation block (Optuna TPE inside ``fit``); the learned equation
-    is plain least squares on the given library (``library=None``: the
-    strategy's default, a quadratic polynomial plus ``sqrt(y)``, ``sqrt(x1)``).
+    ``k1`` in (0.02, 0.08), the ratio ``k2 / k1`` in (0.3, 3) (the upper tank
+    overflows in steady state above a pump voltage of about 1 to 10 V) and the
+    upper tank's start level are searched inside ``fit`` (Optuna TPE, then a
+    local refinement of the best candidates). Each candidate is fitted on the
+    training block and scored by its open-loop simulation of the whole record
+    (training + validation block) from its start (``validation="full"``): a
+    candidate that fits the 256-sample validation block from a fresh start but
+    drifts over long horizons (e.g. drains the lower tank) is rejected. The
+    learned equation is plain least squares on the given library
+    (``library=None``: the strategy's default, a quadratic polynomial plus
+    ``sqrt(y)``, ``sqrt(x1)``).
     """
     def make(*, random_state, quick, dt, n_val, n_samples):
         from .. import STLS, HiddenStateSINDy
         from ..hidden import TanksHiddenState
 
         return HiddenStateSINDy(
-            hidden=TanksHiddenState(bounds=_BOUNDS, k_bounds=(0.02, 0.08), output_bounds=_BOUNDS),
+            hidden=TanksHiddenState(bounds=_BOUNDS, k_bounds=_K1, ratio_bounds=_RATIO, output_bounds=_BOUNDS),
             library=None if library is None else library(), optimizer=STLS(threshold=0.0), dt=dt, n_substeps=4,
-            validation_size=n_val, n_trials=15 if quick else 60, random_state=random_state,
+            validation_size=n_val, validation="full", n_trials=_TRIALS_QUICK if quick else _TRIALS,
+            local_trials=(_TRIALS_QUICK if quick else _TRIALS) // 3, random_state=random_state,
         )
 
     return make

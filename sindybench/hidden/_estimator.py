@@ -24,6 +24,7 @@ logger = logging.getLogger(__name__)
 
 _PENALTY = 1e3  # validation score of a diverged or failed candidate (scores are normalized RMSEs)
 _HIDDEN_PREFIX = "hidden__"
+_VALIDATIONS = ("block", "continued", "full")
 
 
 class _Derivative:
@@ -112,9 +113,8 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
     parameters listed in ``search_params``) are searched inside ``fit`` with
     Optuna's TPE sampler: each candidate is fitted on the training data without
     its last ``validation_size`` samples and scored by the error of an
-    open-loop simulation of that validation block, started the way new data is
-    started (``strategy.initial_state`` from its first samples). A diverging
-    candidate is a bad trial, never a crash.
+    open-loop simulation (see ``validation``). A diverging candidate is a bad
+    trial, never a crash.
 
     Parameters
     ----------
@@ -135,8 +135,29 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
     validation_size : float or int, default=0.2
         Validation block at the end of the training data: a fraction in
         (0, 1) or a number of samples. Used only when something is searched.
+    validation : {"block", "continued", "full"}, default="block"
+        How a candidate is scored in the inner search (normalized RMSE of an
+        open-loop simulation of the outputs):
+
+        * ``"block"``: the validation block alone, started the way new data is
+          started (``strategy.initial_state`` from its first samples);
+        * ``"continued"``: the validation block, simulated without a restart
+          from the first training state (the reconstructed state at sample 0),
+          so the model must stay valid over the whole record;
+        * ``"full"``: as ``"continued"``, scored over the whole record
+          (training and validation block).
+
+        The simulated candidate is always the one fitted without the
+        validation block. ``"continued"`` and ``"full"`` reject candidates
+        that fit a short block but drift away over long horizons (slow
+        hidden states such as the cascaded tanks' upper tank).
     n_trials : int, default=50
-        Optuna trials of the inner search.
+        Candidates evaluated by the inner search.
+    local_trials : int, default=0
+        How many of the ``n_trials`` refine the best TPE candidates locally
+        (bounded Nelder-Mead on the float parameters from the 3 best distinct
+        candidates); the other ``n_trials - local_trials`` are TPE trials.
+        Useful when good candidates lie in narrow valleys.
     random_state : int, RandomState or None, default=None
         Seed of the TPE sampler.
     search_params : dict, optional
@@ -208,7 +229,9 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         differentiation=None,
         dt=None,
         validation_size=0.2,
+        validation="block",
         n_trials=50,
+        local_trials=0,
         random_state=None,
         search_params=None,
         refit=True,
@@ -222,7 +245,9 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         self.differentiation = differentiation
         self.dt = dt
         self.validation_size = validation_size
+        self.validation = validation
         self.n_trials = n_trials
+        self.local_trials = local_trials
         self.random_state = random_state
         self.search_params = search_params
         self.refit = refit
@@ -243,6 +268,11 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1; got {value!r}.")
+        lt = self.local_trials
+        if isinstance(lt, bool) or not isinstance(lt, numbers.Integral) or not 0 <= lt < self.n_trials:
+            raise ValueError(f"local_trials must be an integer in [0, n_trials={self.n_trials}); got {lt!r}.")
+        if self.validation not in _VALIDATIONS:
+            raise ValueError(f"validation must be one of {_VALIDATIONS}; got {self.validation!r}.")
         if self.input_hold not in _HOLDS:
             raise ValueError(f"input_hold must be one of {_HOLDS}; got {self.input_hold!r}.")
         if not isinstance(self.refit, bool):
@@ -309,14 +339,15 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
             def objective(values):
                 try:
                     cand = self._candidate(hidden, values, X, y1, dt, n_fit)
-                    return self._validation_error(hidden, cand, X[n_fit:], y1[n_fit:], dt)
+                    return self._validation_error(hidden, cand, X, y1, dt, n_fit)
                 except (SimulationError, ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
                     logger.debug("bad trial %s: %s", values, exc)
                     return _PENALTY
 
             with np.errstate(all="ignore"):
                 self.best_params_, self.search_results_ = minimize(
-                    objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=_PENALTY
+                    objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=_PENALTY,
+                    n_local=self.local_trials,
                 )
             if min(s for _, s in self.search_results_) >= _PENALTY:
                 raise ValueError(
@@ -389,11 +420,18 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
             raise ValueError(f"the strategy's initial state {x0!r} is not {cand.structure.n_states} finite numbers.")
         return x0
 
-    def _validation_error(self, hidden, cand, X, y, dt):
-        x0 = self._initial_state(hidden, cand, X, y, dt)
+    def _validation_error(self, hidden, cand, X, y, dt, n_fit):
+        """Normalized RMSE of the candidate's simulation (see ``validation``)."""
+        if self.validation == "block":
+            X, y = X[n_fit:], y[n_fit:]
+            x0 = self._initial_state(hidden, cand, X, y, dt)
+        else:
+            x0 = np.asarray(cand.design.states[0], dtype=float)
         y_sim = self._simulate(cand, x0, X, dt, "nan")[:, list(cand.structure.output_index)]
         if not np.all(np.isfinite(y_sim)):
             return _PENALTY
+        if self.validation == "continued":
+            y_sim, y = y_sim[n_fit:], y[n_fit:]
         scale = np.std(y, axis=0)
         scale[scale == 0] = 1.0
         return float(np.mean(np.sqrt(np.mean((y_sim - y) ** 2, axis=0)) / scale))

@@ -10,6 +10,7 @@ import numbers
 import warnings
 
 import numpy as np
+from scipy.optimize import minimize as scipy_minimize
 from sklearn.utils import check_random_state
 
 __all__ = ["check_space", "minimize"]
@@ -76,18 +77,94 @@ def _suggest(trial, key, spec):
     return trial.suggest_float(key, low, high, log=log)
 
 
-def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3):
-    """Minimize ``objective(values)`` over ``space`` with Optuna's TPE sampler.
+class _Budget(Exception):
+    """The local refinement used up its evaluations (internal)."""
+
+
+def _float_keys(space):
+    return [key for key, spec in space.items() if spec[0] == "float"]
+
+
+def _to_unit(values, space, keys):
+    """Float values -> coordinates in the unit cube (log scale for log dimensions)."""
+    out = []
+    for key in keys:
+        _, low, high, log = space[key]
+        f = np.log if log else (lambda v: v)
+        out.append((f(values[key]) - f(low)) / (f(high) - f(low)))
+    return np.array(out)
+
+
+def _from_unit(z, space, keys):
+    out = {}
+    for key, zi in zip(keys, np.clip(z, 0.0, 1.0)):
+        _, low, high, log = space[key]
+        v = np.exp(np.log(low) + zi * (np.log(high) - np.log(low))) if log else low + zi * (high - low)
+        out[key] = float(min(max(v, low), high))
+    return out
+
+
+def _starts(history, space, keys, n_starts, min_distance=0.1):
+    """The best trials, at least ``min_distance`` apart in the unit cube (float dimensions)."""
+    chosen = []
+    for values, _ in sorted(history, key=lambda item: item[1]):
+        z = _to_unit(values, space, keys)
+        if all(np.max(np.abs(z - zc)) >= min_distance for _, zc in chosen):
+            chosen.append((values, z))
+        if len(chosen) == n_starts:
+            break
+    return chosen
+
+
+def _refine(evaluate, space, history, *, n_evals, n_starts, step):
+    """Bounded Nelder-Mead on the float dimensions from the best distinct trials of ``history``.
+
+    ``evaluate(values)`` scores and records one point; the other dimensions
+    keep the start's values. The ``n_evals`` evaluations are shared between
+    the starts (fewer than ``n_starts`` when the budget is small).
+    """
+    keys = _float_keys(space)
+    if not keys:
+        return
+    d = len(keys)
+    # each start gets at least two simplices' worth of evaluations
+    starts = _starts(history, space, keys, max(1, min(n_starts, n_evals // (2 * (d + 1)))))
+    for i, (values, z0) in enumerate(starts):
+        n_left = n_evals * (i + 1) // len(starts) - n_evals * i // len(starts)
+        used = [0]
+
+        def f(z, values=values, n_left=n_left, used=used):
+            if used[0] >= n_left:
+                raise _Budget
+            used[0] += 1
+            return evaluate({**values, **_from_unit(z, space, keys)})
+
+        # initial simplex: the start and one step along each axis (inwards at an upper edge)
+        simplex = np.vstack([z0] + [z0 + np.eye(d)[j] * (step if z0[j] + step <= 1 else -step) for j in range(d)])
+        try:
+            scipy_minimize(f, z0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * d,
+                           options={"initial_simplex": simplex, "maxfev": n_left, "xatol": 1e-4, "fatol": 1e-6})
+        except _Budget:
+            pass
+
+
+def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_local=0, n_starts=3, step=0.05):
+    """Minimize ``objective(values)`` over ``space`` with Optuna's TPE sampler, then refine locally.
 
     ``objective`` returns a float; NaN, inf or an exception listed by the
     objective itself count as ``penalty`` (a bad trial, never a crash).
+    The first ``n_trials - n_local`` evaluations are TPE trials; the last
+    ``n_local`` refine the ``n_starts`` best distinct trials by bounded
+    Nelder-Mead on the float dimensions (in the unit cube, log dimensions on
+    a log scale; initial simplex of edge ``step``), which finds the bottom
+    of narrow valleys that TPE samples only coarsely.
 
     Returns
     -------
     best : dict
-        Values of the best trial.
+        Values of the best evaluation.
     history : list of (dict, float)
-        Every trial's values and score, in order.
+        Every evaluation's values and score, in order (``n_trials`` at most).
 
     Examples
     --------
@@ -95,14 +172,20 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3):
     ...                          n_trials=30, random_state=0)
     >>> abs(best["a"] - 0.3) < 0.1, len(history)
     (True, 30)
+    >>> best, history = minimize(lambda v: (v["a"] - 0.3) ** 2, {"a": ("float", 0.0, 1.0, False)},
+    ...                          n_trials=30, n_local=15, n_starts=1, random_state=0)
+    >>> abs(best["a"] - 0.3) < 1e-3, len(history) <= 30
+    (True, True)
     """
+    if isinstance(n_local, bool) or not isinstance(n_local, numbers.Integral) or not 0 <= n_local < n_trials:
+        raise ValueError(f"n_local must be an integer in [0, n_trials); got {n_local!r} with n_trials={n_trials}.")
     optuna = _import_optuna()
+    n_tpe = n_trials - n_local
     seed = int(check_random_state(random_state).randint(np.iinfo(np.int32).max))
-    sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=max(10, n_trials // 3))
+    sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=max(10, n_tpe // 3))
     history = []
 
-    def wrapped(trial):
-        values = {key: _suggest(trial, key, spec) for key, spec in space.items()}
+    def evaluate(values):
         score = float(objective(values))
         if not np.isfinite(score) or score > penalty:
             score = penalty
@@ -115,9 +198,12 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3):
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", category=optuna.exceptions.ExperimentalWarning)
             study = optuna.create_study(direction="minimize", sampler=sampler)
-            study.optimize(wrapped, n_trials=n_trials)
+            study.optimize(lambda trial: evaluate({k: _suggest(trial, k, v) for k, v in space.items()}),
+                           n_trials=n_tpe)
     finally:
         optuna.logging.set_verbosity(verbosity)
+    if n_local:
+        _refine(evaluate, space, list(history), n_evals=n_local, n_starts=n_starts, step=step)
     best_values, best_score = min(history, key=lambda item: item[1])
-    logger.info("inner search: best score %.4g after %d trials: %s", best_score, len(history), best_values)
+    logger.info("inner search: best score %.4g after %d evaluations: %s", best_score, len(history), best_values)
     return dict(best_values), history

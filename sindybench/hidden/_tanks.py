@@ -27,7 +27,9 @@ class TanksHiddenState(ParametricHiddenState):
     ----------
     k1, k2 : float, optional
         Outflow and inflow coefficients; None = searched within ``k_bounds``
-        (log scale).
+        (log scale), or, when both are searched and ``ratio_bounds`` is given,
+        ``k1`` within ``k_bounds`` and the ratio ``k2 / k1`` within
+        ``ratio_bounds``.
     x0 : float, optional
         Upper-tank level at the start of the training data; None = searched
         within ``bounds``.
@@ -35,6 +37,15 @@ class TanksHiddenState(ParametricHiddenState):
         Range of the upper-tank level (same units as ``y``).
     k_bounds : (float, float), default=(0.005, 0.2)
         Search range of ``k1`` and ``k2``.
+    ratio_bounds : (float, float), optional
+        Search range of ``k2 / k1`` (log scale), searched instead of ``k2``
+        when both ``k1`` and ``k2`` are None. The ratio sets the upper tank's
+        steady level ``(k2 u / k1)^2`` and so the pump voltage
+        ``sqrt(upper bound) k1 / k2`` above which it overflows; ``k1`` alone
+        then sets its time constant. Searching ``(k1, k2 / k1)`` turns the
+        narrow diagonal valley of good ``(k1, k2)`` pairs into a valley along
+        one axis, which the search finds far more reliably. E.g.
+        ``(0.3, 3.0)``: overflow above about 1 to 10 V on a 10 V tank.
     output_bounds : (float, float), optional
         Simulation bounds of the measured level (e.g. the sensor range).
     init : {"simulation", "derivative"}, default="simulation"
@@ -53,15 +64,21 @@ class TanksHiddenState(ParametricHiddenState):
     ['x0']
     >>> s.structure({"k1": 0.04, "k2": 0.03, "x0": 5.0}, n_outputs=1, n_inputs=1).state_names
     ['y0', 'x1']
+    >>> s = TanksHiddenState(ratio_bounds=(0.3, 3.0))
+    >>> sorted(s.search_space())
+    ['k1', 'ratio', 'x0']
+    >>> s.resolve_params({"k1": 0.04, "ratio": 0.75, "x0": 5.0})
+    {'k1': 0.04, 'k2': 0.03, 'x0': 5.0}
     """
 
-    def __init__(self, *, k1=None, k2=None, x0=None, bounds=(0.0, 10.0), k_bounds=(0.005, 0.2),
+    def __init__(self, *, k1=None, k2=None, x0=None, bounds=(0.0, 10.0), k_bounds=(0.005, 0.2), ratio_bounds=None,
                  output_bounds=None, init="simulation", init_size=50, grid_size=41, n_substeps=4):
         self.k1 = k1
         self.k2 = k2
         self.x0 = x0
         self.bounds = bounds
         self.k_bounds = k_bounds
+        self.ratio_bounds = ratio_bounds
         self.output_bounds = output_bounds
         self.init = init
         self.init_size = init_size
@@ -98,7 +115,21 @@ class TanksHiddenState(ParametricHiddenState):
                 out[name] = float(value)
             else:
                 raise ValueError(f"{name} must be a finite number > 0 or None (searched); got {value!r}.")
+        if self.ratio_bounds is not None:
+            ratio = _check_range(self.ratio_bounds, "ratio_bounds")[:2] + (True,)
+            if ratio[0] <= 0:
+                raise ValueError(f"ratio_bounds must be positive (log-scaled search); got {self.ratio_bounds!r}.")
+            if self.k1 is None and self.k2 is None:
+                del out["k2"]
+                out["ratio"] = ratio
         return out
+
+    def resolve_params(self, values=None):
+        params = super().resolve_params(values)
+        if "ratio" in params:  # searched as k2 / k1
+            ratio = params.pop("ratio")
+            params = {"k1": params["k1"], "k2": params["k1"] * ratio, **params}
+        return params
 
     def _x0_specs(self):
         lo, hi = self._tank_bounds()

@@ -5,8 +5,9 @@ the upper tank, which feeds it, is not. Naive SINDy fits ``y' = f(y, u)`` and
 averages over the missing state; ``TanksHiddenState`` simulates the upper tank
 ``x1' = -k1 sqrt(x1) + k2 u`` (within its bounds: it overflows), fits
 ``y' = f(y, x1, u)`` (a quadratic polynomial plus ``sqrt(y)``, ``sqrt(x1)``)
-and searches ``k1, k2`` and the initial level by the validation simulation
-error. Every model is scored by open-loop simulation of
+and searches ``k1, k2`` and the initial level by the simulation error over
+the whole estimation record, the candidates being fitted without its
+validation block. Every model is scored by open-loop simulation of
 the test record from its first ``n_init`` samples.
 
 Run ``python examples/cascaded_tanks.py [--quick]`` with the benchmark records
@@ -40,12 +41,15 @@ def main(argv=None):
     naive = SINDy(library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=1e-3, alpha=1e-6),
                   dt=data.dt, bounds=BOUNDS).fit(train.u, train.y)
     hidden = HiddenStateSINDy(
-        hidden=TanksHiddenState(bounds=BOUNDS, k_bounds=(0.02, 0.08), output_bounds=BOUNDS),
+        # k1 and the ratio k2/k1 searched on log scales
+        hidden=TanksHiddenState(bounds=BOUNDS, k_bounds=(0.02, 0.08), ratio_bounds=(0.3, 3.0), output_bounds=BOUNDS),
         optimizer=STLS(threshold=0.0),  # least squares on the strategy's default library
         dt=data.dt,
         n_substeps=4,
-        validation_size=len(val.y),  # k1, k2 and x1(0) are chosen on the validation block
-        n_trials=15 if args.quick else 60,
+        validation_size=len(val.y),  # candidates are fitted without the validation block ...
+        validation="full",  # ... and scored by simulating the whole record from its start
+        n_trials=60 if args.quick else 100,
+        local_trials=20 if args.quick else 33,  # Nelder-Mead refinement of the best TPE candidates
         random_state=0,
     ).fit(u, y)
     arx = ARX(na=5, nb=5, nk=1).fit(train.u, train.y)

@@ -8,6 +8,7 @@ import scipy.sparse as sp
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
+from ._equations import format_equation
 from ._stls import STLS
 from ._validation import (
     check_bounds,
@@ -53,13 +54,6 @@ def _check_names(names, n, prefix, name):
     if isinstance(names, str) or len(names) != n or not all(isinstance(s, str) for s in names):
         raise ValueError(f"{name} must be a list of {n} strings; got {names!r}.")
     return list(names)
-
-
-def _format_coef(c, precision, first):
-    text = f"{abs(c):.{precision}f}"
-    if first:
-        return f"-{text}" if c < 0 else text
-    return f"- {text}" if c < 0 else f"+ {text}"
 
 
 class SINDy(RegressorMixin, BaseEstimator):
@@ -381,7 +375,9 @@ class SINDy(RegressorMixin, BaseEstimator):
         Parameters
         ----------
         precision : int, default=3
-            Decimals of the coefficients.
+            Decimals of the coefficients; coefficients that would show fewer
+            than two significant digits, or ``|c| >= 1e6``, use ``precision``
+            significant digits (``%.3g``) instead.
 
         Returns
         -------
@@ -397,16 +393,10 @@ class SINDy(RegressorMixin, BaseEstimator):
         ["y0' = -2.00 y0", "y1' = 1.00 - 1.00 y1"]
         """
         check_is_fitted(self)
-        lines = []
-        for name, row in zip(self.output_names_, self.coef_):
-            parts = []
-            for c, feature in zip(row, self.feature_names_):
-                if c == 0:
-                    continue
-                coef = _format_coef(c, precision, not parts)
-                parts.append(coef if feature == "1" else f"{coef} {feature}")
-            lines.append(f"{name}' = " + (" ".join(parts) if parts else "0"))
-        return lines
+        return [
+            format_equation(name, row, self.feature_names_, precision=precision)
+            for name, row in zip(self.output_names_, self.coef_)
+        ]
 
     def to_json(self, path):
         """Save the fitted model as plain JSON; see :func:`sindybench.load_model`."""

@@ -45,7 +45,7 @@ def test_fit_attributes_and_scores(oscillator):
     assert model.best_params_ == {} and model.search_results_ == []
     assert model.score(u, y) > 0.99
     lines = model.equations()
-    assert lines[0] == "y0' = 1 y0'"
+    assert lines[0] == "y0' = 1.000 y0'"
     assert lines[1].startswith("y0'' = ")
 
 

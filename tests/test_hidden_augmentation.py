@@ -45,7 +45,7 @@ def test_chain_rows_hold_by_construction(rng):
                              dt=DT).fit(u, x[:, :1])
     assert model.state_names_ == ["y0", "y0'", "y0''"]
     assert model.structure_.learned == (2,)
-    assert model.equations()[:2] == ["y0' = 1 y0'", "y0'' = 1 y0''"]
+    assert model.equations()[:2] == ["y0' = 1.000 y0'", "y0'' = 1.000 y0''"]
     # the chain rows in the simulated right-hand side: exactly one unit coefficient each
     coef = model.rhs_.coef
     assert np.count_nonzero(coef[:, 0]) == 1 and np.count_nonzero(coef[:, 1]) == 1

@@ -8,6 +8,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
+from .._equations import format_equation
 from .._sindy import _check_array_like
 from .._stls import STLS
 from .._validation import check_dt, check_inputs_outputs, check_n_samples, check_signal
@@ -553,23 +554,34 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         return r2(y, y_pred)
 
     def equations(self, precision=3):
-        """Readable model equations, one line per state (fixed rows included)."""
+        """Readable model equations, one line per state (fixed rows included).
+
+        Formatted as :meth:`sindybench.SINDy.equations`; a row fixed by a
+        Python function shows as ``(fixed: <strategy>)``.
+
+        Parameters
+        ----------
+        precision : int, default=3
+            Decimals of the coefficients.
+
+        Returns
+        -------
+        list of str
+        """
         check_is_fitted(self)
         names = self.state_names_ + [f"u{i}" for i in range(self.n_features_in_)]
         s = self.structure_
         lines = []
         lib_names = list(self.library_.get_feature_names_out(names))
+        fixed_names = [term_name(t, names) for t in s.fixed_terms]
         for i in range(s.n_states):
             if i in s.learned:
-                pairs = zip(self.coef_[s.learned.index(i)], lib_names)
+                line = format_equation(names[i], self.coef_[s.learned.index(i)], lib_names, precision=precision)
             elif s.fixed_rhs is not None:
-                lines.append(f"{names[i]}' = (fixed: {self.hidden_.__class__.__name__})")
-                continue
+                line = f"{names[i]}' = (fixed: {self.hidden_.__class__.__name__})"
             else:
-                pairs = zip(s.fixed_coef[:, i], [term_name(t, names) for t in s.fixed_terms])
-            parts = [f"{c:+.{precision}g}" + ("" if f == "1" else f" {f}") for c, f in pairs if c != 0]
-            body = " ".join(parts).lstrip("+") if parts else "0"
-            lines.append(f"{names[i]}' = {body}")
+                line = format_equation(names[i], s.fixed_coef[:, i], fixed_names, precision=precision)
+            lines.append(line)
         return lines
 
     def __sklearn_tags__(self):

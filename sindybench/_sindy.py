@@ -4,13 +4,13 @@ import logging
 import warnings
 
 import numpy as np
-import scipy.sparse as sp
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
 from ._equations import format_equation
 from ._stls import STLS
 from ._validation import (
+    check_array_like,
     check_bounds,
     check_dt,
     check_inputs_outputs,
@@ -30,22 +30,6 @@ from .simulate import _HOLDS, _METHODS, make_rhs, simulate
 __all__ = ["SINDy"]
 
 logger = logging.getLogger(__name__)
-
-
-def _check_array_like(a, name):
-    """Reject what ``np.asarray(a, dtype=float)`` would silently mangle: sparse, complex, 1-D inputs."""
-    if a is None:
-        return
-    if sp.issparse(a):
-        raise ValueError(f"{name} is a sparse matrix; sparse input is not supported, expected a dense array.")
-    arr = np.asarray(a)
-    if np.iscomplexobj(arr):
-        raise ValueError(f"{name} is complex. Complex data not supported; expected real values.")
-    if name == "X" and arr.ndim == 1:
-        raise ValueError(
-            f"X is 1-D (shape {arr.shape}); expected 2-D (n_samples, n_inputs). "
-            "Reshape your data with X.reshape(-1, 1) for a single input."
-        )
 
 
 def _check_names(names, n, prefix, name):
@@ -200,8 +184,8 @@ class SINDy(RegressorMixin, BaseEstimator):
             raise ValueError(
                 "SINDy requires y to be passed, but the target y is None; expected the measured states."
             )
-        _check_array_like(X, "X")
-        _check_array_like(y, "y")
+        check_array_like(X, "X")
+        check_array_like(y, "y")
         y_1d = np.asarray(y).ndim == 1
         X, y = check_inputs_outputs(X, y)
         n_samples, n_states = y.shape
@@ -253,7 +237,7 @@ class SINDy(RegressorMixin, BaseEstimator):
             if n_samples is None:
                 raise ValueError("X is None; expected inputs of shape (n_samples, n_inputs) (0 columns if none).")
             X = np.zeros((n_samples, 0))
-        _check_array_like(X, "X")
+        check_array_like(X, "X")
         arr = check_signal(X, "X")  # (n_samples, 0) passes: no inputs
         if arr.shape[1] != self.n_inputs_:
             raise ValueError(

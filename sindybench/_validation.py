@@ -7,8 +7,10 @@ what was expected, so that bad input never turns into a silent NaN.
 import numbers
 
 import numpy as np
+import scipy.sparse as sp
 
 __all__ = [
+    "check_array_like",
     "check_bool",
     "check_bounds",
     "check_dt",
@@ -81,6 +83,38 @@ def check_signal(a, name, *, allow_none=False, n_samples=None, ensure_2d=True):
     if n_samples is not None and arr.shape[0] != n_samples:
         raise ValueError(f"{name} has {arr.shape[0]} samples; expected {n_samples}.")
     return arr
+
+
+def check_array_like(a, name):
+    """Reject what ``np.asarray(a, dtype=float)`` would silently mangle: sparse, complex, 1-D inputs.
+
+    ``None`` passes; a 1-D array is rejected only for ``name == "X"`` (inputs are
+    2-D, a 1-D output ``y`` is one column).
+
+    Examples
+    --------
+    >>> check_array_like([[1.0], [2.0]], "X")
+    >>> check_array_like([1.0, 2.0], "X")
+    Traceback (most recent call last):
+    ...
+    ValueError: X is 1-D (shape (2,)); expected 2-D (n_samples, n_inputs). Reshape ...
+    >>> check_array_like([1j], "y")
+    Traceback (most recent call last):
+    ...
+    ValueError: y is complex. Complex data not supported; expected real values.
+    """
+    if a is None:
+        return
+    if sp.issparse(a):
+        raise ValueError(f"{name} is a sparse matrix; sparse input is not supported, expected a dense array.")
+    arr = np.asarray(a)
+    if np.iscomplexobj(arr):
+        raise ValueError(f"{name} is complex. Complex data not supported; expected real values.")
+    if name == "X" and arr.ndim == 1:
+        raise ValueError(
+            f"X is 1-D (shape {arr.shape}); expected 2-D (n_samples, n_inputs). "
+            "Reshape your data with X.reshape(-1, 1) for a single input."
+        )
 
 
 def check_inputs_outputs(X, y, *, x_name="X", y_name="y"):

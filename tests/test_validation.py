@@ -2,8 +2,9 @@
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 
-from sindybench._validation import check_bool, check_integer, check_option, check_positive
+from sindybench._validation import check_array_like, check_bool, check_integer, check_option, check_positive
 
 
 @pytest.mark.parametrize("value", [1, 7, np.int64(3)])
@@ -66,3 +67,21 @@ def test_check_positive_accepts(value, kwargs, expected):
 def test_check_positive_rejects(value, kwargs, match):
     with pytest.raises(ValueError, match=match):
         check_positive(value, "x", **kwargs)
+
+
+@pytest.mark.parametrize(
+    ("value", "name", "match"),
+    [
+        (sp.csr_matrix(np.ones((3, 1))), "X", r"X is a sparse matrix"),
+        (np.ones((3, 1)) * 1j, "y", r"y is complex"),
+        (np.ones(3), "X", r"X is 1-D \(shape \(3,\)\)"),
+    ],
+)
+def test_check_array_like_rejects(value, name, match):
+    with pytest.raises(ValueError, match=match):
+        check_array_like(value, name)
+
+
+def test_check_array_like_accepts():
+    for value, name in [(None, "X"), (np.ones(3), "y"), ([[1.0], [2.0]], "X")]:
+        assert check_array_like(value, name) is None

@@ -1,9 +1,8 @@
 """Derivative-coordinate augmentation: states ``(y, y', ..., y^(n-1))``."""
 
-import numbers
-
 import numpy as np
 
+from .._validation import check_integer
 from ._base import Design, HiddenStrategy, Structure, linear_term
 
 __all__ = ["DerivativeAugmentation"]
@@ -40,10 +39,8 @@ class DerivativeAugmentation(HiddenStrategy):
         self.init_size = init_size
 
     def _validate(self):
-        for name, low in (("order", 1), ("init_size", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
-                raise ValueError(f"{name} must be an integer >= {low}; got {value!r}.")
+        check_integer(self.order, "order")
+        check_integer(self.init_size, "init_size")
 
     def structure(self, params, *, n_outputs, n_inputs):
         p, n = n_outputs, self.order

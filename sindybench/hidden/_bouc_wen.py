@@ -34,6 +34,7 @@ import numpy as np
 from scipy.integrate import cumulative_simpson, cumulative_trapezoid
 from scipy.optimize import least_squares
 
+from .._validation import check_bool, check_integer
 from ._base import Design, HiddenStrategy, Structure, linear_term
 
 __all__ = ["BoucWenStructure", "DEFAULT_BOUNDS"]
@@ -45,12 +46,6 @@ DEFAULT_BOUNDS = {"m": (0.1, 20.0, True), "c": (0.1, 1000.0, True), "k": (1e3, 1
 # columns of the library input Z = [y, v, z, u]
 _Y, _V, _Z, _U = 0, 1, 2, 3
 _INTEGRATORS = {"simpson": cumulative_simpson, "trapezoid": cumulative_trapezoid}
-
-
-def _check_count(value, name, minimum):
-    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}; got {value!r}.")
-    return int(value)
 
 
 def _local_derivatives(y, dt):
@@ -162,10 +157,9 @@ class BoucWenStructure(HiddenStrategy):
         for name, (low, _, _) in self.search_space().items():
             if low < 0 or (name == "m" and low == 0):
                 raise ValueError(f"bounds[{name!r}] starts at {low!r}; expected a range of positive values.")
-        _check_count(self.n_init, "n_init", 1)
-        _check_count(self.trim, "trim", 0)
-        if not isinstance(self.refine_init, (bool, np.bool_)):
-            raise ValueError(f"refine_init must be True or False; got {self.refine_init!r}.")
+        check_integer(self.n_init, "n_init")
+        check_integer(self.trim, "trim", low=0)
+        check_bool(self.refine_init, "refine_init")
         if self.filter_features is not None and self.filter_features not in _INTEGRATORS:
             raise ValueError(
                 f"filter_features must be one of {sorted(_INTEGRATORS)} or None; got {self.filter_features!r}."

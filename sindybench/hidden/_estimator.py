@@ -9,9 +9,18 @@ from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
 from .._equations import format_equation
-from .._sindy import _check_array_like
 from .._stls import STLS
-from .._validation import check_dt, check_inputs_outputs, check_n_samples, check_signal
+from .._validation import (
+    check_array_like,
+    check_bool,
+    check_dt,
+    check_inputs_outputs,
+    check_integer,
+    check_n_samples,
+    check_option,
+    check_positive,
+    check_signal,
+)
 from ..differentiation import as_differentiation
 from ..libraries import as_library, evaluate_terms, term_name
 from ..metrics import r2
@@ -265,21 +274,13 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
             raise ValueError(
                 f"hidden must be a HiddenStrategy (e.g. DerivativeAugmentation()); got {type(self.hidden).__name__}."
             )
-        for name in ("n_trials", "n_substeps"):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-                raise ValueError(f"{name} must be an integer >= 1; got {value!r}.")
-        lt = self.local_trials
-        if isinstance(lt, bool) or not isinstance(lt, numbers.Integral) or not 0 <= lt < self.n_trials:
-            raise ValueError(f"local_trials must be an integer in [0, n_trials={self.n_trials}); got {lt!r}.")
-        if self.validation not in _VALIDATIONS:
-            raise ValueError(f"validation must be one of {_VALIDATIONS}; got {self.validation!r}.")
-        if self.input_hold not in _HOLDS:
-            raise ValueError(f"input_hold must be one of {_HOLDS}; got {self.input_hold!r}.")
-        if not isinstance(self.refit, bool):
-            raise ValueError(f"refit must be True or False; got {self.refit!r}.")
-        if isinstance(self.max_abs, bool) or not isinstance(self.max_abs, numbers.Real) or not self.max_abs > 0:
-            raise ValueError(f"max_abs must be a number > 0; got {self.max_abs!r}.")
+        n_trials = check_integer(self.n_trials, "n_trials")
+        check_integer(self.n_substeps, "n_substeps")
+        check_integer(self.local_trials, "local_trials", low=0, high=n_trials - 1)
+        check_option(self.validation, "validation", _VALIDATIONS)
+        check_option(self.input_hold, "input_hold", _HOLDS)
+        check_bool(self.refit, "refit")
+        check_positive(self.max_abs, "max_abs", allow_inf=True)
         space = check_space(self.search_params)
         bad = [k for k in space if k.startswith(_HIDDEN_PREFIX)]
         if bad:
@@ -462,7 +463,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
             if n_samples is None:
                 raise ValueError("X is None; expected inputs of shape (n_samples, n_inputs).")
             X = np.zeros((n_samples, 0))
-        _check_array_like(X, "X")
+        check_array_like(X, "X")
         arr = np.asarray(X, dtype=float)
         if not (arr.ndim == 2 and arr.shape[1] == 0):
             arr = check_signal(X, "X")
@@ -601,6 +602,6 @@ def _default_strategy():
 def _check_fit_data(X, y):
     if y is None:
         raise ValueError("HiddenStateSINDy requires y to be passed, but the target y is None; expected the outputs.")
-    _check_array_like(X, "X")
-    _check_array_like(y, "y")
+    check_array_like(X, "X")
+    check_array_like(y, "y")
     return check_inputs_outputs(X, y)

@@ -7,7 +7,7 @@ import numpy as np
 from scipy.optimize import minimize as scipy_minimize
 from scipy.optimize import minimize_scalar
 
-from .._validation import check_bounds
+from .._validation import check_bounds, check_integer, check_option
 from ..simulate import simulate
 from ._base import Design, HiddenStrategy, Structure
 
@@ -141,12 +141,10 @@ class ParametricHiddenState(HiddenStrategy):
     def _validate(self):
         if not callable(self._hidden_rhs()):
             raise ValueError(f"rhs must be a callable rhs(x_h, y, u, **params); got {self.rhs!r}.")
-        if self.init not in _INITS:
-            raise ValueError(f"init must be one of {_INITS}; got {self.init!r}.")
-        for name, low in (("init_size", 1), ("grid_size", 2), ("n_substeps", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
-                raise ValueError(f"{name} must be an integer >= {low}; got {value!r}.")
+        check_option(self.init, "init", _INITS)
+        check_integer(self.init_size, "init_size")
+        check_integer(self.grid_size, "grid_size", low=2)
+        check_integer(self.n_substeps, "n_substeps")
         n_hidden = len(self._x0_specs())
         self._hidden_bounds(n_hidden)
         if self.hidden_names is not None and len(self.hidden_names) != n_hidden:

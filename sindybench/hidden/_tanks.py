@@ -5,8 +5,7 @@ import numbers
 import numpy as np
 
 from .._validation import check_bounds
-from ..libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary
-from ..libraries._terms import POW, SQRT
+from ..libraries import POW, SQRT, ConcatLibrary, PolynomialLibrary, SqrtLibrary
 from ..simulate import TermsRHS, simulate
 from ._base import Structure
 from ._parametric import ParametricHiddenState, _check_range

@@ -82,7 +82,7 @@ BENCHMARK = Benchmark(
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(), nnarx_space(max_na=4, max_nb=4), n_trials=10,
                   n_trials_quick=2, max_train=10000, max_train_quick=3000,
-                  description="MLP on ARX lags, trained one step ahead (first 10000 training samples), "
+                  description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead (first 10000 training samples), "
                               "simulated free run"),
     ),
 )

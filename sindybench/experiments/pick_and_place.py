@@ -52,6 +52,6 @@ BENCHMARK = Benchmark(
         ModelSpec("arx", "ARX", arx_model(), arx_space(), n_trials=50, n_trials_quick=6,
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(), nnarx_space(), n_trials=20, n_trials_quick=3,
-                  description="MLP on ARX lags, trained one step ahead, simulated free run"),
+                  description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead, simulated free run"),
     ),
 )

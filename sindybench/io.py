@@ -26,7 +26,6 @@ from pathlib import Path
 import numpy as np
 
 from ._sindy import SINDy
-from ._stls import STLS
 from .libraries import TermsLibrary, library_from_spec, library_to_spec, terms_from_json, terms_to_json
 from .libraries._spec import _plain, _unplain
 
@@ -80,6 +79,7 @@ def estimator_spec(obj):
 
     Examples
     --------
+    >>> from sindybench import STLS
     >>> estimator_spec(STLS(threshold=0.2))["params"]["threshold"]
     0.2
     """
@@ -196,6 +196,7 @@ def model_to_dict(model):
 
     Examples
     --------
+    >>> from sindybench import STLS
     >>> from sindybench.libraries import PolynomialLibrary
     >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
     >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01).fit(None, y)
@@ -272,6 +273,7 @@ def save_model(model, path):
     Examples
     --------
     >>> import tempfile, pathlib
+    >>> from sindybench import STLS
     >>> from sindybench.libraries import PolynomialLibrary
     >>> t = np.arange(0, 5, 0.01)
     >>> y = np.exp(-t)[:, None]
@@ -310,6 +312,7 @@ def load_model(path):
     Examples
     --------
     >>> import tempfile, pathlib
+    >>> from sindybench import STLS
     >>> from sindybench.libraries import PolynomialLibrary
     >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
     >>> model = SINDy(library=PolynomialLibrary(degree=1), dt=0.01).fit(None, y)

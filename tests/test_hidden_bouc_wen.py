@@ -9,7 +9,7 @@ from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import BoucWenStructure
 from sindybench.metrics import rmse
-from sindybench.systems import BoucWen, low_frequency_sine, multisine
+from sindybench.systems import BoucWen, multisine
 
 DT = 1.0 / 750.0
 TRUE = {"m": 2.0, "c": 10.0, "k": 5e4}

@@ -252,7 +252,7 @@ def rhs2():
         (dict(dt=-0.1), "dt must be a finite number > 0"),
         (dict(dt=None), "give exactly one of dt and t"),
         (dict(dt=0.1, t=np.arange(10.0)), "give exactly one of dt and t"),
-        (dict(dt=None, t=np.r_[0.0, 0.1, 0.1, *np.arange(3, 10.0)]), "t must be strictly increasing"),
+        (dict(dt=None, t=np.r_[0.0, 0.1, 0.1, np.arange(3, 10.0)]), "t must be strictly increasing"),
         (dict(dt=None, t=np.arange(9.0)), "t has 9 samples; expected 10"),
         (dict(x0=[0.0]), r"x0 has shape \(1,\); expected \(2,\)"),
         (dict(x0=[0.0, np.nan]), "x0 = .* contains NaN"),

@@ -1,6 +1,5 @@
 """Pick-and-place machine (Juloski, Heemels, Ferrari-Trecate 2004)."""
 
-import numpy as np
 from scipy.io import loadmat
 from scipy.signal import decimate
 from sklearn.utils import Bunch

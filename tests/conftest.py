@@ -7,6 +7,14 @@ import numpy as np
 import pytest
 
 
+def pytest_configure(config):
+    # The README passes SINDYBENCH_DATA relative to the repository root; make it absolute
+    # once, so tests that change directory or start subprocesses elsewhere still find it.
+    path = os.environ.get("SINDYBENCH_DATA")
+    if path:
+        os.environ["SINDYBENCH_DATA"] = str(Path(path).resolve())
+
+
 def pytest_addoption(parser):
     parser.addoption(
         "--runslow", action="store_true", default=False, help="run the full (slow) version of heavy checks"

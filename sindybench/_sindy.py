@@ -15,6 +15,7 @@ from ._validation import (
     check_dt,
     check_inputs_outputs,
     check_integer,
+    check_model_inputs,
     check_n_samples,
     check_option,
     check_positive,
@@ -24,7 +25,7 @@ from ._validation import (
 )
 from .differentiation import as_differentiation
 from .libraries import as_library
-from .metrics import r2
+from .metrics import make_simulation_scorer
 from .simulate import _HOLDS, _METHODS, make_rhs, simulate
 
 __all__ = ["SINDy"]
@@ -232,20 +233,6 @@ class SINDy(RegressorMixin, BaseEstimator):
     def _rhs(self):
         return make_rhs(self.library_, self.coef_.T, self.n_states_)
 
-    def _check_inputs(self, X, n_samples=None):
-        if X is None:
-            if n_samples is None:
-                raise ValueError("X is None; expected inputs of shape (n_samples, n_inputs) (0 columns if none).")
-            X = np.zeros((n_samples, 0))
-        check_array_like(X, "X")
-        arr = check_signal(X, "X")  # (n_samples, 0) passes: no inputs
-        if arr.shape[1] != self.n_inputs_:
-            raise ValueError(
-                f"X has {arr.shape[1]} features, but {type(self).__name__} is expecting {self.n_inputs_} "
-                "features as input (the inputs seen in fit)."
-            )
-        return arr
-
     def simulate(self, X, x0, *, dt=None, t=None, on_divergence="raise"):
         """Open-loop simulation driven by the inputs ``X`` from ``x0``.
 
@@ -268,7 +255,7 @@ class SINDy(RegressorMixin, BaseEstimator):
         ndarray of shape (n_samples, n_states)
         """
         check_is_fitted(self)
-        X = self._check_inputs(X, None if t is None else len(t))
+        X = check_model_inputs(X, self.n_inputs_, type(self).__name__, n_samples=None if t is None else len(t))
         dt, t = self._resolve_time(dt, t, X.shape[0], self.dt_)
         return simulate(
             self._rhs(),
@@ -344,10 +331,7 @@ class SINDy(RegressorMixin, BaseEstimator):
         if sample_weight is not None:
             raise ValueError("sample_weight is not supported by SINDy.score; expected None.")
         X, y = check_inputs_outputs(X, y)
-        y_pred = self.predict(X, y_init=y)
-        if not np.all(np.isfinite(y_pred)):
-            return -np.inf
-        return r2(y, y_pred)
+        return make_simulation_scorer("r2")(self, X, y)
 
     # ----------------------------------------------------------------- display
     def equations(self, precision=3):

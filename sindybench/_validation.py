@@ -16,6 +16,7 @@ __all__ = [
     "check_dt",
     "check_inputs_outputs",
     "check_integer",
+    "check_model_inputs",
     "check_n_samples",
     "check_option",
     "check_positive",
@@ -115,6 +116,35 @@ def check_array_like(a, name):
             f"X is 1-D (shape {arr.shape}); expected 2-D (n_samples, n_inputs). "
             "Reshape your data with X.reshape(-1, 1) for a single input."
         )
+
+
+def check_model_inputs(X, n_inputs, owner, *, n_samples=None):
+    """Return the inputs ``X`` of a fitted model as a float array with ``n_inputs`` columns.
+
+    ``X=None`` means no inputs: ``n_samples`` rows and 0 columns (an error
+    when ``n_samples`` is None). ``owner`` names the model in the messages.
+
+    Examples
+    --------
+    >>> check_model_inputs(None, 0, "SINDy", n_samples=3).shape
+    (3, 0)
+    >>> check_model_inputs([[1.0, 2.0]], 1, "SINDy")
+    Traceback (most recent call last):
+    ...
+    ValueError: X has 2 features, but SINDy is expecting 1 features as input (the inputs seen in fit).
+    """
+    if X is None:
+        if n_samples is None:
+            raise ValueError("X is None; expected inputs of shape (n_samples, n_inputs) (0 columns if none).")
+        X = np.zeros((n_samples, 0))
+    check_array_like(X, "X")
+    X = check_signal(X, "X")  # (n_samples, 0) passes: no inputs
+    if X.shape[1] != n_inputs:
+        raise ValueError(
+            f"X has {X.shape[1]} features, but {owner} is expecting {n_inputs} "
+            "features as input (the inputs seen in fit)."
+        )
+    return X
 
 
 def check_inputs_outputs(X, y, *, x_name="X", y_name="y"):

@@ -4,7 +4,14 @@ import numpy as np
 import pytest
 import scipy.sparse as sp
 
-from sindybench._validation import check_array_like, check_bool, check_integer, check_option, check_positive
+from sindybench._validation import (
+    check_array_like,
+    check_bool,
+    check_integer,
+    check_model_inputs,
+    check_option,
+    check_positive,
+)
 
 
 @pytest.mark.parametrize("value", [1, 7, np.int64(3)])
@@ -85,3 +92,14 @@ def test_check_array_like_rejects(value, name, match):
 def test_check_array_like_accepts():
     for value, name in [(None, "X"), (np.ones(3), "y"), ([[1.0], [2.0]], "X")]:
         assert check_array_like(value, name) is None
+
+
+def test_check_model_inputs():
+    assert check_model_inputs(None, 0, "M", n_samples=4).shape == (4, 0)
+    assert check_model_inputs([[1.0, 2.0]], 2, "M").shape == (1, 2)
+    with pytest.raises(ValueError, match="X is None; expected inputs"):
+        check_model_inputs(None, 0, "M")
+    with pytest.raises(ValueError, match=r"X has 0 features, but M is expecting 1 features"):
+        check_model_inputs(None, 1, "M", n_samples=4)
+    with pytest.raises(ValueError, match="X is 1-D"):
+        check_model_inputs(np.ones(4), 1, "M")

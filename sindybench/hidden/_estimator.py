@@ -16,6 +16,7 @@ from .._validation import (
     check_dt,
     check_inputs_outputs,
     check_integer,
+    check_model_inputs,
     check_n_samples,
     check_option,
     check_positive,
@@ -23,7 +24,7 @@ from .._validation import (
 )
 from ..differentiation import as_differentiation
 from ..libraries import as_library, evaluate_terms, term_name
-from ..metrics import r2
+from ..metrics import make_simulation_scorer
 from ..simulate import _HOLDS, SimulationError, TermsRHS, simulate
 from ._base import HiddenStrategy, ModelView
 from ._search import check_space, minimize
@@ -459,20 +460,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
 
     # ------------------------------------------------------------- simulation
     def _check_X(self, X, n_samples=None):
-        if X is None:
-            if n_samples is None:
-                raise ValueError("X is None; expected inputs of shape (n_samples, n_inputs).")
-            X = np.zeros((n_samples, 0))
-        check_array_like(X, "X")
-        arr = np.asarray(X, dtype=float)
-        if not (arr.ndim == 2 and arr.shape[1] == 0):
-            arr = check_signal(X, "X")
-        if arr.shape[1] != self.n_features_in_:
-            raise ValueError(
-                f"X has {arr.shape[1]} features, but HiddenStateSINDy is expecting {self.n_features_in_} "
-                "features as input (the inputs seen in fit)."
-            )
-        return arr
+        return check_model_inputs(X, self.n_features_in_, type(self).__name__, n_samples=n_samples)
 
     def estimate_initial_state(self, X, y_init):
         """Initial state for simulating ``X``, from the first samples ``y_init`` of its output.
@@ -549,10 +537,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         if sample_weight is not None:
             raise ValueError("sample_weight is not supported by HiddenStateSINDy.score; expected None.")
         X, y = check_inputs_outputs(X, y)
-        y_pred = np.asarray(self.predict(X, y_init=y), dtype=float).reshape(y.shape)
-        if not np.all(np.isfinite(y_pred)):
-            return -np.inf
-        return r2(y, y_pred)
+        return make_simulation_scorer("r2")(self, X, y)
 
     def equations(self, precision=3):
         """Readable model equations, one line per state (fixed rows included).

@@ -220,7 +220,7 @@ class ParametricHiddenState(HiddenStrategy):
     def _simulate_hidden(self, u, y, dt, params):
         """Hidden trajectory driven by the inputs and the measured outputs."""
         phys, x0 = self._split(params)
-        rhs, q, p = self._hidden_rhs(), len(x0), y.shape[1]
+        rhs, q = self._hidden_rhs(), len(x0)
 
         def f(xh, uy):
             return np.asarray(rhs(xh, uy[u.shape[1]:], uy[: u.shape[1]], **phys), dtype=float).reshape(q)

@@ -2,11 +2,21 @@
 
 from . import differentiation
 from ._sindy import SINDy
-from ._stls import STLS, stls
+from ._stls import STLS, GramCache, stls
 from .hidden import HiddenStateSINDy
 from .io import load_model
 from .simulate import SimulationError
 
 __version__ = "0.1.0"
 
-__all__ = ["HiddenStateSINDy", "SINDy", "STLS", "SimulationError", "__version__", "differentiation", "load_model", "stls"]
+__all__ = [
+    "GramCache",
+    "HiddenStateSINDy",
+    "SINDy",
+    "STLS",
+    "SimulationError",
+    "__version__",
+    "differentiation",
+    "load_model",
+    "stls",
+]

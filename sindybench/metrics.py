@@ -33,11 +33,13 @@ def _reduce(values, multioutput):
     return values if multioutput == "raw_values" else float(np.mean(values))
 
 
-def _spread(y_true):
+def _relative_sse(y_true, y_pred, skip, multioutput):
+    """``SSE / SST`` per output: nrmse is its root, r2 is 1 minus it, fit_index 100 (1 - root)."""
+    y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
     sst = np.sum((y_true - y_true.mean(axis=0)) ** 2, axis=0)
     if np.any(sst == 0):
         raise ValueError("y_true is constant over the scored samples; R^2 and fit index are undefined.")
-    return sst
+    return np.sum((y_true - y_pred) ** 2, axis=0) / sst
 
 
 def rmse(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
@@ -82,9 +84,7 @@ def nrmse(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
     >>> nrmse([0.0, 1.0, 2.0], [0.0, 1.0, 3.0])
     0.707...
     """
-    y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
-    err = np.sqrt(np.mean((y_true - y_pred) ** 2, axis=0))
-    return _reduce(err / np.sqrt(_spread(y_true) / y_true.shape[0]), multioutput)
+    return _reduce(np.sqrt(_relative_sse(y_true, y_pred, skip, multioutput)), multioutput)
 
 
 def r2(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
@@ -109,9 +109,7 @@ def r2(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
     >>> r2([0.0, 1.0, 2.0], [0.0, 1.0, 3.0])
     0.5
     """
-    y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
-    sse = np.sum((y_true - y_pred) ** 2, axis=0)
-    return _reduce(1.0 - sse / _spread(y_true), multioutput)
+    return _reduce(1.0 - _relative_sse(y_true, y_pred, skip, multioutput), multioutput)
 
 
 def fit_index(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
@@ -136,9 +134,7 @@ def fit_index(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
     >>> fit_index([0.0, 1.0, 2.0], [0.0, 1.0, 3.0])
     29.28...
     """
-    y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
-    err = np.sqrt(np.sum((y_true - y_pred) ** 2, axis=0))
-    return _reduce(100.0 * (1.0 - err / np.sqrt(_spread(y_true))), multioutput)
+    return _reduce(100.0 * (1.0 - np.sqrt(_relative_sse(y_true, y_pred, skip, multioutput))), multioutput)
 
 
 _METRICS = {"rmse": (rmse, False), "nrmse": (nrmse, False), "r2": (r2, True), "fit_index": (fit_index, True)}

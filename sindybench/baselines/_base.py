@@ -5,7 +5,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from .._validation import check_integer, check_signal
-from ..metrics import r2
+from ..metrics import make_simulation_scorer
 from ._lags import lagged_regressors, n_lags
 
 __all__ = ["LagModel"]
@@ -98,10 +98,7 @@ class LagModel(RegressorMixin, BaseEstimator):
         """
         if sample_weight is not None:
             raise ValueError("sample_weight is not supported; expected None.")
-        y_pred = self.predict(X, y_init=np.asarray(y, dtype=float).reshape(len(y), -1))
-        if not np.all(np.isfinite(y_pred)):
-            return -np.inf
-        return r2(y, y_pred)
+        return make_simulation_scorer("r2")(self, X, y)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

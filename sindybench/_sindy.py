@@ -146,7 +146,7 @@ class SINDy(RegressorMixin, BaseEstimator):
         check_option(self.integrator, "integrator", _METHODS)
         check_option(self.input_hold, "input_hold", _HOLDS)
         check_positive(self.max_abs, "max_abs", allow_inf=True)
-        return check_bounds(self.bounds, n_states)
+        check_bounds(self.bounds, n_states)
 
     @staticmethod
     def _resolve_time(dt, t, n_samples, fallback):

@@ -5,7 +5,6 @@ from sklearn.base import clone
 
 from ._base import BaseLibrary, canonical_term
 from ._custom import as_library
-from ._terms import evaluate_terms
 
 __all__ = ["ConcatLibrary", "ProductLibrary"]
 
@@ -64,7 +63,7 @@ class ConcatLibrary(BaseLibrary):
 
     def _transform(self, Z):
         if self.terms_ is not None:
-            return evaluate_terms(self.terms_, Z)
+            return super()._transform(Z)
         return np.hstack([lib._transform(Z) for lib in self.libraries_])
 
     def _feature_names(self, names):
@@ -146,7 +145,7 @@ class ProductLibrary(BaseLibrary):
 
     def _transform(self, Z):
         if self.terms_ is not None:
-            return evaluate_terms(self.terms_, Z)
+            return super()._transform(Z)
         a, b = self.left_._transform(Z), self.right_._transform(Z)
         return (a[:, :, None] * b[:, None, :]).reshape(Z.shape[0], -1)
 

@@ -41,17 +41,34 @@ _VALIDATIONS = ("block", "continued", "full")
 class _Derivative:
     """``derivative(a, order=1)`` bound to a differentiation method and ``dt`` (picklable).
 
-    Orders above 2 chain second and first derivatives.
+    Orders above 2 chain second and first derivatives. While an array is
+    ``pinned`` (the measured outputs, during the inner search), derivatives of
+    arrays equal to it are computed once and then copied from a memo.
     """
 
     def __init__(self, differentiation, dt):
         self.differentiation = differentiation
         self.dt = dt
+        self.pinned, self._memo = None, {}
+
+    def pin(self, a):
+        """Memoize derivatives of ``a`` (None stops and clears the memo)."""
+        self.pinned = None if a is None else np.asarray(a, dtype=float)
+        self._memo = {}
 
     def __call__(self, a, order=1):
         a = np.asarray(a, dtype=float)
         if order == 0:
             return a.copy()
+        p = self.pinned
+        if p is not None and a.size == p.size and np.array_equal(a.reshape(p.shape), p):
+            key = (order, a.shape)
+            if key not in self._memo:
+                self._memo[key] = self._compute(a, order)
+            return self._memo[key].copy()
+        return self._compute(a, order)
+
+    def _compute(self, a, order):
         if order <= 2:
             d = self.differentiation.derivative(a, dt=self.dt, order=order)
             return np.asarray(d, dtype=float).reshape(a.shape)
@@ -335,13 +352,18 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         n = y1.shape[0]
         self.best_params_, self.search_results_ = {}, []
         n_rows = n
+        # the outputs' derivatives do not depend on a trial unless the differentiation is searched
+        derivative = None
+        if not any(k.split("__")[0] == "differentiation" for k in space):
+            derivative = _Derivative(clone(as_differentiation(self.differentiation)), dt)
+            derivative.pin(y1)
         if space:
             n_val = self._n_validation(n)
             n_fit = n - n_val
 
             def objective(values):
                 try:
-                    cand = self._candidate(hidden, values, X, y1, dt, n_fit)
+                    cand = self._candidate(hidden, values, X, y1, dt, n_fit, derivative)
                     return self._validation_error(hidden, cand, X, y1, dt, n_fit)
                 except (SimulationError, ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
                     logger.debug("bad trial %s: %s", values, exc)
@@ -358,7 +380,8 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
                     "block; expected bounds of the searched parameters that contain a stable model."
                 )
             n_rows = n if self.refit else n_fit
-        cand = self._candidate(hidden, self.best_params_, X, y1, dt, n_rows)
+        cand = self._candidate(hidden, self.best_params_, X, y1, dt, n_rows, derivative)
+        cand.derivative.pin(None)
         self._set_fitted(hidden, cand, self.best_params_, dt, X, y1)
         self._y_1d = np.asarray(y).ndim == 1
         return self
@@ -370,12 +393,14 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         differentiation = clone(as_differentiation(est.differentiation))
         return library, optimizer, differentiation
 
-    def _candidate(self, hidden, values, X, y, dt, n_rows):
+    def _candidate(self, hidden, values, X, y, dt, n_rows, derivative=None):
         hvals = {k[len(_HIDDEN_PREFIX) :]: v for k, v in values.items() if k.startswith(_HIDDEN_PREFIX)}
         est_values = {k: v for k, v in values.items() if not k.startswith(_HIDDEN_PREFIX)}
         library, optimizer, differentiation = self._components(est_values)
         library = clone(as_library(library if library is not None else hidden.default_library()))
-        derivative = _Derivative(differentiation, dt)
+        if derivative is None:
+            derivative = _Derivative(differentiation, dt)
+        differentiation = derivative.differentiation
         params = hidden.resolve_params(hvals)
         structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
         design = hidden.design(X, y, dt, derivative=derivative, params=params)

@@ -3,10 +3,32 @@
 import numpy as np
 from scipy.signal import lfilter, lfiltic
 
+from .._validation import check_bool
 from ._base import LagModel
 from ._lags import free_run, input_lags
 
-__all__ = ["ARX"]
+__all__ = ["ARX", "least_squares"]
+
+
+def least_squares(phi, target, *, fit_intercept=True):
+    """Least squares ``target ~ phi @ coef + intercept``: ``(coef, intercept, residual)``.
+
+    The minimum-norm solution of ``numpy.linalg.lstsq``; ``intercept`` is zero
+    without ``fit_intercept``.
+
+    Examples
+    --------
+    >>> phi = np.arange(4.0).reshape(-1, 1)
+    >>> coef, intercept, residual = least_squares(phi, 2 * phi + 1)
+    >>> np.round(coef, 6).tolist(), np.round(intercept, 6).tolist(), bool(np.allclose(residual, 0))
+    ([[2.0]], [1.0], True)
+    """
+    design = np.hstack([phi, np.ones((phi.shape[0], 1))]) if fit_intercept else phi
+    theta = np.linalg.lstsq(design, target, rcond=None)[0]
+    residual = target - design @ theta
+    if fit_intercept:
+        return theta[:-1], theta[-1], residual
+    return theta, np.zeros(target.shape[1]), residual
 
 
 class ARX(LagModel):
@@ -84,16 +106,9 @@ class ARX(LagModel):
         -------
         self
         """
-        if not isinstance(self.fit_intercept, (bool, np.bool_)):
-            raise ValueError(f"fit_intercept must be True or False; got {self.fit_intercept!r}.")
+        check_bool(self.fit_intercept, "fit_intercept")
         phi, target = self._fit_lags(X, y)
-        if self.fit_intercept:
-            phi = np.hstack([phi, np.ones((phi.shape[0], 1))])
-        theta = np.linalg.lstsq(phi, target, rcond=None)[0]
-        if self.fit_intercept:
-            self.coef_, self.intercept_ = theta[:-1], theta[-1]
-        else:
-            self.coef_, self.intercept_ = theta, np.zeros(target.shape[1])
+        self.coef_, self.intercept_, _ = least_squares(phi, target, fit_intercept=self.fit_intercept)
         return self
 
     def _simulate(self, u, y_start):

@@ -6,6 +6,7 @@ from sklearn.neural_network import MLPRegressor
 from sklearn.utils import check_random_state
 
 from .._validation import check_bool, check_integer, check_option
+from ._arx import least_squares
 from ._base import LagModel
 from ._lags import free_run, input_lags
 
@@ -187,10 +188,7 @@ class NNARX(LagModel):
         features = (phi - shift) / scale
         z = (target - self.y_mean_) / self.y_scale_
         if self.residual:
-            design = np.hstack([features, np.ones((features.shape[0], 1))])
-            theta = np.linalg.lstsq(design, z, rcond=None)[0]
-            self.linear_coef_, self.linear_intercept_ = theta[:-1], theta[-1]
-            z = z - design @ theta
+            self.linear_coef_, self.linear_intercept_, z = least_squares(features, z)
         else:
             self.linear_coef_ = np.zeros((features.shape[1], z.shape[1]))
             self.linear_intercept_ = np.zeros(z.shape[1])

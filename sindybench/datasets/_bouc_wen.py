@@ -6,7 +6,7 @@ from sklearn.utils import Bunch
 
 from ..systems import BoucWen, low_frequency_sine
 from ._base import RemoteFile, fetch_files
-from ._common import make_split, source_records
+from ._common import make_dataset, make_split
 
 __all__ = ["load_bouc_wen"]
 
@@ -89,21 +89,16 @@ def load_bouc_wen(*, data_home=None, download_if_missing=True):
     mats = {key: loadmat(p)[key].ravel() for key, p in zip(_TESTS, test_paths)}
     u_sine = low_frequency_sine(fs=FS)
     y_sine = BoucWen(fs=FS).simulate(u_sine)
-    end_val = N_TRAIN + N_VALIDATION
     tests = Bunch(
         multisine=make_split(mats["uval_multisine"], mats["yval_multisine"], dt, name="multisine"),
         sinesweep=make_split(mats["uval_sinesweep"], mats["yval_sinesweep"], dt, name="sinesweep"),
         sine=make_split(u_sine, y_sine, dt, name="sine"),
     )
-    return Bunch(
-        train=make_split(u_est[:N_TRAIN], y_est[:N_TRAIN], dt, name="train"),
-        validation=make_split(u_est[N_TRAIN:end_val], y_est[N_TRAIN:end_val], dt, start=N_TRAIN, name="validation"),
-        test=tests,
-        estimation=make_split(u_est, y_est, dt, name="estimation"),
-        dt=dt,
+    end_val = N_TRAIN + N_VALIDATION
+    return make_dataset(
+        u_est[:end_val], y_est[:end_val], dt, n_train=N_TRAIN, test=tests, remotes=REMOTES, paths=paths,
         n_init=N_INIT,
         units=Bunch(u="N", y="m", t="s"),
         official_split="estimation = user-generated multisine record; tests = uval/yval multisine and sinesweep",
         DESCR=DESCR,
-        source=source_records(REMOTES, paths),
     )

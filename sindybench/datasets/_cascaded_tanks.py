@@ -5,7 +5,7 @@ from scipy.io import loadmat
 from sklearn.utils import Bunch
 
 from ._base import RemoteFile, fetch_files
-from ._common import make_split, source_records
+from ._common import make_dataset, make_split
 
 __all__ = ["load_cascaded_tanks"]
 
@@ -70,15 +70,10 @@ def load_cascaded_tanks(*, data_home=None, download_if_missing=True):
     dt = float(np.asarray(mat["Ts"]).squeeze())
     u_est, y_est = mat["uEst"].ravel(), mat["yEst"].ravel()
     u_val, y_val = mat["uVal"].ravel(), mat["yVal"].ravel()
-    return Bunch(
-        train=make_split(u_est[:N_TRAIN], y_est[:N_TRAIN], dt, name="train"),
-        validation=make_split(u_est[N_TRAIN:], y_est[N_TRAIN:], dt, start=N_TRAIN, name="validation"),
-        test=make_split(u_val, y_val, dt, name="test"),
-        estimation=make_split(u_est, y_est, dt, name="estimation"),
-        dt=dt,
+    return make_dataset(
+        u_est, y_est, dt, n_train=N_TRAIN, test=make_split(u_val, y_val, dt, name="test"), remotes=REMOTES, paths=paths,
         n_init=N_INIT,
         units=Bunch(u="V", y="V", t="s"),
         official_split="estimation = uEst/yEst, test = uVal/yVal",
         DESCR=DESCR,
-        source=source_records(REMOTES, paths),
     )

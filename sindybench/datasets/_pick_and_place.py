@@ -5,7 +5,7 @@ from scipy.signal import decimate
 from sklearn.utils import Bunch
 
 from ._base import RemoteFile, fetch_files
-from ._common import make_split, source_records
+from ._common import make_dataset, make_split
 
 __all__ = ["load_pick_and_place"]
 
@@ -87,16 +87,12 @@ def load_pick_and_place(*, data_home=None, download_if_missing=True):
     u = (u_dec - scaling.u_mean) / scaling.u_std
     y = (y_dec - scaling.y_mean) / scaling.y_std
     n_est = N_TRAIN + N_VALIDATION
-    return Bunch(
-        train=make_split(u[:N_TRAIN], y[:N_TRAIN], dt, name="train"),
-        validation=make_split(u[N_TRAIN:n_est], y[N_TRAIN:n_est], dt, start=N_TRAIN, name="validation"),
+    return make_dataset(
+        u[:n_est], y[:n_est], dt, n_train=N_TRAIN, remotes=REMOTES, paths=paths,
         test=make_split(u[n_est:], y[n_est:], dt, start=n_est, name="test"),
-        estimation=make_split(u[:n_est], y[:n_est], dt, name="estimation"),
-        dt=dt,
         n_init=N_INIT,
         scaling=scaling,
         units=Bunch(u="standardised motor voltage", y="standardised head position", t="s"),
         official_split="no official split; estimation = first 4800 samples, test = last 1201 (Bemporad et al.)",
         DESCR=DESCR,
-        source=source_records(REMOTES, paths),
     )

@@ -103,23 +103,17 @@ def test_url_override_points_at_a_mirror(server, tmp_path):
     assert fetch_file(remote, data_home=tmp_path, url=f"{server}/good.bin").read_bytes() == GOOD
 
 
-def test_corrupted_file_raises_and_leaves_nothing(server, tmp_path):
-    remote = RemoteFile("demo/good.bin", f"{server}/bad.bin", GOOD_SHA)
-    with pytest.raises(DownloadError, match="checksum mismatch for demo/good.bin"):
-        fetch_file(remote, data_home=tmp_path)
-    assert _leftovers(tmp_path) == []
-
-
-def test_connection_cut_half_way_raises_and_leaves_nothing(server, tmp_path):
-    remote = RemoteFile("demo/good.bin", f"{server}/cut.bin", GOOD_SHA)
-    with pytest.raises(DownloadError, match=r"interrupted|failed after"):
-        fetch_file(remote, data_home=tmp_path)
-    assert _leftovers(tmp_path) == []
-
-
-def test_http_error_raises_clear_error(server, tmp_path):
-    remote = RemoteFile("demo/good.bin", f"{server}/missing.bin", GOOD_SHA)
-    with pytest.raises(DownloadError, match="HTTP 404"):
+@pytest.mark.parametrize(
+    "source, message",
+    [
+        ("bad.bin", "checksum mismatch for demo/good.bin"),  # corrupted file
+        ("cut.bin", r"interrupted|failed after"),  # connection cut half way
+        ("missing.bin", "HTTP 404"),
+    ],
+)
+def test_failed_download_raises_and_leaves_nothing(server, tmp_path, source, message):
+    remote = RemoteFile("demo/good.bin", f"{server}/{source}", GOOD_SHA)
+    with pytest.raises(DownloadError, match=message):
         fetch_file(remote, data_home=tmp_path)
     assert _leftovers(tmp_path) == []
 

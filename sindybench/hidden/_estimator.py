@@ -3,6 +3,7 @@
 import logging
 import numbers
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
@@ -26,7 +27,7 @@ from ..differentiation import as_differentiation
 from ..libraries import as_library, evaluate_terms, term_name
 from ..metrics import make_simulation_scorer
 from ..simulate import _HOLDS, SimulationError, TermsRHS, simulate
-from ._base import HiddenStrategy, ModelView
+from ._base import Design, HiddenStrategy, ModelView, Structure
 from ._search import check_space, minimize
 
 __all__ = ["HiddenStateSINDy"]
@@ -75,17 +76,18 @@ class _Derivative:
         return self(self(a, 2), order - 2)
 
 
-class _Candidate:
+class _Candidate(NamedTuple):
     """One fitted model for given physical parameters (internal)."""
 
-    def __init__(self, *, params, structure, library, coef, derivative, design, rhs):
-        self.params = params
-        self.structure = structure
-        self.library = library
-        self.coef = coef
-        self.derivative = derivative
-        self.design = design
-        self.rhs = rhs
+    params: dict
+    structure: Structure
+    library: object
+    optimizer: object
+    differentiation: object
+    coef: np.ndarray
+    derivative: _Derivative
+    design: Design
+    rhs: object
 
 
 def _build_rhs(structure, library, coef):
@@ -427,10 +429,8 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         optimizer.fit(theta, targets[rows])
         coef = np.asarray(optimizer.coef_, dtype=float).reshape(len(structure.learned), theta.shape[1]).T
         rhs = _build_rhs(structure, library, coef)
-        cand = _Candidate(params=params, structure=structure, library=library, coef=coef,
-                          derivative=derivative, design=design, rhs=rhs)
-        cand.optimizer, cand.differentiation = optimizer, differentiation
-        return cand
+        return _Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
+                          differentiation=differentiation, coef=coef, derivative=derivative, design=design, rhs=rhs)
 
     def _simulate(self, cand, x0, X, dt, on_divergence):
         s = cand.structure
@@ -472,7 +472,6 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         self.coef_ = cand.coef.T.copy()
         self.structure_ = s
         self.rhs_ = cand.rhs
-        self._derivative = cand.derivative
         self._candidate_ = cand
         self.states_ = np.asarray(cand.design.states, dtype=float)
         hidden_idx = [i for i in range(s.n_states) if i not in s.output_index]

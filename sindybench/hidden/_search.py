@@ -153,7 +153,8 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
 
     ``objective`` returns a float; NaN, inf or an exception listed by the
     objective itself count as ``penalty`` (a bad trial, never a crash).
-    The first ``n_trials - n_local`` evaluations are TPE trials; the last
+    The first ``n_trials - n_local`` evaluations are TPE trials (the caller
+    checks ``0 <= n_local < n_trials``); the last
     ``n_local`` refine the ``n_starts`` best distinct trials by bounded
     Nelder-Mead on the float dimensions (in the unit cube, log dimensions on
     a log scale; initial simplex of edge ``step``), which finds the bottom
@@ -177,8 +178,6 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
     >>> abs(best["a"] - 0.3) < 1e-3, len(history) <= 30
     (True, True)
     """
-    if isinstance(n_local, bool) or not isinstance(n_local, numbers.Integral) or not 0 <= n_local < n_trials:
-        raise ValueError(f"n_local must be an integer in [0, n_trials); got {n_local!r} with n_trials={n_trials}.")
     optuna = _import_optuna()
     n_tpe = n_trials - n_local
     seed = int(check_random_state(random_state).randint(np.iinfo(np.int32).max))

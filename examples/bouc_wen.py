@@ -47,8 +47,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     data = load_bouc_wen()
-    u = np.vstack([data.train.u, data.validation.u])  # training + validation, the validation block last
-    y = np.vstack([data.train.y, data.validation.y])
+    u, y = data.estimation.u, data.estimation.y  # training + validation, the validation block last
     n_val = len(data.validation.y)
     models = {
         "searched m, c, k": make_model(BoucWenStructure(bounds=GUESS_BOUNDS), len(y) - n_val, validation_size=n_val,

@@ -16,8 +16,6 @@ in ``SINDYBENCH_DATA`` (see ``sindybench.datasets``).
 
 import argparse
 
-import numpy as np
-
 from sindybench import STLS, SINDy
 from sindybench.baselines import ARX
 from sindybench.datasets import load_cascaded_tanks
@@ -35,8 +33,7 @@ def main(argv=None):
 
     data = load_cascaded_tanks()
     train, val, test = data.train, data.validation, data.test
-    u = np.vstack([train.u, val.u])  # training + validation, the validation block last
-    y = np.vstack([train.y, val.y])
+    u, y = data.estimation.u, data.estimation.y  # training + validation, the validation block last
 
     naive = SINDy(library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=1e-3, alpha=1e-6),
                   dt=data.dt, bounds=BOUNDS).fit(train.u, train.y)

@@ -33,9 +33,7 @@ from sindybench.metrics import fit_index, r2, rmse
 
 
 def _train_validation(data):
-    u = np.vstack([data.train.u, data.validation.u])
-    y = np.vstack([data.train.y, data.validation.y])
-    return u, y, len(data.validation.y)
+    return data.estimation.u, data.estimation.y, len(data.validation.y)
 
 
 def _report(name, model, test, seconds):

@@ -14,7 +14,6 @@ in ``SINDYBENCH_DATA`` (see ``sindybench.datasets``).
 
 import argparse
 
-import numpy as np
 import optuna
 
 from sindybench import STLS, HiddenStateSINDy, SINDy
@@ -34,8 +33,7 @@ def main(argv=None):
 
     data = load_pick_and_place()
     train, val, test = data.train, data.validation, data.test
-    u = np.vstack([train.u, val.u])  # training + validation, the validation block last
-    y = np.vstack([train.y, val.y])
+    u, y = data.estimation.u, data.estimation.y  # training + validation, the validation block last
     space = {
         "optimizer__threshold": LogUniform(1e-4, 1e2),
         "optimizer__alpha": LogUniform(1e-8, 1e-1),

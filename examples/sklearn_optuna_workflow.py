@@ -20,7 +20,6 @@ records in ``SINDYBENCH_DATA``.
 import argparse
 import warnings
 
-import numpy as np
 import optuna
 from sklearn.model_selection import GridSearchCV
 from sklearn.pipeline import Pipeline
@@ -57,8 +56,7 @@ def main(argv=None):
     optuna.logging.set_verbosity(optuna.logging.WARNING)
 
     data = load_pick_and_place()
-    u = np.vstack([data.train.u, data.validation.u])
-    y = np.vstack([data.train.y, data.validation.y])
+    u, y = data.estimation.u, data.estimation.y  # training + validation, the validation block last
     cv = HoldoutSplit(validation_size=len(data.validation.y))  # fit on the first block, validate on the last
     scoring = make_simulation_scorer("rmse")  # open-loop simulation error (negated: greater is better)
     pipe = make_pipeline(data.dt)

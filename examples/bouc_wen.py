@@ -3,7 +3,7 @@
 The study's Table 2 in a few lines. The displacement ``y`` of a mass under a
 force ``u`` is measured; the hysteretic restoring force ``z`` is not:
 ``m y'' + c y' + k y + z = u`` with ``z' = alpha y' - beta (gamma |y'| z + delta y' |z|)``.
-``BoucWenStructure`` reconstructs ``z = u - c y' - k y - m y''`` for a guess of
+``BoucWenHiddenState`` reconstructs ``z = u - c y' - k y - m y''`` for a guess of
 ``(m, c, k)``, fits ``z'`` sparsely with products of ``y'``, ``z``, ``|y'|``,
 ``|z|``, and searches the guess by the validation simulation error. With the
 true ``m, c, k`` ("Ideal") the fit keeps the three terms of the true law.
@@ -19,7 +19,7 @@ import numpy as np
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.datasets import load_bouc_wen
 from sindybench.differentiation import Spectral
-from sindybench.hidden import BoucWenStructure
+from sindybench.hidden import BoucWenHiddenState
 from sindybench.metrics import rmse
 
 TRUE = {"m": 2.0, "c": 10.0, "k": 5e4}
@@ -50,9 +50,9 @@ def main(argv=None):
     u, y = data.estimation.u, data.estimation.y  # training + validation, the validation block last
     n_val = len(data.validation.y)
     models = {
-        "searched m, c, k": make_model(BoucWenStructure(bounds=GUESS_BOUNDS), len(y) - n_val, validation_size=n_val,
+        "searched m, c, k": make_model(BoucWenHiddenState(bounds=GUESS_BOUNDS), len(y) - n_val, validation_size=n_val,
                                        n_trials=10 if args.quick else 30, random_state=0).fit(u, y),
-        "Ideal (true m, c, k)": make_model(BoucWenStructure(**TRUE), len(data.train.y)).fit(data.train.u, data.train.y),
+        "Ideal (true m, c, k)": make_model(BoucWenHiddenState(**TRUE), len(data.train.y)).fit(data.train.u, data.train.y),
     }
 
     tests = ("sine", "multisine", "sinesweep")

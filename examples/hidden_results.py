@@ -4,12 +4,12 @@ Run with the benchmark data home set, e.g.::
 
     SINDYBENCH_DATA=/path/to/data python examples/hidden_results.py [--quick]
 
-* pick-and-place, second order (DerivativeAugmentation): differentiation window
+* pick-and-place, second order (DerivativeHiddenState): differentiation window
   and STLS threshold searched on the study's validation block (960 samples);
 * cascaded tanks, hidden upper tank (TanksHiddenState): k1, k2/k1 and the upper
   tank's start level searched by simulating the whole estimation record, the
   candidates fitted without its validation block (256 samples);
-* Bouc-Wen, structural iteration (BoucWenStructure): m, c, k searched on the
+* Bouc-Wen, structural iteration (BoucWenHiddenState): m, c, k searched on the
   validation block (960 samples), z' learned by filtered regression, derivatives
   by a spectral derivative band-limited to the excitation band (150 Hz); also
   the fit with m, c, k fixed at their true values. Three tests: multisine,
@@ -27,7 +27,7 @@ import numpy as np
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.datasets import load_bouc_wen, load_cascaded_tanks, load_pick_and_place
 from sindybench.differentiation import SavitzkyGolay, Spectral
-from sindybench.hidden import BoucWenStructure, DerivativeAugmentation, TanksHiddenState
+from sindybench.hidden import BoucWenHiddenState, DerivativeHiddenState, TanksHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.metrics import fit_index, r2, rmse
 
@@ -53,7 +53,7 @@ def pick_and_place(seeds, n_trials):
     for seed in seeds:
         start = time.perf_counter()
         model = HiddenStateSINDy(
-            hidden=DerivativeAugmentation(order=2), library=PolynomialLibrary(degree=2),
+            hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=2),
             optimizer=STLS(threshold=1.0), differentiation=SavitzkyGolay(window_length=11), dt=data.train.dt,
             validation_size=n_val, n_trials=n_trials, random_state=seed,
             search_params={"differentiation__window_length": [7, 11, 15, 21, 31],
@@ -82,8 +82,8 @@ def bouc_wen(seeds, n_trials):
     est, n_val = data.estimation, len(data.validation.y)
     n_rows = len(est.y) - n_val
     bounds = {"m": (1.0, 5.0, True), "c": (1.0, 100.0, True), "k": (1e4, 1e5, True)}
-    runs = [("fixed at the true values", BoucWenStructure(m=2.0, c=10.0, k=5e4), [0], 1)]
-    runs += [(f"searched in {bounds}", BoucWenStructure(bounds=bounds), seeds, n_trials)]
+    runs = [("fixed at the true values", BoucWenHiddenState(m=2.0, c=10.0, k=5e4), [0], 1)]
+    runs += [(f"searched in {bounds}", BoucWenHiddenState(bounds=bounds), seeds, n_trials)]
     for label, hidden, run_seeds, trials in runs:
         for seed in run_seeds:
             start = time.perf_counter()

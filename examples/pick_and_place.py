@@ -2,7 +2,7 @@
 
 The study's Table 1 in a few lines. Only the head position ``y`` is measured;
 its velocity, the other half of a mechanical state, is hidden. Naive SINDy
-fits ``y' = f(y, u)``; ``DerivativeAugmentation(order=2)`` takes ``(y, y')`` as
+fits ``y' = f(y, u)``; ``DerivativeHiddenState(order=2)`` takes ``(y, y')`` as
 the state and fits ``y'' = f(y, y', u)`` with the same quadratic library, the
 derivatives estimated by total-variation regularised differentiation. The
 hyperparameters (threshold, ridge alpha, TV gamma) are tuned on the validation
@@ -19,7 +19,7 @@ import optuna
 from sindybench import STLS, HiddenStateSINDy, SINDy
 from sindybench.datasets import load_pick_and_place
 from sindybench.differentiation import TotalVariation
-from sindybench.hidden import DerivativeAugmentation
+from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.metrics import fit_index, r2, rmse
 from sindybench.model_selection import HoldoutSplit, LogUniform, tune
@@ -42,7 +42,7 @@ def main(argv=None):
     common = dict(library=PolynomialLibrary(degree=2), optimizer=STLS(), differentiation=TotalVariation(), dt=data.dt)
     models = {
         "SINDy, 1st order": SINDy(**common),
-        "SINDy, 2nd order": HiddenStateSINDy(hidden=DerivativeAugmentation(order=2), **common),
+        "SINDy, 2nd order": HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), **common),
     }
     study_r2 = {"SINDy, 1st order": 0.76, "SINDy, 2nd order": 0.94}
 

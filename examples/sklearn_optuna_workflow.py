@@ -28,7 +28,7 @@ from sklearn.preprocessing import StandardScaler
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.datasets import load_pick_and_place
 from sindybench.differentiation import TotalVariation
-from sindybench.hidden import DerivativeAugmentation
+from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.metrics import make_simulation_scorer, r2
 from sindybench.model_selection import HoldoutSplit, LogUniform, tune
@@ -37,7 +37,7 @@ from sindybench.model_selection import HoldoutSplit, LogUniform, tune
 def make_pipeline(dt):
     return Pipeline([
         ("inputs", StandardScaler()),  # transforms X, the inputs; y (the measured output) passes through
-        ("sindy", HiddenStateSINDy(hidden=DerivativeAugmentation(order=2), library=PolynomialLibrary(degree=2),
+        ("sindy", HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=2),
                                    optimizer=STLS(threshold=0.1), differentiation=TotalVariation(gamma=1e-4),
                                    dt=dt)),
     ])

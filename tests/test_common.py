@@ -14,7 +14,7 @@ import pysindy as ps
 
 from sindybench import STLS, HiddenStateSINDy, SINDy
 from sindybench.baselines import ARX, NNARX
-from sindybench.hidden import DerivativeAugmentation
+from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import (
     AbsProductLibrary,
     ConcatLibrary,
@@ -59,7 +59,7 @@ ESTIMATORS = [
     ProductLibrary(PolynomialLibrary(degree=1), PolynomialLibrary(degree=1, include_bias=False)),
     TermsLibrary(terms=[[], [[0, 0, 2, 0]]]),
     ExternalLibrary(ps.PolynomialLibrary(degree=2)),
-    HiddenStateSINDy(dt=0.1, hidden=DerivativeAugmentation(order=1), library=PolynomialLibrary(degree=1)),
+    HiddenStateSINDy(dt=0.1, hidden=DerivativeHiddenState(order=1), library=PolynomialLibrary(degree=1)),
     HiddenStateSINDy(dt=0.1, library=PolynomialLibrary(degree=1)),
     ARX(),
     NNARX(hidden_layer_sizes=(8,), max_iter=200, random_state=0),

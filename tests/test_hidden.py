@@ -5,7 +5,7 @@ import pytest
 from sklearn.base import clone
 
 from sindybench import STLS, HiddenStateSINDy
-from sindybench.hidden import DerivativeAugmentation, ParametricHiddenState
+from sindybench.hidden import DerivativeHiddenState, ParametricHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.simulate import TermsRHS, simulate
 
@@ -28,7 +28,7 @@ def oscillator(rng):
 
 
 def _model(**kw):
-    params = dict(hidden=DerivativeAugmentation(order=2), library=PolynomialLibrary(degree=1),
+    params = dict(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=1),
                   optimizer=STLS(threshold=0.05), dt=DT)
     params.update(kw)
     return HiddenStateSINDy(**params)
@@ -89,7 +89,7 @@ def test_one_dimensional_output_round_trip(oscillator):
         ({"search_params": {"optimizer__threshold": (1.0, 0.1)}}, "expected low < high"),
         ({"search_params": {"optimizer__threshold": (0.0, 1.0)}, "validation_size": 1.5}, "validation_size"),
         ({"search_params": {"optimizer__threshold": (0.0, 1.0)}, "validation_size": 5000}, "validation samples"),
-        ({"hidden": DerivativeAugmentation(order=0)}, "order must be an integer >= 1"),
+        ({"hidden": DerivativeHiddenState(order=0)}, "order must be an integer >= 1"),
     ],
 )
 def test_bad_parameters(oscillator, params, match):

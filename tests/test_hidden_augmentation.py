@@ -1,4 +1,4 @@
-"""DerivativeAugmentation: known second/third-order truths and the pick-and-place benchmark."""
+"""DerivativeHiddenState: known second/third-order truths and the pick-and-place benchmark."""
 
 import numpy as np
 import pytest
@@ -6,7 +6,7 @@ import pytest
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.datasets import load_pick_and_place
 from sindybench.differentiation import SavitzkyGolay
-from sindybench.hidden import DerivativeAugmentation
+from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.metrics import r2
 from sindybench.simulate import TermsRHS, simulate
@@ -24,7 +24,7 @@ def test_second_order_truth_recovered(rng):
     u = _excitation(rng, 3000)
     truth = TermsRHS.from_equations([{V: 1.0}, {Y: -4.0, V: -0.5, A: 2.0, ((0, 0, 3, 0),): -1.0}])
     y = simulate(truth, [0.5, 0.0], u, dt=DT, n_substeps=4, input_hold="linear")[:, :1]
-    model = HiddenStateSINDy(hidden=DerivativeAugmentation(order=2), library=PolynomialLibrary(degree=3),
+    model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=3),
                              optimizer=STLS(threshold=0.05), differentiation=SavitzkyGolay(window_length=9),
                              dt=DT).fit(u, y)
     names = list(model.library_.get_feature_names_out(model.state_names_ + ["u0"]))
@@ -40,7 +40,7 @@ def test_chain_rows_hold_by_construction(rng):
     u = _excitation(rng, 2000)
     truth = TermsRHS.from_equations([{V: 1.0}, {A: 1.0}, {Y: -1.0, V: -3.0, A: -3.0, U: 1.0}])
     x = simulate(truth, [0.0, 0.0, 0.0], u, dt=DT, n_substeps=4, input_hold="linear")
-    model = HiddenStateSINDy(hidden=DerivativeAugmentation(order=3), library=PolynomialLibrary(degree=1),
+    model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=3), library=PolynomialLibrary(degree=1),
                              optimizer=STLS(threshold=0.05), differentiation=SavitzkyGolay(window_length=11, polyorder=4),
                              dt=DT).fit(u, x[:, :1])
     assert model.state_names_ == ["y0", "y0'", "y0''"]
@@ -57,7 +57,7 @@ def test_chain_rows_hold_by_construction(rng):
 def test_order_one_is_plain_sindy(rng):
     u = _excitation(rng, 1000)
     y = simulate(TermsRHS.from_equations([{Y: -2.0, V: 1.0}]), [1.0], u, dt=DT, input_hold="linear")
-    model = HiddenStateSINDy(hidden=DerivativeAugmentation(order=1), library=PolynomialLibrary(degree=1),
+    model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=1), library=PolynomialLibrary(degree=1),
                              optimizer=STLS(threshold=0.05), dt=DT).fit(u, y)
     assert model.hidden_states_.shape == (1000, 0)
     np.testing.assert_allclose(model.coef_[0][1:], [-2.0, 1.0], rtol=0.02)
@@ -67,7 +67,7 @@ def test_order_one_is_plain_sindy(rng):
 def test_bad_strategy_parameters(rng, params, match):
     u = _excitation(rng, 200)
     with pytest.raises(ValueError, match=match):
-        HiddenStateSINDy(hidden=DerivativeAugmentation(**params), dt=DT).fit(u, u)
+        HiddenStateSINDy(hidden=DerivativeHiddenState(**params), dt=DT).fit(u, u)
 
 
 # ------------------------------------------------------------------ real benchmark
@@ -79,7 +79,7 @@ def _pick_and_place(data_home):
 def test_pick_and_place_second_order_beats_bar(data_home):
     """Study: R^2 0.94 second order (first order 0.76); bar 0.90. Fit on the training block."""
     train, _, test = _pick_and_place(data_home)
-    model = HiddenStateSINDy(hidden=DerivativeAugmentation(order=2), library=PolynomialLibrary(degree=2),
+    model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=2),
                              optimizer=STLS(threshold=1.0), differentiation=SavitzkyGolay(window_length=11),
                              dt=train.dt).fit(train.u, train.y)
     assert r2(test.y, model.predict(test.u, y_init=test.y)) >= 0.90
@@ -89,7 +89,7 @@ def test_pick_and_place_with_inner_search(data_home):
     """Window and threshold searched on the study's validation block (960 samples), 30 trials, seed 0."""
     train, val, test = _pick_and_place(data_home)
     model = HiddenStateSINDy(
-        hidden=DerivativeAugmentation(order=2), library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=1.0),
+        hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=1.0),
         differentiation=SavitzkyGolay(window_length=11), dt=train.dt, validation_size=len(val.y), n_trials=30,
         random_state=0, search_params={"differentiation__window_length": [7, 11, 15, 21, 31],
                                        "optimizer__threshold": (1e-2, 1e2, True)},

@@ -1,4 +1,4 @@
-"""Tests for BoucWenStructure: structural iteration on the Bouc-Wen hysteretic system."""
+"""Tests for BoucWenHiddenState: structural iteration on the Bouc-Wen hysteretic system."""
 
 import pickle
 
@@ -7,7 +7,7 @@ import pytest
 
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
-from sindybench.hidden import BoucWenStructure
+from sindybench.hidden import BoucWenHiddenState
 from sindybench.metrics import rmse
 from sindybench.systems import BoucWen, multisine
 
@@ -50,7 +50,7 @@ def synthetic():
 
 
 def test_structure_rows():
-    s = BoucWenStructure(**TRUE)
+    s = BoucWenHiddenState(**TRUE)
     st = s.structure(s.resolve_params(), n_outputs=1, n_inputs=1)
     assert st.learned == (2,) and st.output_index == (0,)
     x, u = np.array([1e-3, 0.2, 30.0]), np.array([40.0])
@@ -61,14 +61,14 @@ def test_structure_rows():
 
 
 def test_search_space_uses_default_bounds():
-    space = BoucWenStructure(m=2.0, bounds={"k": (1e4, 1e5)}).search_space()
+    space = BoucWenHiddenState(m=2.0, bounds={"k": (1e4, 1e5)}).search_space()
     assert space["k"] == (1e4, 1e5, False)
     assert space["c"][:2] == (0.1, 1000.0) and set(space) == {"c", "k"}
 
 
 def test_true_parameters_recover_the_bouc_wen_law(synthetic):
     u, y, states = synthetic
-    model = _model(BoucWenStructure(**TRUE), len(u)).fit(u, y)
+    model = _model(BoucWenHiddenState(**TRUE), len(u)).fit(u, y)
     eq = _z_equation(model)
     assert set(eq) == set(TRUE_TERMS)
     for name, value in TRUE_TERMS.items():
@@ -79,7 +79,7 @@ def test_true_parameters_recover_the_bouc_wen_law(synthetic):
 
 def test_fitted_model_pickles(synthetic):
     u, y, _ = synthetic
-    model = _model(BoucWenStructure(**TRUE), len(u)).fit(u, y)
+    model = _model(BoucWenHiddenState(**TRUE), len(u)).fit(u, y)
     clone = pickle.loads(pickle.dumps(model))
     np.testing.assert_allclose(clone.predict(u, y_init=y[:10]), model.predict(u, y_init=y[:10]))
 
@@ -87,8 +87,8 @@ def test_fitted_model_pickles(synthetic):
 def test_filtered_regression_beats_raw_features(synthetic):
     # a wider window smooths the target more: raw features then pick up a spurious relaxation term z
     u, y, _ = synthetic
-    raw = _model(BoucWenStructure(**TRUE, filter_features=None), len(u), window_length=7).fit(u, y)
-    filtered = _model(BoucWenStructure(**TRUE), len(u), window_length=7).fit(u, y)
+    raw = _model(BoucWenHiddenState(**TRUE, filter_features=None), len(u), window_length=7).fit(u, y)
+    filtered = _model(BoucWenHiddenState(**TRUE), len(u), window_length=7).fit(u, y)
     assert set(_z_equation(filtered)) == set(TRUE_TERMS)
     err = {name: abs(_z_equation(m)["|v| z"] / TRUE_TERMS["|v| z"] - 1) for name, m in [("raw", raw), ("f", filtered)]}
     assert err["f"] < 0.1 < err["raw"]
@@ -96,19 +96,19 @@ def test_filtered_regression_beats_raw_features(synthetic):
 
 def test_initial_state_from_first_samples(synthetic):
     u, y, states = synthetic
-    model = _model(BoucWenStructure(**TRUE), len(u)).fit(u, y)
+    model = _model(BoucWenHiddenState(**TRUE), len(u)).fit(u, y)
     start = 1500
     x0 = model.estimate_initial_state(u[start:], y[start : start + 10])
     scale = np.std(states, axis=0)
     np.testing.assert_array_less(np.abs(x0 - states[start]) / scale, [0.01, 0.05, 0.1])
-    coarse = _model(BoucWenStructure(**TRUE, refine_init=False), len(u)).fit(u, y)
+    coarse = _model(BoucWenHiddenState(**TRUE, refine_init=False), len(u)).fit(u, y)
     x0_coarse = coarse.estimate_initial_state(u[start:], y[start : start + 10])
     assert np.abs(x0 - states[start])[2] < np.abs(x0_coarse - states[start])[2]
 
 
 def test_search_recovers_the_mass(synthetic):
     u, y, _ = synthetic
-    hidden = BoucWenStructure(c=10.0, k=5e4, bounds={"m": (0.5, 8.0, True)})
+    hidden = BoucWenHiddenState(c=10.0, k=5e4, bounds={"m": (0.5, 8.0, True)})
     model = _model(hidden, len(u), validation_size=600, n_trials=12, random_state=0).fit(u, y)
     assert model.params_["m"] == pytest.approx(2.0, rel=0.05)
     assert len(model.search_results_) == 12
@@ -134,14 +134,14 @@ def test_bad_parameters(params, match):
     u = multisine(512, random_state=np.random.default_rng(0))
     y = BoucWen().simulate(u, periodic=True)
     with pytest.raises(ValueError, match=match):
-        _model(BoucWenStructure(**{**TRUE, **params}), len(u), n_trials=2).fit(u, y)
+        _model(BoucWenHiddenState(**{**TRUE, **params}), len(u), n_trials=2).fit(u, y)
 
 
 def test_one_input_one_output_only():
     u = multisine(512, random_state=np.random.default_rng(0))
     y = BoucWen().simulate(u, periodic=True)
     with pytest.raises(ValueError, match="one force input and one displacement output"):
-        _model(BoucWenStructure(**TRUE), len(u)).fit(u, np.hstack([y, y]))
+        _model(BoucWenHiddenState(**TRUE), len(u)).fit(u, np.hstack([y, y]))
 
 
 @pytest.fixture(scope="module")
@@ -151,7 +151,7 @@ def benchmark_model(data_home):
     data = load_bouc_wen(data_home=data_home)
     est = data.estimation
     n_val = data.validation.u.shape[0]
-    model = _model(BoucWenStructure(bounds=BOUNDS), est.u.shape[0] - n_val, window_length=7,
+    model = _model(BoucWenHiddenState(bounds=BOUNDS), est.u.shape[0] - n_val, window_length=7,
                    validation_size=n_val, n_trials=30, random_state=0)
     return data, model.fit(est.u, est.y)
 
@@ -182,7 +182,7 @@ def test_true_parameters_on_benchmark_keep_the_true_terms(data_home):
     from sindybench.datasets import load_bouc_wen
 
     data = load_bouc_wen(data_home=data_home)
-    model = _model(BoucWenStructure(**TRUE), data.train.u.shape[0], window_length=7).fit(data.train.u, data.train.y)
+    model = _model(BoucWenHiddenState(**TRUE), data.train.u.shape[0], window_length=7).fit(data.train.u, data.train.y)
     assert set(_z_equation(model)) == set(TRUE_TERMS)
     test = data.test.multisine
     assert rmse(test.y, model.predict(test.u, y_init=test.y[: data.n_init])) <= 1e-4
@@ -195,7 +195,7 @@ def test_benchmark_multisine_rmse_other_seeds(data_home, seed):
 
     data = load_bouc_wen(data_home=data_home)
     est, n_val = data.estimation, data.validation.u.shape[0]
-    model = _model(BoucWenStructure(bounds=BOUNDS), est.u.shape[0] - n_val, window_length=7,
+    model = _model(BoucWenHiddenState(bounds=BOUNDS), est.u.shape[0] - n_val, window_length=7,
                    validation_size=n_val, n_trials=30, random_state=seed).fit(est.u, est.y)
     test = data.test.multisine
     assert rmse(test.y, model.predict(test.u, y_init=test.y[: data.n_init])) <= 2.5e-4

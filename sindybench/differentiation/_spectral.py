@@ -126,7 +126,7 @@ class Spectral(BaseDifferentiation):
     (an error of ``|y''|`` there) and recovers over a few ``1 / cutoff``: 3 /
     cutoff inside, the error is about 4 % of ``|y''|`` for a brick wall and
     0.2 % with ``taper=0.5``. Leave those samples out where they matter (e.g.
-    ``trim`` of :class:`~sindybench.hidden.BoucWenStructure`). A brick wall also
+    ``trim`` of :class:`~sindybench.hidden.BoucWenHiddenState`). A brick wall also
     rings around sharp events inside the record; a taper shortens the ringing.
 
     See Also

@@ -1,7 +1,7 @@
 """Bouc-Wen hysteretic oscillator (Noël and Schoukens, 2016): the study's Table 2.
 
 Models: naive second-order SINDy in ``(y, y')`` with a polynomial library,
-the structural hidden-force remedy (:class:`~sindybench.hidden.BoucWenStructure`)
+the structural hidden-force remedy (:class:`~sindybench.hidden.BoucWenHiddenState`)
 with ``m, c, k`` searched, the same with the true ``m, c, k`` ("Ideal"), and
 the ARX / NN-ARX baselines. Training: the first 40000 samples of the
 multisine record, validation the next 960; tests: the low-frequency sine
@@ -32,10 +32,10 @@ def _threshold(n_rows, fraction=0.1, rate=1.3e4):
 def _naive(*, random_state, quick, dt, n_val, n_samples):
     from .. import STLS, HiddenStateSINDy
     from ..differentiation import Spectral
-    from ..hidden import DerivativeAugmentation
+    from ..hidden import DerivativeHiddenState
     from ..libraries import PolynomialLibrary
 
-    return HiddenStateSINDy(hidden=DerivativeAugmentation(order=2), library=PolynomialLibrary(degree=2),
+    return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=2),
                             optimizer=STLS(threshold=1e-3, normalize_columns=True),
                             differentiation=Spectral(cutoff=150.0), dt=dt,
                             input_hold="linear", n_substeps=2)
@@ -45,15 +45,15 @@ def _hidden(fixed):
     def make(*, random_state, quick, dt, n_val, n_samples):
         from .. import STLS, HiddenStateSINDy
         from ..differentiation import Spectral
-        from ..hidden import BoucWenStructure
+        from ..hidden import BoucWenHiddenState
 
         searched = len(fixed) < 3
         n_rows = n_samples - n_val if searched else n_samples
         return HiddenStateSINDy(
-            hidden=BoucWenStructure(**fixed, bounds=None if not searched else MCK_BOUNDS),
+            hidden=BoucWenHiddenState(**fixed, bounds=None if not searched else MCK_BOUNDS),
             optimizer=STLS(threshold=_threshold(n_rows), normalize_columns=True),
             differentiation=Spectral(cutoff=150.0),  # the training multisine excites 5-150 Hz: keep that band
-            dt=dt, n_substeps=2, input_hold="linear",  # a held force lags half a sample (see BoucWenStructure)
+            dt=dt, n_substeps=2, input_hold="linear",  # a held force lags half a sample (see BoucWenHiddenState)
             validation_size=n_val, n_trials=10 if quick else 30, random_state=random_state,
         )
 

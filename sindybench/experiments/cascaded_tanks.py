@@ -44,9 +44,9 @@ def _sqrt():
 
 def _second_order(*, random_state, quick, dt, n_val, n_samples):
     from .. import STLS, HiddenStateSINDy
-    from ..hidden import DerivativeAugmentation
+    from ..hidden import DerivativeHiddenState
 
-    return HiddenStateSINDy(hidden=DerivativeAugmentation(order=2), library=_poly(),
+    return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=_poly(),
                             optimizer=STLS(threshold=0.01), dt=dt)
 
 

@@ -2,7 +2,7 @@
 
 Models: naive first-order SINDy ``y' = f(y, u)`` with a quadratic polynomial
 library, the second-order remedy (derivative-coordinate augmentation,
-:class:`~sindybench.hidden.DerivativeAugmentation`), and the ARX / NN-ARX
+:class:`~sindybench.hidden.DerivativeHiddenState`), and the ARX / NN-ARX
 baselines. Data decimated to 400 Hz and standardised; training 3840,
 validation 960, test the last 1201 samples.
 """
@@ -28,9 +28,9 @@ def _poly():
 def _second_order(*, random_state, quick, dt, n_val, n_samples):
     from .. import STLS, HiddenStateSINDy
     from ..differentiation import TotalVariation
-    from ..hidden import DerivativeAugmentation
+    from ..hidden import DerivativeHiddenState
 
-    return HiddenStateSINDy(hidden=DerivativeAugmentation(order=2), library=_poly(),
+    return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=_poly(),
                             optimizer=STLS(threshold=0.1, alpha=1e-6),
                             differentiation=TotalVariation(gamma=1e-3), dt=dt)
 

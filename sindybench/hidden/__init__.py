@@ -1,15 +1,15 @@
 """Hidden-state SINDy: strategies that reconstruct unmeasured states."""
 
-from ._augmentation import DerivativeAugmentation
+from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy, ModelView, Structure, linear_term
-from ._bouc_wen import BoucWenStructure
+from ._bouc_wen import BoucWenHiddenState
 from ._estimator import HiddenStateSINDy
 from ._parametric import ParametricHiddenState
 from ._tanks import TanksHiddenState
 
 __all__ = [
-    "BoucWenStructure",
-    "DerivativeAugmentation",
+    "BoucWenHiddenState",
+    "DerivativeHiddenState",
     "Design",
     "HiddenStateSINDy",
     "HiddenStrategy",

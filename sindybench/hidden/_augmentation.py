@@ -5,10 +5,10 @@ import numpy as np
 from .._validation import check_integer
 from ._base import Design, HiddenStrategy, Structure, linear_term
 
-__all__ = ["DerivativeAugmentation"]
+__all__ = ["DerivativeHiddenState"]
 
 
-class DerivativeAugmentation(HiddenStrategy):
+class DerivativeHiddenState(HiddenStrategy):
     """Lift each output to ``(y, y', ..., y^(order-1))`` and learn ``y^(order)``.
 
     The chain rows ``d/dt y^(k) = y^(k+1)`` are fixed rows of the model (they
@@ -29,7 +29,7 @@ class DerivativeAugmentation(HiddenStrategy):
 
     Examples
     --------
-    >>> s = DerivativeAugmentation(order=2).structure({}, n_outputs=1, n_inputs=1)
+    >>> s = DerivativeHiddenState(order=2).structure({}, n_outputs=1, n_inputs=1)
     >>> s.state_names, s.learned, s.output_index
     (['y0', "y0'"], (1,), (0,))
     """

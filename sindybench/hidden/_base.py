@@ -141,7 +141,7 @@ class Design(NamedTuple):
     feature_filter : callable or None
         ``f(theta) -> theta`` applied to the library features of the whole
         block (n_samples, n_features) before the rows are taken, to smooth them
-        like the targets (filtered regression, see ``BoucWenStructure``);
+        like the targets (filtered regression, see ``BoucWenHiddenState``);
         None = raw features.
     """
 

@@ -37,7 +37,7 @@ from scipy.optimize import least_squares
 from .._validation import check_bool, check_integer
 from ._base import Design, HiddenStrategy, Structure, linear_term
 
-__all__ = ["BoucWenStructure", "DEFAULT_BOUNDS"]
+__all__ = ["BoucWenHiddenState", "DEFAULT_BOUNDS"]
 
 #: Search ranges used for ``m``, ``c``, ``k`` when ``bounds`` has no entry for them:
 #: ``name -> (low, high, log)`` in SI units, wide around the benchmark's values.
@@ -59,7 +59,7 @@ def _local_derivatives(y, dt):
     return p[0], p[1] / dt, 2.0 * p[2] / dt**2
 
 
-class BoucWenStructure(HiddenStrategy):
+class BoucWenHiddenState(HiddenStrategy):
     """Hidden hysteretic force of a mass-spring-damper (Bouc-Wen structural iteration).
 
     States ``(y, v, z)``: displacement, velocity ``v = y'`` and the hidden
@@ -105,7 +105,7 @@ class BoucWenStructure(HiddenStrategy):
 
     Examples
     --------
-    >>> s = BoucWenStructure(m=2.0, c=10.0, k=5e4)
+    >>> s = BoucWenHiddenState(m=2.0, c=10.0, k=5e4)
     >>> st = s.structure(s.resolve_params(), n_outputs=1, n_inputs=1)
     >>> st.state_names, st.learned, st.output_index
     (['y', 'v', 'z'], (2,), (0,))
@@ -144,7 +144,7 @@ class BoucWenStructure(HiddenStrategy):
             raise ValueError(f"bounds must be a dict name -> (low, high[, log]) or None; got {self.bounds!r}.")
         merged = copy.copy(self)
         merged.bounds = {**DEFAULT_BOUNDS, **(self.bounds or {})}
-        return super(BoucWenStructure, merged).search_space()
+        return super(BoucWenHiddenState, merged).search_space()
 
     def _validate(self):
         for name, strict in (("m", True), ("c", False), ("k", False)):
@@ -169,7 +169,7 @@ class BoucWenStructure(HiddenStrategy):
         """States ``(y, v, z)``; fixed rows ``y' = v`` and the force balance; ``z'`` learned."""
         if n_outputs != 1 or n_inputs != 1:
             raise ValueError(
-                f"BoucWenStructure models one force input and one displacement output; "
+                f"BoucWenHiddenState models one force input and one displacement output; "
                 f"got {n_inputs} inputs and {n_outputs} outputs."
             )
         m, c, k = (float(params[name]) for name in ("m", "c", "k"))

@@ -149,7 +149,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
     Parameters
     ----------
     hidden : HiddenStrategy, default=None
-        The strategy; None means ``DerivativeAugmentation(order=2)``.
+        The strategy; None means ``DerivativeHiddenState(order=2)``.
     library : transformer, default=None
         Candidate functions of ``Z = [states, inputs]``; None means the
         strategy's ``default_library()``. pysindy libraries are wrapped.
@@ -236,7 +236,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
     Examples
     --------
     >>> import numpy as np
-    >>> from sindybench.hidden import DerivativeAugmentation
+    >>> from sindybench.hidden import DerivativeHiddenState
     >>> from sindybench.libraries import PolynomialLibrary
     >>> from sindybench.simulate import TermsRHS, simulate
     >>> t = np.arange(2000) * 0.01
@@ -244,7 +244,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
     >>> truth = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0},
     ...     {((0, 0, 1, 0),): -4.0, ((1, 0, 1, 0),): -0.5, ((2, 0, 1, 0),): 2.0}])
     >>> y = simulate(truth, [0.0, 0.0], u, dt=0.01, n_substeps=4)[:, :1]
-    >>> model = HiddenStateSINDy(hidden=DerivativeAugmentation(order=2),
+    >>> model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2),
     ...                          library=PolynomialLibrary(degree=1), dt=0.01).fit(u, y)
     >>> model.score(u, y) > 0.99
     True
@@ -292,7 +292,7 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
             raise ValueError("dt is None; pass dt to the constructor or to fit.")
         if self.hidden is not None and not isinstance(self.hidden, HiddenStrategy):
             raise ValueError(
-                f"hidden must be a HiddenStrategy (e.g. DerivativeAugmentation()); got {type(self.hidden).__name__}."
+                f"hidden must be a HiddenStrategy (e.g. DerivativeHiddenState()); got {type(self.hidden).__name__}."
             )
         n_trials = check_integer(self.n_trials, "n_trials")
         check_integer(self.n_substeps, "n_substeps")
@@ -603,9 +603,9 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
 
 
 def _default_strategy():
-    from ._augmentation import DerivativeAugmentation
+    from ._augmentation import DerivativeHiddenState
 
-    return DerivativeAugmentation(order=2)
+    return DerivativeHiddenState(order=2)
 
 
 def _check_fit_data(X, y):

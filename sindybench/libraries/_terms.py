@@ -18,6 +18,12 @@ SQRT      ``sqrt(clip(z, a, b))``            ``sqrt(z)``
 SIGN      ``sign(z)``                        ``sign(z)``
 ========  =================================  ==========
 
+Each operation has its derivative with respect to its column
+(:func:`evaluate_terms_jacobian`): ``a z^(a-1)``, ``a |z|^(a-1) sign(z)``,
+``1 / (2 sqrt(z))`` strictly inside ``(a, b)`` and 0 where the clip is active,
+and 0 for ``sign``. The compiled sensitivity kernel
+(:mod:`sindybench.refine`) uses the same rules.
+
 An empty term ``()`` is the constant 1.
 """
 
@@ -30,6 +36,7 @@ __all__ = [
     "SQRT",
     "check_terms",
     "evaluate_terms",
+    "evaluate_terms_jacobian",
     "term_name",
     "terms_from_json",
     "terms_to_arrays",
@@ -110,6 +117,56 @@ def evaluate_terms(terms, Z):
     for j, term in enumerate(terms):
         for factor in term:
             out[:, j] *= _eval_factor(factor, Z)
+    return out
+
+
+def _factor_derivative(factor, Z):
+    col, op, a, b = factor
+    z = Z[:, col]
+    if op == POW:
+        return np.ones_like(z) if a == 1 else (a * z ** (a - 1) if a != 0 else np.zeros_like(z))
+    if op == ABS_POW:
+        return np.sign(z) if a == 1 else (a * np.abs(z) ** (a - 1) * np.sign(z) if a != 0 else np.zeros_like(z))
+    if op == SQRT:
+        inside = (z > a) & (z < b)
+        return np.where(inside, 0.5 / np.sqrt(np.where(inside, z, 1.0)), 0.0)
+    if op == SIGN:
+        return np.zeros_like(z)
+    raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
+
+
+def evaluate_terms_jacobian(terms, Z):
+    """Derivatives of ``terms`` with respect to the columns of ``Z``.
+
+    Parameters
+    ----------
+    terms : sequence of tuple of (col, op, a, b)
+    Z : ndarray of shape (n_samples, n_variables)
+
+    Returns
+    -------
+    ndarray of shape (n_samples, len(terms), n_variables)
+        ``out[k, j, c]`` is the derivative of term ``j`` with respect to
+        ``Z[:, c]`` at sample ``k`` (product rule over the term's factors).
+
+    Examples
+    --------
+    >>> Z = np.array([[2.0, -3.0]])
+    >>> evaluate_terms_jacobian([((0, POW, 2, 0), (1, ABS_POW, 1, 0))], Z)[0]
+    array([[12., -4.]])
+    >>> evaluate_terms_jacobian([((0, SQRT, 0.0, 1.0),)], np.array([[0.25], [4.0]]))[:, 0, 0]
+    array([1., 0.])
+    """
+    Z = np.asarray(Z, dtype=float)
+    out = np.zeros((Z.shape[0], len(terms), Z.shape[1]))
+    for j, term in enumerate(terms):
+        values = [_eval_factor(f, Z) for f in term]
+        for i, factor in enumerate(term):
+            d = _factor_derivative(factor, Z)
+            for k, v in enumerate(values):
+                if k != i:
+                    d = d * v
+            out[:, j, factor[0]] += d
     return out
 
 

@@ -47,6 +47,8 @@ def _factor(v, o, a, b):
             return np.sqrt(b), 0.0
         r = np.sqrt(v)
         return r, 0.5 / r
+    if o == 4:  # STEP
+        return (1.0 if a <= v <= b else 0.0), 0.0
     # SIGN
     if v > 0.0:
         return 1.0, 0.0

@@ -7,7 +7,7 @@ baselines. Data decimated to 400 Hz and standardised; training 3840,
 validation 960, test the last 1201 samples.
 """
 
-from ._common import arx_model, arx_space, nnarx_model, nnarx_space, sindy_model, stls_space
+from ._common import arx_model, arx_space, nnarx_model, nnarx_space, refinement, sindy_model, stls_space
 from ._spec import Benchmark, ModelSpec
 
 __all__ = ["BENCHMARK"]
@@ -49,6 +49,10 @@ BENCHMARK = Benchmark(
         ModelSpec("sindy_second_order", "SINDy, 2nd order", _second_order,
                   stls_space(threshold=(1e-4, 1e2), gamma=(1e-6, 1e1)), n_trials=100, n_trials_quick=6,
                   description="states (y, y'), y'' = f(y, y', u) with a quadratic polynomial library"),
+        ModelSpec("sindy_second_order_refined", "SINDy, 2nd order + simulation-error refinement", refinement(),
+                  refines="sindy_second_order",
+                  description="the tuned second-order model with its nonzero coefficients and initial state refined "
+                              "by the simulation error of the training block"),
         ModelSpec("arx", "ARX", arx_model(), arx_space(), n_trials=50, n_trials_quick=6,
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(), nnarx_space(), n_trials=20, n_trials_quick=3,

@@ -53,6 +53,7 @@ ESTIMATORS = [
     STLS(),
     STLS(threshold=0.05, alpha=0.1, normalize_columns=True),
     SINDy(dt=0.1, library=PolynomialLibrary(degree=1)),
+    SINDy(dt=0.1, library=PolynomialLibrary(degree=1), refine=OutputErrorRefinement(max_nfev=3)),
     PolynomialLibrary(degree=2),
     SqrtLibrary(),
     IndicatorLibrary(variables=[0], lower=0.0),

@@ -104,15 +104,14 @@ def _chosen(estimator):
     return {f"hidden__{k}": v for k, v in params.items() if k in names}
 
 
-def refine_model(spec, base, X, y, *, n_fit, dt, seed=0, quick=False):
+def refine_model(spec, base, X, y, *, dt, seed=0, quick=False):
     """Fit the refinement row ``spec`` from the fitted model ``base`` it refines.
 
     ``base`` is cloned with the hyperparameters its searches chose held
     (inner physical guesses become fixed values), the parameters returned by
-    ``spec.make`` are set, and it is fitted on the first ``n_fit`` rows of
-    ``X, y``: the data ``base`` was fitted on (the training block for
-    outer-tuned models, training + validation for models with an inner
-    search).
+    ``spec.make`` are set, and it is fitted on the whole estimation record
+    ``X, y`` (training + validation block): every choice was already made on
+    the validation block, and the refinement is the final fit.
 
     Returns
     -------
@@ -121,11 +120,13 @@ def refine_model(spec, base, X, y, *, n_fit, dt, seed=0, quick=False):
     from sklearn.base import clone
 
     start = time.perf_counter()
-    settings = spec.make(random_state=seed, quick=quick, dt=dt, n_val=len(y) - n_fit, n_samples=n_fit)
+    settings = spec.make(random_state=seed, quick=quick, dt=dt, n_val=0, n_samples=len(y))
+    if "initial_state" not in base.get_params(deep=False):
+        settings.pop("initial_state", None)  # SINDy measures its whole state: it starts from y_init[0]
     chosen = _chosen(base)
-    estimator = clone(base).set_params(**chosen, **settings).fit(X[:n_fit], y[:n_fit])
+    estimator = clone(base).set_params(**chosen, **settings).fit(X, y)
     info = {"n_trials": 0, "best_params": {k: jsonable(v) for k, v in chosen.items()}, "best_value": None,
-            "inner_trials": 0, "n_fit": n_fit, "refinement": jsonable(getattr(estimator, "refinement_", None)),
+            "inner_trials": 0, "refinement": getattr(estimator, "refinement_", None),
             "fit_time_s": time.perf_counter() - start}
     return estimator, info
 
@@ -184,10 +185,8 @@ def _search_and_fit(spec, estimator, X, y, info, *, n_val, n_trials, n_init, see
         info["best_value"] = value if np.isfinite(value) else None
         # ... and keep the model fitted on the training block, the one the validation chose
         # (a thresholded fit on more data can select other terms than the validated one)
-        info["n_fit"] = len(y) - n_val
         return best.fit(X[:-n_val], y[:-n_val])
     # estimators with an inner search validate on the last n_val samples themselves
-    info["n_fit"] = len(y)
     return estimator.fit(X, y)
 
 
@@ -292,7 +291,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         "models": [],
     }
     n_init = min(info["n_init"] for info in results["test_sets"].values())
-    fitted, simulations, n_fit = {}, {name: {} for name in tests}, {}
+    fitted, simulations = {}, {name: {} for name in tests}
     for spec in specs:
         budget = spec.budget(quick=quick, trials=trials)
         logger.info("%s: %s (%s)", benchmark.name, spec.label,
@@ -306,15 +305,13 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
                 base = fitted.get(spec.refines)
                 if base is None:
                     raise ValueError(f"the model it refines, {spec.refines!r}, was not fitted in this run.")
-                estimator, info = refine_model(spec, base, X[keep], y[keep], n_fit=n_fit[spec.refines], dt=dt,
-                                               seed=seed, quick=quick)
+                estimator, info = refine_model(spec, base, X[keep], y[keep], dt=dt, seed=seed, quick=quick)
             else:
                 estimator, info = fit_model(
                     spec, X[keep], y[keep], n_val=n_val, dt=dt, n_trials=budget, n_init=n_init, seed=seed,
                     quick=quick, storage=storage, n_jobs=n_jobs, study_name=f"{benchmark.name}.{spec.key}.seed{seed}",
                     show_progress_bar=show_progress_bar,
                 )
-            n_fit[spec.key] = info["n_fit"]
             entry.update(info, status="ok", equations=_equations(estimator))
         except Exception as exc:  # one model failing must not lose the others' results
             logger.warning("%s: %s failed to fit: %s", benchmark.name, spec.label, exc)

@@ -41,7 +41,7 @@ class ModelSpec:
         runner clones that fitted model, holds the hyperparameters its
         searches chose (outer and inner), sets the parameters that ``make``
         returns (e.g. ``refine=OutputErrorRefinement(...)``,
-        ``initial_state="fit"``) and fits it on the same data.
+        ``initial_state="fit"``) and fits it on the whole estimation record.
     """
 
     key: str

@@ -330,6 +330,14 @@ def test_refine_bad_input(duffing, kwargs, match):
                                 **args)
 
 
+@pytest.mark.xfail(strict=True, raises=IndexError, reason="refine_simulation_error does not check free_x0: "
+                   "an index past the last state raises a bare IndexError from numpy instead of a ValueError")
+def test_refine_free_x0_out_of_range(duffing):
+    u, y = duffing
+    with pytest.raises(ValueError, match="free_x0"):
+        refine_simulation_error(DUFFING, TRUE_COEF, u, y, DT, x0=TRUE_X0, free_x0=[2])
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [

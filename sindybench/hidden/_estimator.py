@@ -476,9 +476,19 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         return simulate(cand.rhs, x0, X, dt, on_divergence=on_divergence, **self._settings(cand.structure))
 
     def _refine(self, hidden, cand, X, y, dt):
-        """The candidate refined by simulation error, and its refined first state."""
-        params, coef, x0, result = refine_candidate(cand, hidden, X, y, dt, self.refine, build_rhs=_build_rhs,
-                                                    python_rhs=_PythonRHS, settings=self._settings(cand.structure))
+        """The candidate refined by simulation error, and its refined first state.
+
+        A model whose simulation of the training record diverges cannot be
+        refined: it is kept as fitted by equation error, with a warning.
+        """
+        try:
+            params, coef, x0, result = refine_candidate(cand, hidden, X, y, dt, self.refine, build_rhs=_build_rhs,
+                                                        python_rhs=_PythonRHS,
+                                                        settings=self._settings(cand.structure))
+        except SimulationError as exc:
+            warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=3)
+            self.refinement_ = {"status": -1, "message": f"skipped: {exc}"}
+            return cand, None
         structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
         cand = cand._replace(params=params, structure=structure, coef=coef,
                              rhs=_build_rhs(structure, cand.library, coef))

@@ -1,7 +1,7 @@
 """Feature libraries: scikit-learn transformers applied to ``Z = [states, inputs]``."""
 
 from ._base import BaseLibrary
-from ._builtin import AbsProductLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
+from ._builtin import AbsProductLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
 from ._compose import ConcatLibrary, ProductLibrary
 from ._custom import CustomLibrary, ExternalLibrary, as_library
 from ._spec import library_from_spec, library_to_spec
@@ -10,6 +10,7 @@ from ._terms import (
     POW,
     SIGN,
     SQRT,
+    STEP,
     check_terms,
     evaluate_terms,
     evaluate_terms_jacobian,
@@ -26,11 +27,13 @@ __all__ = [
     "ConcatLibrary",
     "CustomLibrary",
     "ExternalLibrary",
+    "IndicatorLibrary",
     "POW",
     "PolynomialLibrary",
     "ProductLibrary",
     "SIGN",
     "SQRT",
+    "STEP",
     "SqrtLibrary",
     "TermsLibrary",
     "as_library",

@@ -9,13 +9,13 @@ rebuilds it. For a fitted model, the terms alone (``terms_to_json`` of
 
 import numpy as np
 
-from ._builtin import AbsProductLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
+from ._builtin import AbsProductLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
 from ._compose import ConcatLibrary, ProductLibrary
 from ._terms import terms_to_json
 
 __all__ = ["library_from_spec", "library_to_spec"]
 
-_SIMPLE = {cls.__name__: cls for cls in (AbsProductLibrary, PolynomialLibrary, SqrtLibrary)}
+_SIMPLE = {cls.__name__: cls for cls in (AbsProductLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary)}
 
 
 def _plain(value):

@@ -16,12 +16,16 @@ POW       ``z ** a``                         ``z^a``
 ABS_POW   ``|z| ** a``                       ``|z|^a``
 SQRT      ``sqrt(clip(z, a, b))``            ``sqrt(z)``
 SIGN      ``sign(z)``                        ``sign(z)``
+STEP      ``1`` if ``a <= z <= b``, else 0   ``[z>=a]``, ``[z<=b]``, ``[a<=z<=b]``
 ========  =================================  ==========
+
+``STEP`` marks a regime, e.g. an overflowing tank (``[x1>=10]``: the level at
+the top of its bounded range) or a saturated actuator.
 
 Each operation has its derivative with respect to its column
 (:func:`evaluate_terms_jacobian`): ``a z^(a-1)``, ``a |z|^(a-1) sign(z)``,
 ``1 / (2 sqrt(z))`` strictly inside ``(a, b)`` and 0 where the clip is active,
-and 0 for ``sign``. The compiled sensitivity kernel
+and 0 for ``sign`` and ``STEP``. The compiled sensitivity kernel
 (:mod:`sindybench.refine`) uses the same rules.
 
 An empty term ``()`` is the constant 1.
@@ -34,6 +38,7 @@ __all__ = [
     "POW",
     "SIGN",
     "SQRT",
+    "STEP",
     "check_terms",
     "evaluate_terms",
     "evaluate_terms_jacobian",
@@ -43,8 +48,8 @@ __all__ = [
     "terms_to_json",
 ]
 
-POW, ABS_POW, SQRT, SIGN = 0, 1, 2, 3
-_OPS = (POW, ABS_POW, SQRT, SIGN)
+POW, ABS_POW, SQRT, SIGN, STEP = 0, 1, 2, 3, 4
+_OPS = (POW, ABS_POW, SQRT, SIGN, STEP)
 
 
 def _fmt_power(base, a):
@@ -62,6 +67,12 @@ def _factor_name(factor, names):
         return f"sqrt({z})"
     if op == SIGN:
         return f"sign({z})"
+    if op == STEP:
+        if np.isinf(b):
+            return f"[{z}>={a:g}]"
+        if np.isinf(a):
+            return f"[{z}<={b:g}]"
+        return f"[{a:g}<={z}<={b:g}]"
     raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
 
 
@@ -91,6 +102,8 @@ def _eval_factor(factor, Z):
         return np.sqrt(np.clip(z, a, b))
     if op == SIGN:
         return np.sign(z)
+    if op == STEP:
+        return ((z >= a) & (z <= b)).astype(float)
     raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
 
 
@@ -130,7 +143,7 @@ def _factor_derivative(factor, Z):
     if op == SQRT:
         inside = (z > a) & (z < b)
         return np.where(inside, 0.5 / np.sqrt(np.where(inside, z, 1.0)), 0.0)
-    if op == SIGN:
+    if op in (SIGN, STEP):
         return np.zeros_like(z)
     raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
 

@@ -365,6 +365,8 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
                                   "expected a model that simulates the training data.", step=-1)
         if initial_cost is None:
             initial_cost = 0.5 * float(r0[: problem.n_res] @ r0[: problem.n_res])
+        if p0.size == 0:
+            raise ValueError("nothing to refine: no free coefficient, physical parameter or initial state.")
         lower, upper = problem.bounds(lo, hi)
         p0 = np.clip(p0, lower, upper)
         jac = problem.jacobian if problem.compiled else "2-point"

@@ -16,7 +16,7 @@ from numba import njit
 
 from .._validation import check_bounds, check_integer, check_option, check_positive, check_signal
 from ..libraries._terms import terms_to_arrays
-from ..simulate import _HOLDS, _METHODS, _STAGES, SimulationError, TermsRHS, _check_steps, _check_x0
+from ..simulate import _HOLDS, _METHODS, _STAGES, SimulationError, TermsRHS, _check_steps, _check_x0, _power
 
 __all__ = ["simulate_sensitivity"]
 
@@ -24,22 +24,16 @@ __all__ = ["simulate_sensitivity"]
 @njit(cache=True, inline="always")
 def _factor(v, o, a, b):
     """Value and derivative of one factor ``op(v)``."""
-    if o == 0:  # POW
-        if a == 1.0:
-            return v, 1.0
+    if o == 0:  # POW, valued exactly as the simulator does
         if a == 0.0:
-            return 1.0, 0.0
-        if a == 2.0:
-            return v * v, 2.0 * v
-        return v**a, a * v ** (a - 1.0)
+            return _power(v, a), 0.0
+        return _power(v, a), a * _power(v, a - 1.0)
     if o == 1:  # ABS_POW
         s = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
         w = abs(v)
-        if a == 1.0:
-            return w, s
         if a == 0.0:
-            return 1.0, 0.0
-        return w**a, a * w ** (a - 1.0) * s
+            return _power(w, a), 0.0
+        return _power(w, a), a * _power(w, a - 1.0) * s
     if o == 2:  # SQRT of clip(v, a, b)
         if v <= a:
             return np.sqrt(a), 0.0
@@ -47,6 +41,8 @@ def _factor(v, o, a, b):
             return np.sqrt(b), 0.0
         r = np.sqrt(v)
         return r, 0.5 / r
+    if o == 4:  # STEP
+        return (1.0 if a <= v <= b else 0.0), 0.0
     # SIGN
     if v > 0.0:
         return 1.0, 0.0
@@ -86,7 +82,8 @@ def _eval(z, n, ptr, col, op, a, b, coef, theta, jac, K, dK, dz, ppar, pterm, ps
     for i in range(n):
         acc = 0.0
         for j in range(n_terms):
-            acc += coef[j, i] * theta[j]
+            if coef[j, i] != 0.0:  # as the simulator, which skips zero coefficients (0 * nan)
+                acc += coef[j, i] * theta[j]
         K[s, i] = acc
     for i in range(n):
         for p in range(n_par):

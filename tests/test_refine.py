@@ -310,10 +310,10 @@ def test_estimate_initial_state_recovers_x0(duffing):
         ({"output_index": (2,)}, "output_index=.2,. does not match"),
         ({"n_segments": 0}, "n_segments must be an integer"),
         ({"n_segments": 1000}, "n_segments must be an integer in"),
-        ({"prune": -0.1}, "prune"),
+        ({"prune": -0.1}, "prune must be a finite number >= 0; got -0.1"),
         ({"max_nfev": 0}, "max_nfev must be an integer"),
         ({"terms": None}, "terms is None; give make_rhs"),
-        ({"y": np.zeros((10, 1))}, "y"),
+        ({"y": np.zeros((10, 1))}, "y has 10 samples; expected 600"),
     ],
 )
 def test_refine_bad_input(duffing, kwargs, match):
@@ -340,7 +340,7 @@ def test_refine_free_x0_out_of_range(duffing):
         ({"directions": np.full((1, 4, 2), np.nan)}, "directions contains NaN"),
         ({"free_x0": [2]}, r"free_x0 = \[2\] has a state index outside \[0, 1\]"),
         ({"output_index": [-1]}, "output_index = .-1. has a state index outside"),
-        ({"method": "rk45"}, "method"),
+        ({"method": "rk45"}, "method must be one of .'rk4', 'euler'.; got 'rk45'"),
         ({"x0": [0.0]}, r"x0 has shape \(1,\)"),
     ],
 )
@@ -350,7 +350,11 @@ def test_sensitivity_bad_input(duffing, kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         simulate_sensitivity(TermsRHS(TRUE_COEF, DUFFING, 2), args.pop("x0"), u, DT, **args)
-    with pytest.raises(ValueError, match="rhs must be a TermsRHS"):
+
+
+def test_sensitivity_refuses_a_python_rhs(duffing):
+    u, _ = duffing
+    with pytest.raises(ValueError, match="rhs must be a TermsRHS for exact sensitivities; got function"):
         simulate_sensitivity(lambda x, uu: -x, [1.0], u, DT)
 
 
@@ -362,10 +366,10 @@ def test_sensitivity_bad_input(duffing, kwargs, match):
         ({"max_samples": 50.0}, "max_samples must be an integer >= 10 or None"),
         ({"max_nfev": 0}, "max_nfev must be an integer"),
         ({"n_segments": 0}, "n_segments must be an integer"),
-        ({"continuity_weight": 0.0}, "continuity_weight"),
-        ({"prune": -1.0}, "prune"),
-        ({"physical": "yes"}, "physical"),
-        ({"initial_state": 1}, "initial_state"),
+        ({"continuity_weight": 0.0}, "continuity_weight must be a finite number > 0"),
+        ({"prune": -1.0}, "prune must be a finite number >= 0"),
+        ({"physical": "yes"}, "physical must be True or False; got 'yes'"),
+        ({"initial_state": 1}, "initial_state must be True or False; got 1"),
     ],
 )
 def test_output_error_refinement_bad_params(duffing, params, match):
@@ -378,7 +382,7 @@ def test_hidden_state_sindy_bad_refine_and_initial_state(duffing):
     u, y = duffing
     with pytest.raises(ValueError, match="refine must be an OutputErrorRefinement or None; got object"):
         HiddenStateSINDy(refine=object(), dt=DT).fit(u, y)
-    with pytest.raises(ValueError, match="initial_state"):
+    with pytest.raises(ValueError, match="initial_state must be one of .'strategy', 'fit', 'periodic'.; got 'bogus'"):
         HiddenStateSINDy(initial_state="bogus", dt=DT).fit(u, y)
 
 
@@ -400,9 +404,7 @@ def msd(rng):
 
 def test_refine_in_hidden_state_sindy_improves_the_fit(msd):
     u, y = msd
-    plain = msd_model()
-    plain.refine = None
-    plain.fit(u, y)
+    plain = msd_model().set_params(refine=None).fit(u, y)
     model = msd_model(max_nfev=20).fit(u, y)
     assert model.refinement_["jacobian"] == "sensitivity"
     assert model.refinement_["cost"] < model.refinement_["initial_cost"]

@@ -9,7 +9,7 @@ import sindybench.refine._core as core
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
-from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT, evaluate_terms, evaluate_terms_jacobian
+from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT, STEP, evaluate_terms, evaluate_terms_jacobian
 from sindybench.refine import (
     OutputErrorRefinement,
     Physical,
@@ -28,18 +28,20 @@ def lin(col):
 
 
 # A 3-state model that uses every factor operation: an oscillator (x0, x1) with cubic, |x1| x0,
-# |x0|^2.5 and sign(x1) x1^2 terms, driven by u and by a positive lag state x2 with a
+# |x0|^2.5, sign(x1) x1^2 and [u>=0.2] x1 terms, driven by u and by a positive lag state x2 with a
 # non-integer power x2^1.5 and a clipped square root of x0 (clip active on both sides).
+# (SIGN and STEP jump: they act on the state through products that are continuous, or on the
+# input, so that finite differences of the trajectory exist.)
 TERMS = [lin(X1), lin(X0), ((X0, POW, 3.0, 0.0),), ((X1, ABS_POW, 1.0, 0.0), (X0, POW, 1.0, 0.0)), lin(U),
          ((X0, ABS_POW, 2.5, 0.0),), ((X1, SIGN, 0.0, 0.0), (X1, POW, 2.0, 0.0)), lin(X2),
-         ((X2, POW, 1.5, 0.0),), ((X0, SQRT, 0.05, 0.3),), ()]
+         ((X2, POW, 1.5, 0.0),), ((X0, SQRT, 0.05, 0.3),), (), ((U, STEP, 0.2, np.inf), (X1, POW, 1.0, 0.0))]
 X2_BOUNDS = ([-np.inf, -np.inf, 0.0], [np.inf, np.inf, 0.7])
 
 
 def every_op_coef(cubic=-1.0):
     coef = np.zeros((len(TERMS), 3))
     coef[0, 0] = 1.0
-    coef[1:8, 1] = [-4.0, cubic, -0.3, 1.0, -0.2, -0.05, 0.3]
+    coef[[1, 2, 3, 4, 5, 6, 7, 11], 1] = [-4.0, cubic, -0.3, 1.0, -0.2, -0.05, 0.3, -0.3]
     coef[[8, 9, 10, 4], 2] = [-0.8, 0.4, 0.45, 0.3]
     return coef
 
@@ -57,7 +59,7 @@ def unit_directions(coef):
     return free, D
 
 
-def fd_sensitivities(coef, x0, u, free, settings, eps=1e-6):
+def fd_sensitivities(coef, x0, u, free, settings, eps=1e-6, terms=TERMS):
     """Central differences of simulate() for every free coefficient, then every x0 entry."""
     cols = []
     for j, i in free:
@@ -65,9 +67,9 @@ def fd_sensitivities(coef, x0, u, free, settings, eps=1e-6):
         hi, lo = coef.copy(), coef.copy()
         hi[j, i] += step
         lo[j, i] -= step
-        cols.append((simulate(TermsRHS(hi, TERMS, 3), x0, u, DT, **settings)
-                     - simulate(TermsRHS(lo, TERMS, 3), x0, u, DT, **settings)) / (2 * step))
-    rhs = TermsRHS(coef, TERMS, 3)
+        cols.append((simulate(TermsRHS(hi, terms, 3), x0, u, DT, **settings)
+                     - simulate(TermsRHS(lo, terms, 3), x0, u, DT, **settings)) / (2 * step))
+    rhs = TermsRHS(coef, terms, 3)
     for k in range(x0.size):
         hi, lo = x0.copy(), x0.copy()
         hi[k] += eps
@@ -113,6 +115,22 @@ def test_sensitivity_is_zero_while_clipped_at_a_bound(u_sines):
     assert np.abs(S[~held, 2]).max() > 1e-2
 
 
+def test_overflow_indicator_of_a_bounded_state(u_sines):
+    """[x2>=0.7] on a state held at its bound 0.7 (an overflowing tank): exact states and sensitivities."""
+    terms = TERMS + [((X2, STEP, 0.7, np.inf),)]
+    coef = np.vstack([every_op_coef(cubic=0.0), [[0.0, -0.5, 0.0]]])  # x1' gets -0.5 while x2 overflows
+    x0 = np.array([0.5, 0.1, 0.6])
+    free, D = unit_directions(coef)
+    rhs = TermsRHS(coef, terms, 3)
+    x, S, _ = simulate_sensitivity(rhs, x0, u_sines, DT, directions=D, free_x0=[0, 1, 2], bounds=X2_BOUNDS)
+    assert np.array_equal(x, simulate(rhs, x0, u_sines, DT, bounds=X2_BOUNDS))
+    without = simulate(TermsRHS(coef[:-1], TERMS, 3), x0, u_sines, DT, bounds=X2_BOUNDS)
+    assert np.abs(x[:, 1] - without[:, 1]).max() > 0.1  # the indicator acts
+    J = fd_sensitivities(coef, x0, u_sines, free, {"bounds": X2_BOUNDS}, terms=terms)
+    assert (np.abs(J - S).max(axis=(0, 1)) / np.abs(S).max(axis=(0, 1))).max() < 1e-6
+    assert np.abs(S[:, :, -4]).max() > 1e-2  # the indicator's coefficient is a live parameter
+
+
 @pytest.mark.parametrize("op", [POW, ABS_POW])
 def test_cube_bit_for_bit(op, u_sines):
     terms = [lin(X1), lin(X0), ((X0, op, 3.0, 0.0),), lin(2)]  # two states: the input is column 2
@@ -156,6 +174,7 @@ def test_evaluate_terms_jacobian_matches_finite_differences(rng):
                          rng.uniform(-1, 1, 200)])
     Z = Z[np.abs(Z[:, 0] - 0.05) > 1e-3]
     Z = Z[np.abs(Z[:, 0] - 0.3) > 1e-3]  # away from the clip kinks of sqrt
+    Z = Z[np.abs(Z[:, 3] - 0.2) > 1e-3]  # and from the jump of [u>=0.2]
     J = evaluate_terms_jacobian(TERMS, Z)
     assert J.shape == (Z.shape[0], len(TERMS), 4)
     eps = 1e-6
@@ -168,6 +187,7 @@ def test_evaluate_terms_jacobian_matches_finite_differences(rng):
     clipped = (Z[:, 0] < 0.05) | (Z[:, 0] > 0.3)
     assert clipped.any() and np.all(J[clipped, 9, 0] == 0.0)
     assert np.all(J[:, 6, 1] == 2 * np.abs(Z[:, 1]))  # d(sign(v) v^2)/dv = 2 |v|
+    assert np.all(J[:, 11, 1] == (Z[:, 3] >= 0.2)) and np.all(J[:, 11, 3] == 0.0)  # [u>=0.2] v
 
 
 # ---------------------------------------------------------------- refinement

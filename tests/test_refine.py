@@ -434,7 +434,18 @@ def test_refine_in_hidden_state_sindy_improves_the_fit(msd):
     plain_learned = plain.coef_[0][[names.index(n) for n in ("y0", "y0'", "u0")]]
     err, plain_err = np.abs(learned / truth - 1).max(), np.abs(plain_learned / truth - 1).max()
     assert err < 1e-3 < plain_err
-    assert "0.5" in model.equations(precision=3)[1]
+    assert model.equations(precision=3)[1] == "y0'' = -4.000 y0 - 0.500 y0' + 2.000 u0"  # the refined model's
+    assert plain.equations(precision=3)[1] != model.equations(precision=3)[1]
+
+
+def test_refine_in_hidden_state_sindy_prunes_and_prints_the_short_model(msd):
+    u, y = msd
+    dense = msd_model().set_params(refine=None, optimizer__threshold=0.0).fit(u, y)
+    assert dense.equations(precision=3)[1].startswith("y0'' = 0.00")  # least squares keeps a spurious constant
+    model = msd_model(max_nfev=20, prune=0.05).set_params(optimizer__threshold=0.0).fit(u, y)
+    assert model.refinement_["pruned"] == [[0, 1]]  # the constant of the y0'' row
+    assert model.coef_[0, 0] == 0.0
+    assert model.equations(precision=3)[1] == "y0'' = -4.000 y0 - 0.500 y0' + 2.000 u0"
 
 
 def test_refine_params_are_nested_clonable_and_searchable(msd):

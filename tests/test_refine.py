@@ -152,6 +152,36 @@ def test_zero_coefficient_direction_leaves_the_state_unchanged(u_sines):
     assert np.array_equal(x, x_ref)
 
 
+# x |x|^0.5 (a Bouc-Wen-type law with nu = 1.5) is C^1 with derivative 1.5 |x|^0.5, 0 at x = 0
+C1_TERMS = [((0, ABS_POW, 0.5, 0.0), (0, POW, 1.0, 0.0)), lin(1)]
+C1_COEF = np.array([[-1.0], [1.0]])  # x' = -x |x|^0.5 + u, from rest
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="product rule factor by factor: d|x|^0.5/dx = inf "
+                   "at x = 0, times the other factor x = 0, gives 0 * inf = NaN for a C^1 term whose derivative is 0")
+def test_terms_jacobian_of_a_c1_product_at_zero():
+    J = evaluate_terms_jacobian(C1_TERMS[:1], np.array([[0.0], [0.04]]))
+    np.testing.assert_allclose(J[:, 0, 0], [0.0, 1.5 * 0.2])
+
+
+@pytest.mark.xfail(strict=True, raises=AssertionError, reason="same NaN in the sensitivity kernel: a state at "
+                   "exactly 0 (a start at rest) makes every sensitivity NaN although the simulation is finite")
+def test_sensitivity_of_a_c1_product_through_zero(u_sines):
+    rhs = TermsRHS(C1_COEF, C1_TERMS, 1)
+    x, S, _ = simulate_sensitivity(rhs, [0.0], u_sines, DT, directions=np.eye(2).reshape(2, 2, 1), free_x0=[0],
+                                   on_divergence="nan")
+    assert np.all(np.isfinite(x))
+    assert np.all(np.isfinite(S))
+
+
+@pytest.mark.xfail(strict=True, raises=SimulationError, reason="refine_simulation_error of a model at rest with a "
+                   "C^1 term x |x|^0.5 fails with 'the sensitivities of an accepted refinement step are not finite'")
+def test_refine_a_c1_product_from_rest(u_sines):
+    y = simulate(TermsRHS(C1_COEF, C1_TERMS, 1), [0.0], u_sines, DT)
+    res = refine_simulation_error(C1_TERMS, C1_COEF * 0.9, u_sines, y, DT, x0=[0.0], free_x0=[])
+    np.testing.assert_allclose(res.coef, C1_COEF, rtol=1e-6)
+
+
 def test_sensitivity_output_index_and_divergence(u_sines):
     coef = every_op_coef()
     rhs = TermsRHS(coef, TERMS, 3)
@@ -277,12 +307,14 @@ def test_refine_python_rhs_uses_finite_differences(duffing):
     assert res.cost < 1e-12 < res.initial_cost
 
 
-def test_refine_refuses_a_diverging_start(duffing):
+@pytest.mark.parametrize("n_segments, match", [(1, "cannot refine: the starting model's simulation diverges"),
+                                               (3, "cannot start multiple shooting: the starting model diverges")])
+def test_refine_refuses_a_diverging_start(duffing, n_segments, match):
     u, y = duffing
     bad = TRUE_COEF.copy()
     bad[3, 1] = 2.0  # +2 y^3: finite-time blow-up
-    with pytest.raises(SimulationError, match="starting model's simulation diverges"):
-        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3)
+    with pytest.raises(SimulationError, match=match):
+        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3, n_segments=n_segments)
 
 
 def test_diverging_trial_steps_never_reach_the_optimizer(duffing, monkeypatch):

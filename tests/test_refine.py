@@ -103,6 +103,20 @@ def test_sensitivity_states_equal_simulate_and_match_finite_differences(settings
     assert np.all(np.abs(S).max(axis=(0, 1)) > 1e-3)  # every parameter moves the trajectory
 
 
+def test_sensitivity_along_a_dense_direction(u_sines, rng):
+    """A physical parameter moves several coefficients at once: d x / d p along dC/dp = D."""
+    coef = every_op_coef(cubic=0.0)
+    D = rng.uniform(-1.0, 1.0, coef.shape) * (coef != 0)
+    D[10, 1] = 0.5  # and an entry whose coefficient is zero (the constant of x1')
+    x0 = np.array([0.5, 0.1, 0.6])
+    _, S, _ = simulate_sensitivity(TermsRHS(coef, TERMS, 3), x0, u_sines, DT, directions=D[None], bounds=X2_BOUNDS)
+    eps = 1e-6
+    fd = (simulate(TermsRHS(coef + eps * D, TERMS, 3), x0, u_sines, DT, bounds=X2_BOUNDS)
+          - simulate(TermsRHS(coef - eps * D, TERMS, 3), x0, u_sines, DT, bounds=X2_BOUNDS)) / (2 * eps)
+    assert np.abs(S[:, :, 0]).max() > 1e-2
+    assert np.abs(fd - S[:, :, 0]).max() < 1e-6 * np.abs(S[:, :, 0]).max()
+
+
 def test_sensitivity_is_zero_while_clipped_at_a_bound(u_sines):
     coef = every_op_coef(cubic=0.0)
     x0 = np.array([0.5, 0.1, 0.6])

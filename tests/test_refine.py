@@ -171,15 +171,11 @@ C1_TERMS = [((0, ABS_POW, 0.5, 0.0), (0, POW, 1.0, 0.0)), lin(1)]
 C1_COEF = np.array([[-1.0], [1.0]])  # x' = -x |x|^0.5 + u, from rest
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="product rule factor by factor: d|x|^0.5/dx = inf "
-                   "at x = 0, times the other factor x = 0, gives 0 * inf = NaN for a C^1 term whose derivative is 0")
 def test_terms_jacobian_of_a_c1_product_at_zero():
     J = evaluate_terms_jacobian(C1_TERMS[:1], np.array([[0.0], [0.04]]))
     np.testing.assert_allclose(J[:, 0, 0], [0.0, 1.5 * 0.2])
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="same NaN in the sensitivity kernel: a state at "
-                   "exactly 0 (a start at rest) makes every sensitivity NaN although the simulation is finite")
 def test_sensitivity_of_a_c1_product_through_zero(u_sines):
     rhs = TermsRHS(C1_COEF, C1_TERMS, 1)
     x, S, _ = simulate_sensitivity(rhs, [0.0], u_sines, DT, directions=np.eye(2).reshape(2, 2, 1), free_x0=[0],
@@ -188,8 +184,6 @@ def test_sensitivity_of_a_c1_product_through_zero(u_sines):
     assert np.all(np.isfinite(S))
 
 
-@pytest.mark.xfail(strict=True, raises=SimulationError, reason="refine_simulation_error of a model at rest with a "
-                   "C^1 term x |x|^0.5 fails with 'the sensitivities of an accepted refinement step are not finite'")
 def test_refine_a_c1_product_from_rest(u_sines):
     y = simulate(TermsRHS(C1_COEF, C1_TERMS, 1), [0.0], u_sines, DT)
     res = refine_simulation_error(C1_TERMS, C1_COEF * 0.9, u_sines, y, DT, x0=[0.0], free_x0=[])
@@ -264,9 +258,6 @@ def test_refine_recovers_coefficients_and_initial_state(duffing, n_segments):
     assert res.pruned == [] and res.coef[0, 0] == 1.0
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason="with n_segments > 1, RefinementResult.cost is the "
-                   "segmented cost (each segment restarted from its own free state), not the open-loop output error "
-                   "of the returned coef and x0 that initial_cost measures; stopped early it understates it")
 def test_multiple_shooting_cost_is_the_open_loop_cost(duffing):
     u, y = duffing
     start = TRUE_COEF * np.array([[1.0, 0.8], [1.0, 1.15], [1.0, 0.9], [1.0, 0.7]])
@@ -403,8 +394,6 @@ def test_refine_bad_input(duffing, kwargs, match):
                                 **args)
 
 
-@pytest.mark.xfail(strict=True, raises=IndexError, reason="refine_simulation_error does not check free_x0: "
-                   "an index past the last state raises a bare IndexError from numpy instead of a ValueError")
 def test_refine_free_x0_out_of_range(duffing):
     u, y = duffing
     with pytest.raises(ValueError, match="free_x0"):

@@ -25,7 +25,9 @@ the top of its bounded range) or a saturated actuator.
 Each operation has its derivative with respect to its column
 (:func:`evaluate_terms_jacobian`): ``a z^(a-1)``, ``a |z|^(a-1) sign(z)``,
 ``1 / (2 sqrt(z))`` strictly inside ``(a, b)`` and 0 where the clip is active,
-and 0 for ``sign`` and ``STEP``. The compiled sensitivity kernel
+and 0 for ``sign`` and ``STEP``. At ``z = 0`` the derivative of ``|z|^a`` is taken as 0
+(``sign(0) = 0``, also for ``a < 1``), so that a product such as ``z |z|^0.5``, whose
+derivative is 0 there, gets 0 by the product rule rather than ``0 * inf``. The compiled sensitivity kernel
 (:mod:`sindybench.refine`) uses the same rules.
 
 An empty term ``()`` is the constant 1.
@@ -138,8 +140,11 @@ def _factor_derivative(factor, Z):
     z = Z[:, col]
     if op == POW:
         return np.ones_like(z) if a == 1 else (a * z ** (a - 1) if a != 0 else np.zeros_like(z))
-    if op == ABS_POW:
-        return np.sign(z) if a == 1 else (a * np.abs(z) ** (a - 1) * np.sign(z) if a != 0 else np.zeros_like(z))
+    if op == ABS_POW:  # at z = 0 the derivative is taken as 0 (sign(0) = 0, also for a < 1)
+        if a == 0:
+            return np.zeros_like(z)
+        nonzero = z != 0
+        return np.where(nonzero, a * np.abs(np.where(nonzero, z, 1.0)) ** (a - 1) * np.sign(z), 0.0)
     if op == SQRT:
         inside = (z > a) & (z < b)
         return np.where(inside, 0.5 / np.sqrt(np.where(inside, z, 1.0)), 0.0)

@@ -28,12 +28,11 @@ def _factor(v, o, a, b):
         if a == 0.0:
             return _power(v, a), 0.0
         return _power(v, a), a * _power(v, a - 1.0)
-    if o == 1:  # ABS_POW
-        s = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
+    if o == 1:  # ABS_POW; at 0 the derivative is taken as 0 (sign(0) = 0, also for a < 1)
         w = abs(v)
-        if a == 0.0:
+        if a == 0.0 or v == 0.0:
             return _power(w, a), 0.0
-        return _power(w, a), a * _power(w, a - 1.0) * s
+        return _power(w, a), a * _power(w, a - 1.0) * (1.0 if v > 0.0 else -1.0)
     if o == 2:  # SQRT of clip(v, a, b)
         if v <= a:
             return np.sqrt(a), 0.0

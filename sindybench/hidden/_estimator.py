@@ -240,7 +240,8 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
     rhs_ : TermsRHS or callable
         Right-hand side of the full state.
     states_ : ndarray of shape (n_samples, n_states)
-        State trajectory reconstructed on the training data.
+        State trajectory reconstructed on the training data (with ``refine``,
+        the refined model's simulation of it from ``x0_``).
     hidden_states_ : ndarray of shape (n_samples, n_hidden)
         The reconstructed hidden (not measured) states on the training data.
     x0_ : ndarray of shape (n_states,)
@@ -419,8 +420,11 @@ class HiddenStateSINDy(RegressorMixin, BaseEstimator):
         if self.refine is not None:
             cand, x0 = self._refine(hidden, cand, X[:n_rows], y1[:n_rows], dt)
         self._set_fitted(hidden, cand, self.best_params_, dt, X, y1)
-        if x0 is not None:
+        if x0 is not None:  # the refined model's own trajectory replaces the reconstruction
             self.x0_ = x0
+            self.states_ = self._simulate(cand, x0, X, dt, "nan")
+            self.hidden_states_ = self.states_[:, [i for i in range(cand.structure.n_states)
+                                                   if i not in cand.structure.output_index]]
         self._y_1d = np.asarray(y).ndim == 1
         return self
 

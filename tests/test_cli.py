@@ -115,19 +115,19 @@ def test_bad_storage_is_reported_before_training(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_figure_keeps_the_frame_on_the_measurement():
-    from sindybench.experiments._report import plot_test
+def test_report_figure_draws_every_model_with_the_public_plotting():
+    from sindybench.experiments._report import _test_figure
 
     t = np.arange(200) * 0.1
     test = Bunch(u=np.sin(t)[:, None], y=np.cos(t)[:, None], dt=0.1)
     results = {"title": "Toy", "dt": 0.1, "output_label": "y", "input_label": "u", "models": [
-        {"key": key, "label": key, "scores": {"test": {"r2": 0.5}}} for key in ("good", "wild")]}
-    close = test.y + 0.1
-    fig = plot_test(results, "test", test, {"good": close, "wild": close})
-    assert fig.axes[0].get_ylim()[1] < 1.5  # no model leaves the frame: matplotlib's own limits
-    fig = plot_test(results, "test", test, {"good": close, "wild": 1e3 * t[:, None]})
-    assert fig.axes[0].get_ylim() == pytest.approx((-2.0, 2.0), abs=1e-3)
-    assert fig.axes[0].get_legend().get_texts()[2].get_text() == "wild (R^2 0.50), leaves the frame"
+        {"key": key, "label": key.upper(), "scores": {"test": {"r2": 0.5}}} for key in ("good", "wild", "lost")]}
+    fig = _test_figure(results, "test", test, {"good": test.y + 0.1, "wild": 1e3 * t[:, None], "lost": None})
+    ax, ax_u = fig.axes[:2]
+    assert [line.get_label() for line in ax.get_lines()] == [
+        "measured", "GOOD (R^2 0.98)", "WILD (R^2 -259910631.28), leaves the frame"]
+    np.testing.assert_array_equal(ax_u.get_lines()[0].get_ydata(), test.u[:, 0])
+    assert ax.get_title() == "Toy: open-loop simulation, test set 'test'"
 
 
 def test_published_figures_name_existing_models():

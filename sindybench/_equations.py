@@ -151,7 +151,7 @@ def _import_sympy():
 
 
 def equations_to_sympy(rows):
-    """The rows as SymPy equations ``Eq(Symbol("y0'"), expression)``.
+    """The rows as SymPy equations ``Eq(Symbol("dy0/dt"), expression)``.
 
     A row fixed by a Python function becomes an undefined function
     ``fixed_<name>(variables...)``. Needs the library's symbolic terms.
@@ -170,7 +170,7 @@ def equations_to_sympy(rows):
         else:
             rhs = sum((sympy.Float(float(c)) * term_sympy(t, symbols) for c, t in zip(row.coef, row.terms) if c != 0),
                       sympy.Integer(0))
-        out.append(sympy.Eq(sympy.Symbol(f"{row.name}'", real=True), rhs))
+        out.append(sympy.Eq(sympy.Symbol(f"d{row.name}/dt", real=True), rhs, evaluate=False))
     return out
 
 
@@ -215,7 +215,7 @@ class EquationsDisplayMixin:
         Returns
         -------
         list of sympy.Eq
-            ``Eq(Symbol("y0'"), expression)``, one per state, in the variables
+            ``Eq(Symbol("dy0/dt"), expression)``, one per state, in the variables
             named as in :meth:`equations`; square roots drop their clip. A row
             fixed by a Python function is an undefined function ``fixed_<name>(...)``.
         """

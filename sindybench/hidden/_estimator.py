@@ -197,6 +197,10 @@ class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
     refit : bool, default=True
         Refit the best candidate on all the training data (else keep the fit
         without the validation block).
+    show_progress_bar : bool, default=True
+        Show a progress bar of the inner search (``tqdm.auto``) when there is
+        somewhere to draw it, a notebook or a terminal, never in a log file;
+        the environment variable ``SINDYBENCH_PROGRESS=0`` turns bars off.
     n_substeps : int, default=1
         Integration steps per sample in simulations.
     input_hold : {"zoh", "linear"}, default="zoh"
@@ -265,6 +269,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
         random_state=None,
         search_params=None,
         refit=True,
+        show_progress_bar=True,
         n_substeps=1,
         input_hold="zoh",
         max_abs=1e6,
@@ -281,6 +286,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
         self.random_state = random_state
         self.search_params = search_params
         self.refit = refit
+        self.show_progress_bar = show_progress_bar
         self.n_substeps = n_substeps
         self.input_hold = input_hold
         self.max_abs = max_abs
@@ -300,6 +306,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
         check_option(self.validation, "validation", _VALIDATIONS)
         check_option(self.input_hold, "input_hold", _HOLDS)
         check_bool(self.refit, "refit")
+        check_bool(self.show_progress_bar, "show_progress_bar")
         check_positive(self.max_abs, "max_abs", allow_inf=True)
         space = check_space(self.search_params)
         bad = [k for k in space if k.startswith(_HIDDEN_PREFIX)]
@@ -374,7 +381,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
             with np.errstate(all="ignore"):
                 self.best_params_, self.search_results_ = minimize(
                     objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=_PENALTY,
-                    n_local=self.local_trials,
+                    n_local=self.local_trials, show_progress_bar=self.show_progress_bar,
                 )
             if min(s for _, s in self.search_results_) >= _PENALTY:
                 raise ValueError(

@@ -454,16 +454,21 @@ def plot_coefficients(models, *, learned_only=True, annotate=True, precision=2, 
         (ax,) = _check_axes(ax, 1)
     nonzero = np.abs(values[values != 0])
     top = float(nonzero.max()) if nonzero.size else 1.0
-    linthresh = float(nonzero.min()) if nonzero.size else 1.0
-    norm = SymLogNorm(linthresh=min(linthresh, top), vmin=-top, vmax=top)
+    # a linear band around zero of at most four decades below the largest magnitude
+    linthresh = min(max(float(nonzero.min()) if nonzero.size else 1.0, 1e-4 * top), top)
+    norm = SymLogNorm(linthresh=linthresh, vmin=-top, vmax=top)
     image = ax.imshow(np.ma.masked_equal(values, 0.0), cmap="RdBu_r", norm=norm, aspect="auto")
     ax.set_xticks(range(len(terms)), terms, rotation=45, ha="right")
     ax.set_yticks(range(len(rows)), rows)
     if annotate:
         for (i, j), c in np.ndenumerate(values):
-            if c != 0:
-                ax.text(j, i, f"{c:.{precision}g}", ha="center", va="center", fontsize=7)
-    ax.figure.colorbar(image, ax=ax, label="coefficient")
+            if c != 0:  # white on the dark ends of the colour map
+                ax.text(j, i, f"{c:.{precision}g}", ha="center", va="center", fontsize=7,
+                        color="white" if abs(float(norm(c)) - 0.5) > 0.3 else "black")
+    mid = float(np.sqrt(top * linthresh))  # halfway on the log part of the scale
+    ticks = [-top, 0.0, top] if linthresh >= top else [-top, -mid, 0.0, mid, top]
+    bar = ax.figure.colorbar(image, ax=ax, label="coefficient", ticks=ticks)
+    bar.ax.set_yticklabels([f"{t:.2g}" for t in ticks])
     return ax
 
 

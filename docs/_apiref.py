@@ -10,6 +10,7 @@ MODULES = (
     ("sindybench.differentiation", "Derivative estimation"),
     ("sindybench.simulate", "Simulation"),
     ("sindybench.metrics", "Metrics and scorers"),
+    ("sindybench.plotting", "Plotting"),
     ("sindybench.model_selection", "Model selection"),
     ("sindybench.baselines", "Baselines"),
     ("sindybench.datasets", "Datasets"),

@@ -10,6 +10,7 @@ import dataclasses
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -30,6 +31,7 @@ from sindybench.experiments import (
     run_benchmarks,
 )
 from sindybench.experiments._common import arx_model, arx_space, sindy_model, stls_space
+from test_examples import NOTEBOOKS  # the notebooks, the figures and typeset models each must show
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -230,13 +232,30 @@ def test_quick_run_report(quick_run):
     assert "Total wall time" in text
 
 
-def test_docs_build_with_generated_figures(quick_run, tmp_path):
-    sphinx = pytest.importorskip("sphinx.cmd.build", reason="the docs extra (sphinx, numpydoc) is not installed")
+def test_docs_build_with_generated_figures(quick_run, notebooks, tmp_path):
+    """The docs build (warnings as errors) with the run's figures, the notebooks' outputs and the API figures."""
+    sphinx = pytest.importorskip("sphinx.cmd.build", reason="the docs extra (sphinx, numpydoc, myst-nb) is not installed")
     pytest.importorskip("numpydoc")
-    shutil.copytree(ROOT / "docs", tmp_path / "docs", ignore=shutil.ignore_patterns("_build", "_generated", "generated"))
+    pytest.importorskip("myst_nb")
+    shutil.copytree(ROOT / "docs", tmp_path / "docs",
+                    ignore=shutil.ignore_patterns("_build", "_generated", "generated", "notebooks", "jupyter_execute"))
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
     shutil.copytree(quick_run, tmp_path / "docs" / "_generated")
+    executed = tmp_path / "docs" / "_generated" / "notebooks"
+    executed.mkdir()
+    for name in NOTEBOOKS:  # executed once, by the notebook tests' runner: the build only renders them
+        notebooks.run(name)
+        shutil.copy(notebooks.folder / f"{name}.ipynb", executed)
     status = sphinx.build_main(["-W", "-q", "-b", "html", str(tmp_path / "docs"), str(tmp_path / "html")])
     assert status == 0
-    page = (tmp_path / "html" / "case_studies" / "bouc_wen.html").read_text()
-    assert "hysteresis_sine.png" in page and "Hidden SINDy" in page
+    html = tmp_path / "html"
+    page = (html / "case_studies" / "bouc_wen.html").read_text()
+    assert "hysteresis_sine.png" in page and "Hidden SINDy" in page and "notebooks/bouc_wen.html" in page
+    for name, (_, n_figures, latex) in NOTEBOOKS.items():
+        page = (html / "notebooks" / f"{name}.html").read_text()
+        assert page.count("<img") >= n_figures, name  # the figures the notebook test counted
+        assert ("\\begin{aligned}" in page) == latex, name  # fitted models typeset as math
+        assert "Traceback" not in page
+    api = (html / "api.html").read_text()
+    images = re.findall(r'src="(_images/api-\d+\.png)"', api)  # the plotting module's figures
+    assert len(images) == 5 and all((html / src).is_file() for src in images)

@@ -10,6 +10,7 @@ import dataclasses
 import json
 import math
 import os
+import re
 import shutil
 import subprocess
 import sys
@@ -31,6 +32,7 @@ from sindybench.experiments import (
 )
 from sindybench.experiments._common import arx_model, arx_space, refinement, sindy_model, stls_space
 from sindybench.experiments._runner import run_benchmark
+from test_examples import NOTEBOOKS  # the notebooks, the figures and typeset models each must show
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -141,19 +143,19 @@ def test_bad_storage_is_reported_before_training(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_figure_keeps_the_frame_on_the_measurement():
-    from sindybench.experiments._report import plot_test
+def test_report_figure_draws_every_model_with_the_public_plotting():
+    from sindybench.experiments._report import _test_figure
 
     t = np.arange(200) * 0.1
     test = Bunch(u=np.sin(t)[:, None], y=np.cos(t)[:, None], dt=0.1)
     results = {"title": "Toy", "dt": 0.1, "output_label": "y", "input_label": "u", "models": [
-        {"key": key, "label": key, "scores": {"test": {"r2": 0.5}}} for key in ("good", "wild")]}
-    close = test.y + 0.1
-    fig = plot_test(results, "test", test, {"good": close, "wild": close})
-    assert fig.axes[0].get_ylim()[1] < 1.5  # no model leaves the frame: matplotlib's own limits
-    fig = plot_test(results, "test", test, {"good": close, "wild": 1e3 * t[:, None]})
-    assert fig.axes[0].get_ylim() == pytest.approx((-2.0, 2.0), abs=1e-3)
-    assert fig.axes[0].get_legend().get_texts()[2].get_text() == "wild (R^2 0.50), leaves the frame"
+        {"key": key, "label": key.upper(), "scores": {"test": {"r2": 0.5}}} for key in ("good", "wild", "lost")]}
+    fig = _test_figure(results, "test", test, {"good": test.y + 0.1, "wild": 1e3 * t[:, None], "lost": None})
+    ax, ax_u = fig.axes[:2]
+    assert [line.get_label() for line in ax.get_lines()] == [
+        "measured", "GOOD (R^2 0.98)", "WILD (R^2 -259910631.28), leaves the frame"]
+    np.testing.assert_array_equal(ax_u.get_lines()[0].get_ydata(), test.u[:, 0])
+    assert ax.get_title() == "Toy: open-loop simulation, test set 'test'"
 
 
 def test_published_figures_name_existing_models():
@@ -256,13 +258,30 @@ def test_quick_run_report(quick_run):
     assert "Total wall time" in text
 
 
-def test_docs_build_with_generated_figures(quick_run, tmp_path):
-    sphinx = pytest.importorskip("sphinx.cmd.build", reason="the docs extra (sphinx, numpydoc) is not installed")
+def test_docs_build_with_generated_figures(quick_run, notebooks, tmp_path):
+    """The docs build (warnings as errors) with the run's figures, the notebooks' outputs and the API figures."""
+    sphinx = pytest.importorskip("sphinx.cmd.build", reason="the docs extra (sphinx, numpydoc, myst-nb) is not installed")
     pytest.importorskip("numpydoc")
-    shutil.copytree(ROOT / "docs", tmp_path / "docs", ignore=shutil.ignore_patterns("_build", "_generated", "generated"))
+    pytest.importorskip("myst_nb")
+    shutil.copytree(ROOT / "docs", tmp_path / "docs",
+                    ignore=shutil.ignore_patterns("_build", "_generated", "generated", "notebooks", "jupyter_execute"))
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
     shutil.copytree(quick_run, tmp_path / "docs" / "_generated")
+    executed = tmp_path / "docs" / "_generated" / "notebooks"
+    executed.mkdir()
+    for name in NOTEBOOKS:  # executed once, by the notebook tests' runner: the build only renders them
+        notebooks.run(name)
+        shutil.copy(notebooks.folder / f"{name}.ipynb", executed)
     status = sphinx.build_main(["-W", "-q", "-b", "html", str(tmp_path / "docs"), str(tmp_path / "html")])
     assert status == 0
-    page = (tmp_path / "html" / "case_studies" / "bouc_wen.html").read_text()
-    assert "hysteresis_sine.png" in page and "Hidden SINDy" in page
+    html = tmp_path / "html"
+    page = (html / "case_studies" / "bouc_wen.html").read_text()
+    assert "hysteresis_sine.png" in page and "Hidden SINDy" in page and "notebooks/bouc_wen.html" in page
+    for name, (_, n_figures, latex) in NOTEBOOKS.items():
+        page = (html / "notebooks" / f"{name}.html").read_text()
+        assert page.count("<img") >= n_figures, name  # the figures the notebook test counted
+        assert ("\\begin{aligned}" in page) == latex, name  # fitted models typeset as math
+        assert "Traceback" not in page
+    api = (html / "api.html").read_text()
+    images = re.findall(r'src="(_images/api-\d+\.png)"', api)  # the plotting module's figures
+    assert len(images) == 5 and all((html / src).is_file() for src in images)

@@ -151,6 +151,8 @@ def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, s
     """
     start = time.perf_counter()
     estimator = spec.make(random_state=seed, quick=quick, dt=dt, n_val=n_val, n_samples=len(y))
+    if "show_progress_bar" in estimator.get_params(deep=False):  # an inner search (HiddenStateSINDy)
+        estimator.set_params(show_progress_bar=show_progress_bar)
     info = {"n_trials": 0, "best_params": {}, "best_value": None}
     with warnings.catch_warnings():
         # small budgets stop iterative fits early on purpose (NN-ARX): say it once in the report, not per fit

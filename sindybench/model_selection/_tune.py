@@ -10,6 +10,7 @@ from sklearn.base import clone
 from sklearn.model_selection import TimeSeriesSplit
 
 from .._json import jsonable
+from .._progress import show_progress
 from .._validation import check_bool, check_integer
 from ..metrics import make_simulation_scorer
 from ._sampler import make_sampler
@@ -149,7 +150,7 @@ def tune(
     study_name=None,
     n_jobs=1,
     random_state=None,
-    show_progress_bar=False,
+    show_progress_bar=True,
     refit=True,
 ):
     """Choose hyperparameters by Bayesian optimisation of the simulation error.
@@ -207,7 +208,10 @@ def tune(
         Seeds TPE. Trial ``n`` draws from a generator seeded by
         ``(random_state, n)``, so concurrent or restarted workers do not
         repeat each other's points.
-    show_progress_bar : bool, default=False
+    show_progress_bar : bool, default=True
+        Optuna's ``tqdm.auto`` bar, drawn only where there is somewhere to
+        draw it, a notebook or a terminal, never into a log file or a pipe;
+        the environment variable ``SINDYBENCH_PROGRESS=0`` turns bars off.
     refit : bool, default=True
         Fit the best estimator on all of ``X, y``. ``False`` returns it
         unfitted, for a caller that fits it on other data (the study fits the
@@ -256,6 +260,7 @@ def tune(
     """
     scorer, direction, sign = _check_args(n_trials, timeout, n_jobs, random_state, scoring)
     check_bool(refit, "refit")
+    show_progress_bar = show_progress(show_progress_bar)
     check_search_space(search_space, estimator)
     X = None if X is None else np.asarray(X)
     y = np.asarray(y)

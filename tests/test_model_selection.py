@@ -344,11 +344,12 @@ def test_missing_database_driver_says_what_to_install():
 def test_postgresql_storage_is_shared_and_persistent(postgres_url, arx_data):
     u, y = arx_data
     _, first = tune(ARX(), ARX_SPACE, u, y, n_trials=3, storage=postgres_url, study_name="s", random_state=0)
+    first = [t.params for t in first.trials]
     _, again = tune(ARX(), ARX_SPACE, u, y, n_trials=5, storage=postgres_url, study_name="s", random_state=0)
     assert make_storage(postgres_url).engine.dialect.name == "postgresql"
     # the second call ran only the two missing trials, on top of the first call's three
     assert [t.number for t in again.trials] == [0, 1, 2, 3, 4]
-    assert [t.params for t in again.trials[:3]] == [t.params for t in first.trials]
+    assert [t.params for t in again.trials[:3]] == first
 
 
 def test_check_storage_opens_nothing(tmp_path, monkeypatch):

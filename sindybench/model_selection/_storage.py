@@ -16,7 +16,7 @@ from optuna.storages import BaseStorage, InMemoryStorage, JournalStorage, RDBSto
 from optuna.storages.journal import JournalFileBackend, JournalFileOpenLock
 from optuna.trial import TrialState
 
-__all__ = ["check_storage", "count_claimed", "count_done", "fail_dead_workers", "make_storage", "worker_id"]
+__all__ = ["check_storage", "count_claimed", "describe_storage", "count_done", "fail_dead_workers", "make_storage", "worker_id"]
 
 logger = logging.getLogger(__name__)
 
@@ -152,6 +152,28 @@ def _parse_checked(storage):
             f"{noun} file."
         )
     return kind, target
+
+
+def describe_storage(storage):
+    """A text naming ``storage`` for logs and result files, with any password in a URL masked.
+
+    Examples
+    --------
+    >>> describe_storage("postgresql+psycopg://optuna:secret@db.example.org/studies")
+    'postgresql+psycopg://optuna:***@db.example.org/studies'
+    >>> describe_storage("study.log"), describe_storage(None)
+    ('study.log', None)
+    """
+    if storage is None:
+        return None
+    if isinstance(storage, BaseStorage):
+        return type(storage).__name__
+    text = os.fspath(storage)
+    scheme, sep, rest = text.partition("://")
+    credentials, at, location = rest.rpartition("@")
+    if not (sep and at and ":" in credentials):
+        return text
+    return f"{scheme}://{credentials.split(':', 1)[0]}:***@{location}"
 
 
 def make_storage(storage):

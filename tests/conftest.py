@@ -1,10 +1,12 @@
-"""Shared fixtures: seeded generators, the benchmark data home, slow-test switch."""
+"""Shared fixtures: seeded generators, the benchmark data home, slow-test switch, a PostgreSQL server."""
 
 import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+
+import _postgres
 
 
 def pytest_configure(config):
@@ -110,3 +112,28 @@ class NotebookRunner:
 def notebooks(tmp_path_factory, data_home):
     """The example notebooks, each executed at most once in the session (see :class:`NotebookRunner`)."""
     return NotebookRunner(tmp_path_factory.mktemp("notebooks"), data_home)
+
+
+@pytest.fixture(scope="session")
+def postgres_server():
+    """A real PostgreSQL server for this test session: ``(bindir, socket_dir, superuser)``.
+
+    Started from the machine's binaries (:mod:`_postgres`: a fresh data folder in a
+    temporary directory, a Unix socket there and no TCP port, as an unprivileged user
+    when the tests run as root), stopped and removed at the end of the session, also
+    when a test failed. Skips, saying so, only where no PostgreSQL server binaries
+    exist; the driver (psycopg 3) comes with the ``test`` extra.
+    """
+    bindir = _postgres.find_bindir()
+    if bindir is None:
+        pytest.skip("no PostgreSQL server binaries (initdb, pg_ctl, createdb) found: not via pg_config, "
+                    "not on PATH, not in /usr/lib/postgresql/*/bin; install the 'postgresql' package")
+    with _postgres.postgres_server(bindir) as (socket_dir, superuser):
+        yield bindir, socket_dir, superuser
+
+
+@pytest.fixture
+def postgres_url(postgres_server):
+    """SQLAlchemy URL of a new, empty database on the session's PostgreSQL server."""
+    bindir, socket_dir, superuser = postgres_server
+    return _postgres.url(socket_dir, superuser, _postgres.create_database(bindir, socket_dir, superuser))

@@ -12,8 +12,10 @@ import math
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -285,3 +287,72 @@ def test_docs_build_with_generated_figures(quick_run, notebooks, tmp_path):
     api = (html / "api.html").read_text()
     images = re.findall(r'src="(_images/api-\d+\.png)"', api)  # the plotting module's figures
     assert len(images) == 5 and all((html / src).is_file() for src in images)
+
+
+# --------------------------------------------------------------------------- workers sharing a PostgreSQL study
+def _cli_worker(out, storage, data_home, trials):
+    return subprocess.Popen(
+        [sys.executable, "-m", "sindybench.cli", "run", "cascaded-tanks", "--quick", "--trials", str(trials),
+         "--storage", storage, "--out", str(out), "--data-home", str(data_home), "--no-download", "-q"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "MPLBACKEND": "Agg"},
+    )
+
+
+def _finished(trials):
+    return {t.number: (t.params, t.value) for t in trials if t.state.name in ("COMPLETE", "PRUNED")}
+
+
+def test_cli_workers_share_a_postgresql_study_and_survive_a_kill(postgres_url, data_home, tmp_path):
+    """Two ``sindybench run --storage postgresql+psycopg://...`` share the searches; one is SIGKILLed.
+
+    The killed run is started again (same command) while the other still runs. The
+    trial in flight at the kill stays RUNNING until a worker on this host sees that
+    its process is gone (the survivor after its next trial, or the rerun when it
+    starts) and marks it FAIL, which gives its place in the budget back. Every search
+    ends with exactly ``--trials`` finished trials and no trial finished before the
+    kill is lost; the killed run wrote nothing.
+    """
+    import optuna
+
+    from sindybench.model_selection._storage import make_storage
+
+    trials, first = 8, "cascaded-tanks.sindy_poly.seed0"
+    searched = [m.key for m in get_benchmark("cascaded-tanks").models if m.search_space is not None]
+    storage = make_storage(postgres_url)
+    victim, survivor = (_cli_worker(tmp_path / name, postgres_url, data_home, trials) for name in "ab")
+    deadline = time.monotonic() + 60
+    while True:  # kill the victim in the middle of the first search, after a few trials finished
+        assert time.monotonic() < deadline and victim.poll() is None, "the run ended before it could be killed"
+        try:
+            done = _finished(optuna.load_study(study_name=first, storage=storage).get_trials(deepcopy=False))
+        except KeyError:  # the study does not exist yet
+            done = {}
+        if len(done) >= 3:
+            break
+        time.sleep(0.02)
+    os.kill(victim.pid, signal.SIGKILL)
+    victim.wait()
+    before = _finished(optuna.load_study(study_name=first, storage=storage).get_trials(deepcopy=False))
+    assert not (tmp_path / "a").exists()  # a killed run leaves no output folder
+
+    rerun = _cli_worker(tmp_path / "a", postgres_url, data_home, trials)
+    for proc in (survivor, rerun):
+        _, err = proc.communicate(timeout=120)
+        assert proc.returncode == 0, err
+    names = set(optuna.get_all_study_names(storage=storage))
+    assert names == {f"cascaded-tanks.{key}.seed0" for key in searched}
+    for name in names:
+        study_trials = optuna.load_study(study_name=name, storage=storage).get_trials(deepcopy=False)
+        assert len(_finished(study_trials)) == trials, name
+        assert not [t for t in study_trials if t.state.name in ("RUNNING", "WAITING")], name
+        # a FAIL trial is the one the kill interrupted, or one that stood down because the budget was full
+        failed = [t for t in study_trials if t.state.name == "FAIL"]
+        assert len([t for t in failed if t.user_attrs.get("worker", "").endswith(f":{victim.pid}")]) <= 1
+        assert all(t.user_attrs.get("worker", "").endswith(f":{victim.pid}")
+                   or "budget" in t.user_attrs.get("fail_reason", "") for t in failed), name
+    after = _finished(optuna.load_study(study_name=first, storage=storage).get_trials(deepcopy=False))
+    assert {n: after[n] for n in before} == before
+    for out in (tmp_path / "a", tmp_path / "b"):
+        results = json.loads((out / "cascaded-tanks" / "results.json").read_text())
+        assert results["storage"] == postgres_url  # no password in this URL: shown as given
+        assert all(m["status"] == "ok" for m in results["models"])

@@ -263,6 +263,8 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
     simulations : dict
         ``{test name: {model key: y_pred or None}}``.
     """
+    from ..model_selection._storage import describe_storage
+
     start = time.perf_counter()
     if data is None:
         data = load_data(benchmark, data_home=data_home, download_if_missing=download_if_missing)
@@ -282,7 +284,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         "seed": seed,
         "quick": bool(quick),
         "n_jobs": n_jobs,
-        "storage": None if storage is None else str(storage),
+        "storage": describe_storage(storage),  # never a database password in results.json
         "n_train": n_train,
         "n_validation": n_val,
         "dt": dt,

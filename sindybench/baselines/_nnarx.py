@@ -6,9 +6,11 @@ from sklearn.neural_network import MLPRegressor
 from sklearn.utils import check_random_state
 
 from .._validation import check_bool, check_integer, check_option
+from ..io import SaveLoadMixin, register_model
 from ._arx import least_squares
 from ._base import LagModel
 from ._lags import free_run, input_lags
+from ._persist import nnarx_from_dict, nnarx_to_dict
 
 __all__ = ["NNARX"]
 
@@ -41,7 +43,7 @@ def _stack_networks(networks):
     return weights, biases
 
 
-class NNARX(LagModel):
+class NNARX(SaveLoadMixin, LagModel):
     """Neural ARX model: ``MLPRegressor`` networks trained one step ahead, simulated free-run.
 
     The networks map the standardised lags ``[y[t-1], ..., y[t-na], u[t-nk], ...,
@@ -194,22 +196,23 @@ class NNARX(LagModel):
             self.linear_intercept_ = np.zeros(z.shape[1])
         rng = check_random_state(self.random_state)
         seeds = rng.randint(np.iinfo(np.int32).max, size=int(self.n_estimators))
-        self.estimators_ = [
-            MLPRegressor(
-                hidden_layer_sizes=self.hidden_layer_sizes,
-                activation=self.activation,
-                solver=self.solver,
-                alpha=self.alpha,
-                learning_rate_init=self.learning_rate_init,
-                max_iter=self.max_iter,
-                tol=self.tol,
-                random_state=seed,
-            ).fit(features, z if z.shape[1] > 1 else z[:, 0])
-            for seed in seeds
-        ]
+        self.estimators_ = [self._network(seed).fit(features, z if z.shape[1] > 1 else z[:, 0]) for seed in seeds]
         self.mlp_ = self.estimators_[0]
         self.n_iter_ = max(net.n_iter_ for net in self.estimators_)
         return self
+
+    def _network(self, seed):
+        """One unfitted network with this model's settings (also rebuilt by a loaded model)."""
+        return MLPRegressor(
+            hidden_layer_sizes=self.hidden_layer_sizes,
+            activation=self.activation,
+            solver=self.solver,
+            alpha=self.alpha,
+            learning_rate_init=self.learning_rate_init,
+            max_iter=self.max_iter,
+            tol=self.tol,
+            random_state=int(seed),
+        )
 
     def _simulate(self, u, y_start):
         na, nb, nk = int(self.na), int(self.nb), int(self.nk)
@@ -230,3 +233,6 @@ class NNARX(LagModel):
 
         z = free_run(step, u, (y_start - self.y_mean_) / self.y_scale_, na, nb, nk)
         return z * self.y_scale_ + self.y_mean_
+
+
+register_model(NNARX, to_dict=nnarx_to_dict, from_dict=nnarx_from_dict)

@@ -4,7 +4,7 @@ from ._base import BaseLibrary
 from ._builtin import AbsProductLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
 from ._compose import ConcatLibrary, ProductLibrary
 from ._custom import CustomLibrary, ExternalLibrary, as_library
-from ._spec import library_from_spec, library_to_spec
+from ._spec import fitted_library_from_dict, fitted_library_to_dict, library_from_spec, library_to_spec
 from ._terms import (
     ABS_POW,
     POW,
@@ -35,6 +35,8 @@ __all__ = [
     "as_library",
     "check_terms",
     "evaluate_terms",
+    "fitted_library_from_dict",
+    "fitted_library_to_dict",
     "library_from_spec",
     "library_to_spec",
     "term_name",

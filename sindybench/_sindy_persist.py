@@ -23,7 +23,7 @@ Stored ``fitted`` entries (add a new fitted attribute to both functions):
     whether ``fit`` got a 1-D ``y``.
 """
 
-from .io import encode_array, encode_value, fitted_from_dict, fitted_to_dict
+from .io import check_params, encode_array, encode_value, fitted_from_dict, fitted_to_dict
 from .libraries import fitted_library_from_dict, fitted_library_to_dict
 
 __all__ = ["sindy_from_dict", "sindy_to_dict"]
@@ -50,6 +50,7 @@ def sindy_to_dict(model):
 def sindy_from_dict(model, fitted):
     """Set the fitted attributes of ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
     n_states, n_inputs = fitted.int("n_states", low=1), fitted.int("n_inputs")
+    check_params(model._check_params, n_states)
     model.library_ = fitted_library_from_dict(fitted.fields("library"), n_states + n_inputs)
     model.terms_ = model.library_.terms_
     n_terms = len(model.terms_)

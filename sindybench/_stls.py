@@ -36,7 +36,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._validation import check_bool, check_integer, check_positive, check_signal
-from .io import SaveLoadMixin, encode_array, register_model
+from .io import SaveLoadMixin, check_params, encode_array, register_model
 
 __all__ = ["GramCache", "STLS", "clear_stls_cache", "stls"]
 
@@ -467,11 +467,12 @@ def _stls_to_dict(model):
 
 
 def _stls_from_dict(model, fitted):
+    check_params(_check_params, model.threshold, model.alpha, model.max_iter, model.normalize_columns, model.unbias)
     n_features = fitted.int("n_features_in", low=1)
     coef = fitted.array("coef")
     if coef.ndim not in (1, 2) or coef.shape[-1] != n_features:
         raise ValueError(
-            f"fitted.coef: expected an array of shape (n_features_in,) or (n_targets, n_features_in) with "
+            f"{fitted.where('coef')}: expected an array of shape (n_features_in,) or (n_targets, n_features_in) with "
             f"n_features_in = {n_features}; got shape {coef.shape}."
         )
     model.coef_, model.n_iter_, model.n_features_in_ = coef, fitted.int("n_iter"), n_features

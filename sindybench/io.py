@@ -38,6 +38,7 @@ from sklearn.utils.validation import check_is_fitted
 
 __all__ = [
     "Fields",
+    "check_params",
     "SaveLoadMixin",
     "decode_array",
     "decode_value",
@@ -425,21 +426,22 @@ class Fields:
             raise ValueError(f"{path}: expected a JSON object; got {_kind(data)}.")
         self.data, self.path, self.allow_import = data, path, allow_import
 
-    def _field(self, name):
+    def where(self, name):
+        """Where entry ``name`` sits in the file, for messages (``fitted.coef``)."""
         return f"{self.path}.{name}" if self.path else name
 
     def get(self, name, expected="a value", *, allow_none=False):
         """The raw JSON value of ``name``."""
         value = self.data.get(name)
         if value is None and not (allow_none and name in self.data):
-            raise ValueError(f"{self._field(name)}: missing or null; expected {expected}.")
+            raise ValueError(f"{self.where(name)}: missing or null; expected {expected}.")
         return value
 
     def _typed(self, name, expected, check, allow_none):
         value = self.get(name, expected, allow_none=allow_none)
         if value is None or check(value):
             return value
-        raise ValueError(f"{self._field(name)}: expected {expected}; got {_kind(value)}.")
+        raise ValueError(f"{self.where(name)}: expected {expected}; got {_kind(value)}.")
 
     def int(self, name, *, low=0):
         """An integer ``>= low``."""
@@ -452,7 +454,7 @@ class Fields:
         if value is None:
             return None
         if isinstance(value, dict):
-            return float(decode_value(value, self._field(name)))
+            return float(decode_value(value, self.where(name)))
         return float(self._typed(name, "a number", lambda v: isinstance(v, (int, float)) and not isinstance(v, bool),
                                  False))
 
@@ -480,32 +482,40 @@ class Fields:
 
     def array(self, name, shape=None):
         """An array stored by :func:`encode_array`, of ``shape`` (``None`` = any length)."""
-        return decode_array(self.get(name, "an array"), self._field(name), shape)
+        return decode_array(self.get(name, "an array"), self.where(name), shape)
 
     def _list(self, name, n, what):
         value = self.get(name, f"a list of {n} {what}")
         if not isinstance(value, list) or len(value) != n:
-            raise ValueError(f"{self._field(name)}: expected a list of {n} {what}; got {_kind(value)}.")
+            raise ValueError(f"{self.where(name)}: expected a list of {n} {what}; got {_kind(value)}.")
         return value
 
     def arrays(self, name, shapes):
         """A list of arrays, one per entry of ``shapes``."""
-        return [decode_array(a, f"{self._field(name)}[{i}]", shape)
+        return [decode_array(a, f"{self.where(name)}[{i}]", shape)
                 for i, (a, shape) in enumerate(zip(self._list(name, len(shapes), "arrays"), shapes))]
 
     def items(self, name, n):
         """A list of ``n`` objects, each as :class:`Fields`."""
-        return [Fields(v, f"{self._field(name)}[{i}]", allow_import=self.allow_import)
+        return [Fields(v, f"{self.where(name)}[{i}]", allow_import=self.allow_import)
                 for i, v in enumerate(self._list(name, n, "objects"))]
 
     def value(self, name, *, allow_none=False):
         """A value stored by :func:`encode_value` (estimators, dicts, tuples ...)."""
         raw = self.get(name, "a value", allow_none=allow_none)
-        return decode_value(raw, self._field(name), allow_import=self.allow_import)
+        return decode_value(raw, self.where(name), allow_import=self.allow_import)
 
     def fields(self, name):
         """The nested object ``name`` as :class:`Fields`."""
-        return Fields(self.get(name, "an object"), self._field(name), allow_import=self.allow_import)
+        return Fields(self.get(name, "an object"), self.where(name), allow_import=self.allow_import)
+
+
+def check_params(check, *args):
+    """Run an estimator's parameter check at loading; its ``ValueError`` names ``params``."""
+    try:
+        return check(*args)
+    except ValueError as exc:
+        raise ValueError(f"params: {exc}") from exc
 
 
 # ------------------------------------------------------ fitted estimators
@@ -524,8 +534,8 @@ def fitted_to_dict(estimator, field="fitted"):
 
 def fitted_from_dict(fields):
     """Inverse of :func:`fitted_to_dict`, from a :class:`Fields` view."""
-    entry = _lookup(fields.data.get("class"), fields._field("class"))
-    model = _construct(entry.cls, fields.get("params", "an object"), fields._field("params"), fields.allow_import)
+    entry = _lookup(fields.data.get("class"), fields.where("class"))
+    model = _construct(entry.cls, fields.get("params", "an object"), fields.where("params"), fields.allow_import)
     if entry.from_dict is not None:
         entry.from_dict(model, fields.fields("fitted"))
     return model

@@ -12,7 +12,7 @@ and ``intercepts`` (lists of arrays, layer by layer).
 
 import numpy as np
 
-from ..io import encode_array
+from ..io import check_params, encode_array
 
 __all__ = ["arx_from_dict", "arx_to_dict", "nnarx_from_dict", "nnarx_to_dict"]
 
@@ -38,7 +38,7 @@ def _lags_from_dict(model, fitted):
     model.y_mean_ = fitted.array("y_mean", (n_outputs,))
     if fitted.get("feature_names_in", allow_none=True) is not None:
         model.feature_names_in_ = np.asarray(fitted.strings("feature_names_in", model.n_features_in_), dtype=object)
-    na, nb, _ = model._check_orders()
+    na, nb, _ = check_params(model._check_orders)
     return na * n_outputs + nb * model.n_features_in_, n_outputs
 
 
@@ -86,6 +86,7 @@ def _network_from_dict(model, fitted, widths):
 
 def nnarx_from_dict(model, fitted):
     """Set the fitted attributes of an NNARX ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
+    check_params(model._check_settings)
     n_reg, n_out = _lags_from_dict(model, fitted)
     model.u_mean_ = fitted.array("u_mean", (model.n_features_in_,))
     model.u_scale_ = fitted.array("u_scale", (model.n_features_in_,))

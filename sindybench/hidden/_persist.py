@@ -28,7 +28,7 @@ Stored ``fitted`` entries (a new fitted attribute goes into both functions;
 ``dt``, ``n_features_in``, ``n_outputs``, ``output_1d``.
 """
 
-from ..io import encode_array, encode_value, fitted_from_dict, fitted_to_dict
+from ..io import check_params, encode_array, encode_value, fitted_from_dict, fitted_to_dict
 from ..libraries import check_terms, fitted_library_from_dict, fitted_library_to_dict, terms_to_json
 from ._base import HiddenStrategy, Structure
 
@@ -53,15 +53,15 @@ def _structure_from_dict(f, hidden, params, n_outputs, n_inputs):
     learned = f.ints("learned", high=n_states)
     output_index = f.ints("output_index", high=n_states)
     if len(output_index) != n_outputs:
-        raise ValueError(f"{f._field('output_index')}: expected {n_outputs} indices (one per output); "
+        raise ValueError(f"{f.where('output_index')}: expected {n_outputs} indices (one per output); "
                          f"got {len(output_index)}.")
     fixed_terms = check_terms(f.get("fixed_terms", "a list of terms"), n_states + n_inputs,
-                              name=f._field("fixed_terms"))
+                              name=f.where("fixed_terms"))
     fixed_rhs = None
     if f.bool("fixed_rhs"):  # a Python function: rebuilt from the strategy, never stored
         fixed_rhs = hidden.structure(params, n_outputs=n_outputs, n_inputs=n_inputs).fixed_rhs
         if fixed_rhs is None:
-            raise ValueError(f"{f._field('fixed_rhs')}: true, but {type(hidden).__name__} has no Python fixed rows.")
+            raise ValueError(f"{f.where('fixed_rhs')}: true, but {type(hidden).__name__} has no Python fixed rows.")
     return Structure(
         n_states=n_states,
         learned=tuple(learned),
@@ -98,7 +98,7 @@ def hidden_sindy_to_dict(model):
 def _dict_value(fitted, name):
     value = fitted.value(name)
     if not isinstance(value, dict):
-        raise ValueError(f"{fitted._field(name)}: expected a dict {{name: value}}; got {type(value).__name__}.")
+        raise ValueError(f"{fitted.where(name)}: expected a dict {{name: value}}; got {type(value).__name__}.")
     return value
 
 
@@ -124,6 +124,7 @@ def hidden_sindy_from_dict(model, fitted):
     model.states_ = fitted.array("states", (None, s.n_states))
     model.x0_ = fitted.array("x0", (s.n_states,))
     model.dt_ = fitted.float("dt")
+    check_params(model._check_params, model.dt_)
     model.n_features_in_, model.n_outputs_ = n_inputs, n_outputs
     model._y_1d = fitted.bool("output_1d")
     model._rebuild_model()

@@ -76,12 +76,12 @@ def fitted_library_from_dict(fields, n_columns):
     """
     library = fields.value("library")
     if not isinstance(library, BaseLibrary):
-        raise ValueError(f"{fields._field('library')}: expected a sindybench library; got {type(library).__name__}.")
-    terms = check_terms(fields.get("terms", "a list of terms"), n_columns, name=fields._field("terms"))
+        raise ValueError(f"{fields.where('library')}: expected a sindybench library; got {type(library).__name__}.")
+    terms = check_terms(fields.get("terms", "a list of terms"), n_columns, name=fields.where("terms"))
     library.fit(np.zeros((1, n_columns)))
     if library.terms_ != terms:
         raise ValueError(
-            f"{fields._field('terms')}: expected the {len(library.terms_)} terms of {library!r} on {n_columns} "
+            f"{fields.where('terms')}: expected the {len(library.terms_)} terms of {library!r} on {n_columns} "
             f"columns; got {len(terms)} other terms."
         )
     return library

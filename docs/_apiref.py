@@ -9,6 +9,7 @@ MODULES = (
     ("sindybench.libraries", "Feature libraries"),
     ("sindybench.differentiation", "Derivative estimation"),
     ("sindybench.simulate", "Simulation"),
+    ("sindybench.refine", "Fitting by simulation error"),
     ("sindybench.metrics", "Metrics and scorers"),
     ("sindybench.model_selection", "Model selection"),
     ("sindybench.baselines", "Baselines"),

@@ -29,7 +29,7 @@ from .differentiation import FiniteDifference, as_differentiation
 from .io import SaveLoadMixin, register_model
 from .libraries import PolynomialLibrary, as_library
 from .metrics import make_simulation_scorer
-from .simulate import _HOLDS, _METHODS, make_rhs, simulate
+from .simulate import _HOLDS, _METHODS, SimulationError, make_rhs, simulate
 
 __all__ = ["SINDy"]
 
@@ -78,6 +78,12 @@ class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
     output_names, input_names : list of str or None, default=None
         Names of the columns of ``y`` and ``X`` (default ``y0, y1, ...`` and
         ``u0, u1, ...``), used by :meth:`equations` and the feature names.
+    refine : OutputErrorRefinement or None, default=None
+        After the equation-error fit, refine the nonzero coefficients and the
+        first state by the open-loop simulation error of the training record
+        (:class:`~sindybench.refine.OutputErrorRefinement`; needs uniform
+        sampling). A model whose simulation of the training record diverges
+        is kept as fitted, with a warning.
 
     Attributes
     ----------
@@ -92,7 +98,11 @@ class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
     dt_ : float or None
         Sampling interval of the training data (None for non-uniform ``t``).
     x0_ : ndarray of shape (n_states,)
-        First training sample (the default initial state of :meth:`predict`).
+        First training sample (the default initial state of :meth:`predict`;
+        refined with ``refine``).
+    refinement_ : dict or None
+        Record of the refinement (see :meth:`RefinementResult.summary
+        <sindybench.refine.RefinementResult.summary>`); None without ``refine``.
     n_states_, n_inputs_, n_features_in_ : int
         ``n_features_in_`` is the number of inputs (columns of ``X``).
 
@@ -129,6 +139,7 @@ class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
         max_abs=np.inf,
         output_names=None,
         input_names=None,
+        refine=None,
     ):
         self.library = library
         self.optimizer = optimizer
@@ -141,6 +152,7 @@ class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
         self.max_abs = max_abs
         self.output_names = output_names
         self.input_names = input_names
+        self.refine = refine
 
     # ------------------------------------------------------------------ checks
     def _check_params(self, n_states):
@@ -150,6 +162,8 @@ class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
         check_option(self.input_hold, "input_hold", _HOLDS)
         check_positive(self.max_abs, "max_abs", allow_inf=True)
         check_bounds(self.bounds, n_states)
+        if self.refine is not None and not hasattr(self.refine, "run"):
+            raise ValueError(f"refine must be an OutputErrorRefinement or None; got {type(self.refine).__name__}.")
 
     @staticmethod
     def _resolve_time(dt, t, n_samples, fallback):
@@ -230,7 +244,28 @@ class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
         self.dt_ = dt if dt is not None else uniform_step(t)
         self.x0_ = y[0].copy()
         self._y_1d = y_1d
+        self.refinement_ = None
+        if self.refine is not None:
+            if t is not None:
+                raise ValueError("refine needs uniformly sampled data (dt); got sample times t.")
+            self._refine(X, y)
         return self
+
+    def _refine(self, X, y):
+        """Refine ``coef_`` and ``x0_`` by simulation error (see ``refine``)."""
+        library, n = self.library_, self.n_states_
+        settings = dict(n_substeps=self.n_substeps, method=self.integrator, input_hold=self.input_hold,
+                        bounds=self.bounds, max_abs=self.max_abs)
+        try:
+            result = self.refine.run(self.terms_, self.coef_.T, X, y, self.dt_, x0=np.clip(y[0], *check_bounds(
+                self.bounds, n)), output_index=tuple(range(n)), make_rhs=lambda C: make_rhs(library, C, n), **settings)
+        except SimulationError as exc:
+            warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=3)
+            self.refinement_ = {"status": -1, "message": f"skipped: {exc}"}
+            return
+        self.coef_ = result.coef.T.copy()
+        self.x0_ = result.x0
+        self.refinement_ = result.summary()
 
     # -------------------------------------------------------------- simulation
     def _rhs(self):

@@ -20,7 +20,10 @@ Stored ``fitted`` entries (add a new fitted attribute to both functions):
 ``x0``
     array (n_states,), the first training sample;
 ``output_1d``
-    whether ``fit`` got a 1-D ``y``.
+    whether ``fit`` got a 1-D ``y``;
+``refinement``
+    ``refinement_``, the record of the simulation-error refinement (null without
+    ``refine``; the refined coefficients and first state are ``coef`` and ``x0``).
 """
 
 from .io import check_params, encode_array, encode_value, fitted_from_dict, fitted_to_dict
@@ -44,6 +47,7 @@ def sindy_to_dict(model):
         "dt": None if model.dt_ is None else float(model.dt_),
         "x0": encode_array(model.x0_),
         "output_1d": bool(getattr(model, "_y_1d", False)),
+        "refinement": encode_value(model.refinement_, "fitted.refinement"),
     }
 
 
@@ -64,3 +68,4 @@ def sindy_from_dict(model, fitted):
     model.dt_ = fitted.float("dt", allow_none=True)
     model.x0_ = fitted.array("x0", (n_states,))
     model._y_1d = fitted.bool("output_1d")
+    model.refinement_ = fitted.mapping("refinement", allow_none=True)

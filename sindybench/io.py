@@ -500,6 +500,13 @@ class Fields:
         return [Fields(v, f"{self.where(name)}[{i}]", allow_import=self.allow_import)
                 for i, v in enumerate(self._list(name, n, "objects"))]
 
+    def mapping(self, name, *, allow_none=False):
+        """A dict stored by :func:`encode_value` (``None`` too with ``allow_none``)."""
+        value = self.value(name, allow_none=allow_none)
+        if not isinstance(value, dict) and not (allow_none and value is None):
+            raise ValueError(f"{self.where(name)}: expected a dict {{name: value}}; got {type(value).__name__}.")
+        return value
+
     def value(self, name, *, allow_none=False):
         """A value stored by :func:`encode_value` (estimators, dicts, tuples ...)."""
         raw = self.get(name, "a value", allow_none=allow_none)

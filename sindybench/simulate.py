@@ -201,6 +201,9 @@ def _terms_rhs(z, model, theta, K, s):
                 value *= _power(abs(v), a[f])
             elif o == 2:
                 value *= np.sqrt(min(max(v, a[f]), b[f]))
+            elif o == 4:
+                if not (a[f] <= v <= b[f]):
+                    value = 0.0
             elif v < 0.0:
                 value = -value
             elif not v > 0.0:

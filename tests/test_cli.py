@@ -30,7 +30,8 @@ from sindybench.experiments import (
     get_benchmark,
     run_benchmarks,
 )
-from sindybench.experiments._common import arx_model, arx_space, sindy_model, stls_space
+from sindybench.experiments._common import arx_model, arx_space, refinement, sindy_model, stls_space
+from sindybench.experiments._runner import run_benchmark
 from sindybench.metrics import r2
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -87,6 +88,31 @@ def test_runner_writes_every_output(tmp_path):
     assert (folder / "test_test.png").stat().st_size > 1000
     assert "| SINDy |" in (folder / "results.md").read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left
+
+
+def test_refinement_row_refines_the_fitted_model():
+    toy = _synthetic()
+    rows = (ModelSpec("sindy_poly_refined", "SINDy + refinement", refinement(), refines="sindy_poly"),)
+    bench = dataclasses.replace(toy, models=toy.models[:1] + rows)
+    # asking for the refinement row alone runs the model it refines first
+    results, fitted, _ = run_benchmark(bench, quick=True, seed=0, models=["sindy_poly_refined"])
+    base, refined = results["models"]
+    assert [base["key"], refined["key"]] == ["sindy_poly", "sindy_poly_refined"]
+    assert refined["status"] == "ok" and refined["n_trials"] == 0
+    assert refined["best_params"] == {}  # SINDy has no inner search: its outer choice is in the clone
+    assert fitted["sindy_poly_refined"].optimizer.threshold == fitted["sindy_poly"].optimizer.threshold
+    record = refined["refinement"]
+    assert record["jacobian"] == "sensitivity" and record["cost"] <= record["initial_cost"]
+    assert fitted["sindy_poly"].refine is None and fitted["sindy_poly_refined"].refine is not None
+    assert refined["scores"]["test"]["rmse"] <= 1.01 * base["scores"]["test"]["rmse"]
+
+
+def test_refinement_row_without_its_model_fails_cleanly():
+    toy = _synthetic(fail_load=False)
+    rows = (ModelSpec("ghost_refined", "refined ghost", refinement(), refines="ghost"),)
+    results, fitted, _ = run_benchmark(dataclasses.replace(toy, models=rows), quick=True)
+    assert fitted["ghost_refined"] is None
+    assert "'ghost', was not fitted" in results["models"][0]["status"]
 
 
 def test_runner_failure_leaves_no_files(tmp_path, monkeypatch):

@@ -18,11 +18,13 @@ import pysindy as ps
 from sindybench import STLS, HiddenStateSINDy, SINDy
 from sindybench.baselines import ARX, NNARX
 from sindybench.hidden import DerivativeHiddenState
+from sindybench.refine import OutputErrorRefinement
 from sindybench.libraries import (
     AbsProductLibrary,
     ConcatLibrary,
     CustomLibrary,
     ExternalLibrary,
+    IndicatorLibrary,
     PolynomialLibrary,
     ProductLibrary,
     SqrtLibrary,
@@ -59,8 +61,10 @@ ESTIMATORS = [
     STLS(),
     STLS(threshold=0.05, alpha=0.1, normalize_columns=True),
     SINDy(dt=0.1, library=PolynomialLibrary(degree=1)),
+    SINDy(dt=0.1, library=PolynomialLibrary(degree=1), refine=OutputErrorRefinement(max_nfev=3)),
     PolynomialLibrary(degree=2),
     SqrtLibrary(),
+    IndicatorLibrary(variables=[0], lower=0.0),
     AbsProductLibrary(),
     CustomLibrary(functions=[np.tanh]),
     ConcatLibrary([PolynomialLibrary(degree=1), SqrtLibrary()]),
@@ -69,6 +73,8 @@ ESTIMATORS = [
     ExternalLibrary(ps.PolynomialLibrary(degree=2)),
     HiddenStateSINDy(dt=0.1, hidden=DerivativeHiddenState(order=1), library=PolynomialLibrary(degree=1)),
     HiddenStateSINDy(dt=0.1, library=PolynomialLibrary(degree=1)),
+    HiddenStateSINDy(dt=0.1, hidden=DerivativeHiddenState(order=1), library=PolynomialLibrary(degree=1),
+                     refine=OutputErrorRefinement(max_nfev=3), initial_state="fit"),
     ARX(),
     NNARX(hidden_layer_sizes=(8,), max_iter=200, random_state=0),
 ]

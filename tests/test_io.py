@@ -14,6 +14,7 @@ from sindybench.datasets import load_bouc_wen, load_cascaded_tanks, load_pick_an
 from sindybench.differentiation import SavitzkyGolay, Spectral
 from sindybench.hidden import BoucWenHiddenState, DerivativeHiddenState, ParametricHiddenState, TanksHiddenState
 from sindybench.libraries import AbsProductLibrary, CustomLibrary, PolynomialLibrary, SqrtLibrary
+from sindybench.refine import OutputErrorRefinement
 from sindybench.simulate import simulate
 
 DT = 0.02
@@ -36,6 +37,8 @@ def _tanks_models(dt):
     return {
         "SINDy": SINDy(library=PolynomialLibrary(degree=2) + SqrtLibrary(), optimizer=STLS(threshold=1e-3), dt=dt,
                        bounds=(0.0, 10.0), n_substeps=2, output_names=["level"], input_names=["pump"]),
+        "SINDy-refined": SINDy(library=PolynomialLibrary(degree=1) + SqrtLibrary(), optimizer=STLS(threshold=1e-3),
+                               dt=dt, bounds=(0.0, 10.0), refine=OutputErrorRefinement(max_nfev=5)),
         "ARX": ARX(na=2, nb=2),
         "NNARX": NNARX(hidden_layer_sizes=(8, 4), max_iter=60, n_estimators=2, random_state=0),
         "TanksHiddenState": HiddenStateSINDy(
@@ -64,6 +67,8 @@ def fitted_models(data_home):
                              optimizer=STLS(threshold=1e5, normalize_columns=True),
                              differentiation=Spectral(cutoff=150.0), dt=dt, n_substeps=2, input_hold="linear")
     out["BoucWenHiddenState"] = (model.fit(u, y), u, y, u_te, y_te)
+    refined = clone(model).set_params(hidden__m=2.2, refine=OutputErrorRefinement(max_nfev=4, max_samples=1000))
+    out["BoucWenHiddenState-refined"] = (refined.fit(u, y), u, y, u_te, y_te)
     u, y, u_te, y_te, dt = _record(load_pick_and_place, data_home, n=1200)
     model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=2),
                              optimizer=STLS(threshold=1e-3, normalize_columns=True), dt=dt)
@@ -96,7 +101,7 @@ def _outputs(model, X, y):
 
 
 ESTIMATORS = ["SINDy", "STLS", "ARX", "NNARX", "DerivativeHiddenState", "BoucWenHiddenState", "TanksHiddenState",
-              "ParametricHiddenState"]
+              "ParametricHiddenState", "SINDy-refined", "BoucWenHiddenState-refined"]
 
 
 @pytest.mark.parametrize("name", ESTIMATORS)
@@ -126,6 +131,18 @@ def test_hidden_state_model_keeps_its_trajectory_and_search(fitted_models, saved
     np.testing.assert_array_equal(loaded.hidden_states_, model.hidden_states_)
     np.testing.assert_array_equal(loaded.structure_.fixed_coef, model.structure_.fixed_coef)
     assert loaded.structure_.bounds is not None and loaded.state_names_ == model.state_names_
+
+
+@pytest.mark.parametrize("name", ["SINDy-refined", "BoucWenHiddenState-refined"])
+def test_refined_models_keep_their_refinement(fitted_models, saved, name):
+    model = fitted_models[name][0]
+    loaded = load_model(saved[name])
+    assert model.refinement_["nfev"] >= 1 and loaded.refinement_ == model.refinement_
+    assert loaded.refine.max_nfev == model.refine.max_nfev
+    if name.startswith("BoucWen"):  # the refined mass enters the fixed force balance
+        assert loaded.params_["m"] == model.params_["m"] != 2.2
+        np.testing.assert_array_equal(loaded.structure_.fixed_coef, model.structure_.fixed_coef)
+    np.testing.assert_array_equal(loaded.x0_, model.x0_)
 
 
 def test_refitted_values_survive_the_round_trip(fitted_models, tmp_path):

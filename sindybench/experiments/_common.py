@@ -5,7 +5,26 @@ Every factory has the signature ``make(random_state, quick, dt, n_val)`` of
 that describing a benchmark never pulls in all of the library.
 """
 
-__all__ = ["arx_model", "arx_space", "nnarx_model", "nnarx_space", "sindy_model", "stls_space"]
+__all__ = ["arx_model", "arx_space", "nnarx_model", "nnarx_space", "refinement", "sindy_model", "stls_space"]
+
+#: simulation-error refinement budget (simulations per round) of a default and a quick run
+REFINE_NFEV, REFINE_NFEV_QUICK = 30, 5
+
+
+def refinement(**kwargs):
+    """Settings factory of a "+ simulation-error refinement" row (:attr:`ModelSpec.refines`).
+
+    The refined model starts new data from ``y_init`` by least squares
+    (``initial_state="fit"``, all states free), with the same ``n_init``
+    samples as every other row.
+    """
+    def make(*, random_state, quick, dt, n_val, n_samples):
+        from ..refine import OutputErrorRefinement
+
+        budget = REFINE_NFEV_QUICK if quick else REFINE_NFEV
+        return {"refine": OutputErrorRefinement(max_nfev=budget, **kwargs), "initial_state": "fit"}
+
+    return make
 
 
 def stls_space(*, threshold=(1e-4, 1e1), alpha=(1e-8, 1e-1), gamma=None):

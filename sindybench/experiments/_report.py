@@ -158,6 +158,13 @@ def results_markdown(results, *, heading_level=1):
     )
     for name, info in results["test_sets"].items():
         out += ["", f"{h}# Test set `{name}` ({info['n_samples']} samples)", ""]
+        out.append(
+            f"Protocol: every model starts from the first {info['n_init']} measured samples of the test record "
+            f"(`y_init`) and is scored on all {info['n_samples']} samples, the start included; the "
+            "\"+ simulation-error refinement\" rows fit their initial state (hidden states included) to those "
+            f"{info['n_init']} samples by least squares."
+        )
+        out.append("")
         out.append(_markdown_table(comparison_rows(results, name)))
     out += ["", f"{h}# Models", ""]
     for m in results["models"]:
@@ -171,6 +178,14 @@ def results_markdown(results, *, heading_level=1):
         if m["best_params"]:
             params = ", ".join(f"{k}={_short(v)}" for k, v in m["best_params"].items())
             out.append(f"  - best parameters: {params}")
+        record = m.get("refinement")
+        if record and record.get("status", -1) >= 0:
+            physical = ", ".join(f"{k}={_short(v)}" for k, v in record["physical"].items())
+            out.append(f"  - refinement ({record['jacobian']} Jacobian): cost {record['initial_cost']:.3g} -> "
+                       f"{record['cost']:.3g} in {record['nfev']} simulations"
+                       + (f"; refined {physical}" if physical else ""))
+        elif record:
+            out.append(f"  - refinement: {record['message']}")
         for eq in m["equations"]:
             out.append(f"  - `{eq}`")
     return "\n".join(out) + "\n"

@@ -94,6 +94,43 @@ def _training_record(benchmark, data, quick):
     return X, y, len(y_tr), len(y_va)
 
 
+def _chosen(estimator):
+    """The estimator's inner-search choices as fixed parameters (``hidden__<name>``)."""
+    hidden = getattr(estimator, "hidden_", None)
+    params = getattr(estimator, "params_", None) or {}
+    if hidden is None:
+        return {}
+    names = hidden.get_params(deep=False)
+    return {f"hidden__{k}": v for k, v in params.items() if k in names}
+
+
+def refine_model(spec, base, X, y, *, dt, seed=0, quick=False):
+    """Fit the refinement row ``spec`` from the fitted model ``base`` it refines.
+
+    ``base`` is cloned with the hyperparameters its searches chose held
+    (inner physical guesses become fixed values), the parameters returned by
+    ``spec.make`` are set, and it is fitted on the whole estimation record
+    ``X, y`` (training + validation block): every choice was already made on
+    the validation block, and the refinement is the final fit.
+
+    Returns
+    -------
+    estimator, info : as :func:`fit_model`
+    """
+    from sklearn.base import clone
+
+    start = time.perf_counter()
+    settings = spec.make(random_state=seed, quick=quick, dt=dt, n_val=0, n_samples=len(y))
+    if "initial_state" not in base.get_params(deep=False):
+        settings.pop("initial_state", None)  # SINDy measures its whole state: it starts from y_init[0]
+    chosen = _chosen(base)
+    estimator = clone(base).set_params(**chosen, **settings).fit(X, y)
+    info = {"n_trials": 0, "best_params": {k: jsonable(v) for k, v in chosen.items()}, "best_value": None,
+            "inner_trials": 0, "refinement": getattr(estimator, "refinement_", None),
+            "fit_time_s": time.perf_counter() - start}
+    return estimator, info
+
+
 def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, storage=None,
               n_jobs=1, study_name=None, show_progress_bar=False):
     """Tune (when the spec has a search space and a budget) and fit one model.
@@ -233,6 +270,9 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
     if quick and benchmark.test_sets_quick is not None:
         tests = {k: v for k, v in tests.items() if k in benchmark.test_sets_quick}
     specs = [m for m in benchmark.models if models is None or m.key in models]
+    wanted = {m.key for m in specs}
+    # a refinement row needs the model it refines
+    specs = [m for m in benchmark.models if m.key in wanted or any(s.refines == m.key for s in specs)]
     results = {
         "benchmark": benchmark.name,
         "title": benchmark.title,
@@ -261,11 +301,17 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         keep = slice(None) if cap is None or cap >= n_train else np.r_[:cap, n_train:n_train + n_val]
         entry["n_train"] = n_train if cap is None else min(cap, n_train)
         try:
-            estimator, info = fit_model(
-                spec, X[keep], y[keep], n_val=n_val, dt=dt, n_trials=budget, n_init=n_init, seed=seed, quick=quick,
-                storage=storage, n_jobs=n_jobs, study_name=f"{benchmark.name}.{spec.key}.seed{seed}",
-                show_progress_bar=show_progress_bar,
-            )
+            if spec.refines is not None:
+                base = fitted.get(spec.refines)
+                if base is None:
+                    raise ValueError(f"the model it refines, {spec.refines!r}, was not fitted in this run.")
+                estimator, info = refine_model(spec, base, X[keep], y[keep], dt=dt, seed=seed, quick=quick)
+            else:
+                estimator, info = fit_model(
+                    spec, X[keep], y[keep], n_val=n_val, dt=dt, n_trials=budget, n_init=n_init, seed=seed,
+                    quick=quick, storage=storage, n_jobs=n_jobs, study_name=f"{benchmark.name}.{spec.key}.seed{seed}",
+                    show_progress_bar=show_progress_bar,
+                )
             entry.update(info, status="ok", equations=_equations(estimator))
         except Exception as exc:  # one model failing must not lose the others' results
             logger.warning("%s: %s failed to fit: %s", benchmark.name, spec.label, exc)

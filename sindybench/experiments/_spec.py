@@ -36,6 +36,12 @@ class ModelSpec:
         Train this model on at most the first ``max_train`` training samples
         (the validation block is unchanged); ``None``: all of them. For
         models whose cost grows with the record (NN-ARX on Bouc-Wen).
+    refines : str or None
+        Key of an earlier model of the benchmark that this row refines: the
+        runner clones that fitted model, holds the hyperparameters its
+        searches chose (outer and inner), sets the parameters that ``make``
+        returns (e.g. ``refine=OutputErrorRefinement(...)``,
+        ``initial_state="fit"``) and fits it on the whole estimation record.
     """
 
     key: str
@@ -47,6 +53,7 @@ class ModelSpec:
     description: str = ""
     max_train: int | None = None
     max_train_quick: int | None = None
+    refines: str | None = None
 
     def train_cap(self, *, quick):
         """Largest number of training samples this model uses (``None``: all)."""
@@ -54,7 +61,7 @@ class ModelSpec:
 
     def budget(self, *, quick, trials=None):
         """Number of outer search trials for this run (0 without a search space)."""
-        if self.search_space is None:
+        if self.search_space is None or self.refines is not None:
             return 0
         if trials is not None:
             return int(trials)

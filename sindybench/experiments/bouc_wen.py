@@ -8,7 +8,7 @@ multisine record, validation the next 960; tests: the low-frequency sine
 (from rest), the official multisine and the sine sweep.
 """
 
-from ._common import arx_model, arx_space, nnarx_model, nnarx_space, stls_space
+from ._common import arx_model, arx_space, nnarx_model, nnarx_space, refinement, stls_space
 from ._spec import Benchmark, ModelSpec
 
 __all__ = ["BENCHMARK"]
@@ -76,6 +76,10 @@ BENCHMARK = Benchmark(
         ModelSpec("hidden_bouc_wen", "Hidden SINDy, searched m, c, k", _hidden({}), None,
                   description="z = u - c y' - k y - m y'' reconstructed, z' fitted with |.| products; "
                               "m, c, k searched on the validation block"),
+        ModelSpec("hidden_bouc_wen_refined", "Hidden SINDy, searched m, c, k + simulation-error refinement",
+                  refinement(), refines="hidden_bouc_wen",
+                  description="the searched model with m, c, k, the z' coefficients and the initial state refined "
+                              "by the simulation error of the estimation record (exact sensitivities)"),
         ModelSpec("hidden_bouc_wen_ideal", "Hidden SINDy, Ideal (true m, c, k)", _hidden(TRUE_MCK), None,
                   description="the same with the true m = 2, c = 10, k = 5e4"),
         ModelSpec("arx", "ARX", arx_model(), arx_space(max_na=8, max_nb=8), n_trials=50, n_trials_quick=5,

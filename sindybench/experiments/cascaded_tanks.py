@@ -8,7 +8,7 @@ samples of the estimation record, validation: its last 256, test: the
 1024-sample validation record (Ts = 4 s), simulated from its first samples.
 """
 
-from ._common import arx_model, arx_space, nnarx_model, nnarx_space, sindy_model, stls_space
+from ._common import arx_model, arx_space, nnarx_model, nnarx_space, refinement, sindy_model, stls_space
 from ._spec import Benchmark, ModelSpec
 
 __all__ = ["BENCHMARK"]
@@ -40,6 +40,19 @@ def _sqrt():
     from ..libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary
 
     return ConcatLibrary([PolynomialLibrary(degree=1), SqrtLibrary(lower=0.0)])
+
+
+def _overflow():
+    """The strategy's default library plus the upper tank's overflow regime, ``[x1>=10]`` and ``[x1>=10] u``.
+
+    While the upper tank is full (its simulated level held at the top of its
+    bounds), the pump's excess flow spills into the lower tank: ``k2 u -
+    k1 sqrt(10)``, linear in ``u`` within that regime.
+    """
+    from ..libraries import ConcatLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary
+
+    return ConcatLibrary([PolynomialLibrary(degree=2), SqrtLibrary(variables=[0, 1]),
+                          IndicatorLibrary(variables=[1], lower=_BOUNDS[1], times=[2])])
 
 
 def _second_order(*, random_state, quick, dt, n_val, n_samples):
@@ -103,6 +116,16 @@ BENCHMARK = Benchmark(
         ModelSpec("hidden_tanks", "Hidden SINDy, polynomial + square root", _hidden(None), None,
                   description="simulated upper tank, y' = f(y, x1, u) with TanksHiddenState's default library: "
                               "quadratic polynomial plus sqrt(y), sqrt(x1)"),
+        ModelSpec("hidden_tanks_refined", "Hidden SINDy, polynomial + square root + simulation-error refinement",
+                  refinement(), refines="hidden_tanks",
+                  description="the searched model with k1, k2, the learned coefficients and both initial levels "
+                              "refined by the simulation error of the estimation record"),
+        ModelSpec("hidden_tanks_overflow", "Hidden SINDy, overflow terms", _hidden(_overflow), None,
+                  description="simulated upper tank; y' = f(y, x1, u) with the default library plus the overflow "
+                              "regime [x1>=10], [x1>=10] u (the upper tank spilling into the lower one)"),
+        ModelSpec("hidden_tanks_overflow_refined", "Hidden SINDy, overflow terms + simulation-error refinement",
+                  refinement(), refines="hidden_tanks_overflow",
+                  description="the overflow model refined by the simulation error of the estimation record"),
         ModelSpec("arx", "ARX", arx_model(), arx_space(), n_trials=50, n_trials_quick=6,
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(max_iter=2000), nnarx_space(), n_trials=25, n_trials_quick=3,

@@ -7,7 +7,7 @@ baselines. Data decimated to 400 Hz and standardised; training 3840,
 validation 960, test the last 1201 samples.
 """
 
-from ._common import arx_model, arx_space, nnarx_model, nnarx_space, sindy_model, stls_space
+from ._common import arx_model, arx_space, nnarx_model, nnarx_space, refinement, sindy_model, stls_space
 from ._spec import Benchmark, ModelSpec
 
 __all__ = ["BENCHMARK"]
@@ -25,14 +25,27 @@ def _poly():
     return PolynomialLibrary(degree=2)
 
 
-def _second_order(*, random_state, quick, dt, n_val, n_samples):
-    from .. import STLS, HiddenStateSINDy
-    from ..differentiation import TotalVariation
-    from ..hidden import DerivativeHiddenState
+def _friction():
+    """Quadratic polynomial plus Coulomb friction ``sign(y')`` (column 1 of ``Z = [y, y', u]``)."""
+    from ..libraries import SIGN, ConcatLibrary, TermsLibrary
 
-    return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=_poly(),
-                            optimizer=STLS(threshold=0.1, alpha=1e-6),
-                            differentiation=TotalVariation(gamma=1e-3), dt=dt)
+    return ConcatLibrary([_poly(), TermsLibrary(terms=[[[1, SIGN, 0.0, 0.0]]])])
+
+
+def _second_order_with(library):
+    def make(*, random_state, quick, dt, n_val, n_samples):
+        from .. import STLS, HiddenStateSINDy
+        from ..differentiation import TotalVariation
+        from ..hidden import DerivativeHiddenState
+
+        return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=library(),
+                                optimizer=STLS(threshold=0.1, alpha=1e-6),
+                                differentiation=TotalVariation(gamma=1e-3), dt=dt)
+
+    return make
+
+
+_second_order = _second_order_with(_poly)
 
 
 BENCHMARK = Benchmark(
@@ -49,6 +62,17 @@ BENCHMARK = Benchmark(
         ModelSpec("sindy_second_order", "SINDy, 2nd order", _second_order,
                   stls_space(threshold=(1e-4, 1e2), gamma=(1e-6, 1e1)), n_trials=100, n_trials_quick=6,
                   description="states (y, y'), y'' = f(y, y', u) with a quadratic polynomial library"),
+        ModelSpec("sindy_second_order_refined", "SINDy, 2nd order + simulation-error refinement", refinement(),
+                  refines="sindy_second_order",
+                  description="the tuned second-order model with its nonzero coefficients and initial state refined "
+                              "by the simulation error of the estimation record"),
+        ModelSpec("sindy_friction", "SINDy, 2nd order, Coulomb friction term", _second_order_with(_friction),
+                  stls_space(threshold=(1e-4, 1e2), gamma=(1e-6, 1e1)), n_trials=100, n_trials_quick=6,
+                  description="the second-order model with sign(y') (Coulomb friction of the head) added to the "
+                              "library; the threshold chosen on the validation block decides whether it stays"),
+        ModelSpec("sindy_friction_refined", "SINDy, 2nd order, Coulomb friction + simulation-error refinement",
+                  refinement(), refines="sindy_friction",
+                  description="the friction model refined by the simulation error of the estimation record"),
         ModelSpec("arx", "ARX", arx_model(), arx_space(), n_trials=50, n_trials_quick=6,
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(), nnarx_space(), n_trials=20, n_trials_quick=3,

@@ -40,8 +40,9 @@ only stores keyword arguments; physical guesses are constructor parameters,
 
 Optionally override ``default_library()`` (the library used when the estimator's
 ``library=None``), ``search_space()`` and ``resolve_params(values)`` (defaults
-below use ``_physical`` and ``bounds``), and ``_validate()`` (parameter checks,
-called at the start of ``fit``; raise ``ValueError``).
+below use ``_physical`` and ``bounds``), ``refinable(params)`` (the physical
+parameters that a simulation-error refinement may move) and ``_validate()``
+(parameter checks, called at the start of ``fit``; raise ``ValueError``).
 
 ``derivative(a, order=1)`` is a callable bound to the estimator's fitted
 differentiation method and ``dt``: it returns the ``order``-th time derivative of
@@ -232,6 +233,14 @@ class HiddenStrategy(BaseEstimator):
             else:
                 raise ValueError(f"no value for the searched parameter {name!r}.")
         return params
+
+    def refinable(self, params):
+        """Names of the physical parameters that enter the fixed rows (refined by simulation error).
+
+        The default: the numeric ``_physical`` parameters. Initial states are
+        not listed here; the refinement frees the whole initial state anyway.
+        """
+        return tuple(name for name in self._physical if name in params)
 
     def structure(self, params, *, n_outputs, n_inputs):
         """The model structure for ``params`` (see :class:`Structure`)."""

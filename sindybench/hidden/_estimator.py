@@ -32,6 +32,7 @@ from ..simulate import _HOLDS, SimulationError, TermsRHS, simulate
 from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy, ModelView, Structure
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
+from ._refinement import initial_state, refine_candidate
 from ._search import check_space, minimize
 
 __all__ = ["HiddenStateSINDy"]
@@ -41,6 +42,7 @@ logger = logging.getLogger(__name__)
 _PENALTY = 1e3  # validation score of a diverged or failed candidate (scores are normalized RMSEs)
 _HIDDEN_PREFIX = "hidden__"
 _VALIDATIONS = ("block", "continued", "full")
+_INITIAL_STATES = ("strategy", "fit", "periodic")
 
 
 class _Derivative:
@@ -209,6 +211,22 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         Input interpolation between samples in simulations.
     max_abs : float, default=1e6
         A simulated state beyond this magnitude counts as divergence.
+    refine : OutputErrorRefinement or None, default=None
+        Refine the final model by its open-loop simulation error on the
+        training record (:class:`~sindybench.refine.OutputErrorRefinement`):
+        the nonzero learned coefficients, the strategy's physical parameters
+        (:meth:`HiddenStrategy.refinable`, e.g. ``m, c, k`` or ``k1, k2``) and
+        the initial state. Only the model chosen by the inner search is
+        refined: a refinement costs tens of simulations with sensitivities,
+        about as much as the whole inner search of a short record, and it
+        polishes a basin rather than moving to another one.
+    initial_state : {"strategy", "fit", "periodic"}, default="strategy"
+        How ``predict`` / ``simulate`` start on new data from ``y_init``:
+        the strategy's estimate; that estimate refined by least squares of
+        the simulation of the ``y_init`` samples (all states, hidden ones
+        included, free); or, for one period of a periodic input, the state
+        reached after simulating two periods from the strategy's estimate
+        (uses the input alone).
 
     Attributes
     ----------
@@ -232,7 +250,11 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
     hidden_states_ : ndarray of shape (n_samples, n_hidden)
         The reconstructed hidden (not measured) states on the training data.
     x0_ : ndarray of shape (n_states,)
-        First training state.
+        First training state (refined with ``refine``).
+    refinement_ : dict or None
+        Record of the refinement (costs before and after, simulations,
+        status, refined physical parameters, pruned terms); None without
+        ``refine``.
     state_names_ : list of str
     dt_ : float
     n_features_in_ : int
@@ -274,6 +296,8 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         n_substeps=1,
         input_hold="zoh",
         max_abs=1e6,
+        refine=None,
+        initial_state="strategy",
     ):
         self.hidden = hidden
         self.library = library
@@ -290,6 +314,8 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         self.n_substeps = n_substeps
         self.input_hold = input_hold
         self.max_abs = max_abs
+        self.refine = refine
+        self.initial_state = initial_state
 
     # ------------------------------------------------------------------ checks
     def _check_params(self, dt):
@@ -307,6 +333,11 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         check_option(self.input_hold, "input_hold", _HOLDS)
         check_bool(self.refit, "refit")
         check_positive(self.max_abs, "max_abs", allow_inf=True)
+        check_option(self.initial_state, "initial_state", _INITIAL_STATES)
+        if self.refine is not None and not hasattr(self.refine, "run"):
+            raise ValueError(
+                f"refine must be an OutputErrorRefinement or None; got {type(self.refine).__name__}."
+            )
         space = check_space(self.search_params)
         bad = [k for k in space if k.startswith(_HIDDEN_PREFIX)]
         if bad:
@@ -390,7 +421,12 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
             n_rows = n if self.refit else n_fit
         cand = self._candidate(hidden, self.best_params_, X, y1, dt, n_rows, derivative)
         cand.derivative.pin(None)
+        x0, self.refinement_ = None, None
+        if self.refine is not None:
+            cand, x0 = self._refine(hidden, cand, X[:n_rows], y1[:n_rows], dt)
         self._set_fitted(hidden, cand, self.best_params_, dt, X, y1)
+        if x0 is not None:
+            self.x0_ = x0
         self._y_1d = np.asarray(y).ndim == 1
         return self
 
@@ -438,21 +474,47 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         return _Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
                           differentiation=differentiation, coef=coef, derivative=derivative, design=design, rhs=rhs)
 
+    def _settings(self, structure):
+        return dict(n_substeps=self.n_substeps, input_hold=self.input_hold, bounds=structure.bounds,
+                    max_abs=self.max_abs)
+
     def _simulate(self, cand, x0, X, dt, on_divergence):
-        s = cand.structure
-        return simulate(cand.rhs, x0, X, dt, n_substeps=self.n_substeps, input_hold=self.input_hold,
-                        bounds=s.bounds, max_abs=self.max_abs, on_divergence=on_divergence)
+        return simulate(cand.rhs, x0, X, dt, on_divergence=on_divergence, **self._settings(cand.structure))
+
+    def _refine(self, hidden, cand, X, y, dt):
+        """The candidate refined by simulation error, and its refined first state.
+
+        A model whose simulation of the training record diverges cannot be
+        refined: it is kept as fitted by equation error, with a warning.
+        """
+        try:
+            params, coef, x0, result = refine_candidate(cand, hidden, X, y, dt, self.refine, build_rhs=_build_rhs,
+                                                        python_rhs=_PythonRHS,
+                                                        settings=self._settings(cand.structure))
+        except SimulationError as exc:
+            warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=3)
+            self.refinement_ = {"status": -1, "message": f"skipped: {exc}"}
+            return cand, None
+        structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
+        cand = cand._replace(params=params, structure=structure, coef=coef,
+                             rhs=_build_rhs(structure, cand.library, coef))
+        self.refinement_ = result.summary()
+        logger.info("refinement: cost %.3g -> %.3g in %d simulations (%s)", result.initial_cost, result.cost,
+                    result.nfev, result.message)
+        return cand, x0
 
     def _model_view(self, cand, dt):
         return ModelView(rhs=cand.rhs, simulate=lambda x0, u: self._simulate(cand, x0, u, dt, "nan"))
 
-    def _initial_state(self, hidden, cand, X, y_init, dt):
-        x0 = hidden.initial_state(X, y_init, dt, derivative=cand.derivative, params=cand.params,
+    def _initial_state(self, hidden, cand, X, y_init, dt, mode="strategy"):
+        n = min(X.shape[0], y_init.shape[0])
+        x0 = hidden.initial_state(X[:n], y_init[:n], dt, derivative=cand.derivative, params=cand.params,
                                   model=self._model_view(cand, dt))
         x0 = np.asarray(x0, dtype=float).reshape(-1)
         if x0.shape[0] != cand.structure.n_states or not np.all(np.isfinite(x0)):
             raise ValueError(f"the strategy's initial state {x0!r} is not {cand.structure.n_states} finite numbers.")
-        return x0
+        return initial_state(mode, cand.rhs, x0, X, y_init[:n], dt, output_index=cand.structure.output_index,
+                             settings=self._settings(cand.structure))
 
     def _validation_error(self, hidden, cand, X, y, dt, n_fit):
         """Normalized RMSE of the candidate's simulation (see ``validation``)."""
@@ -529,8 +591,8 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         if y_init.shape[1] != self.n_outputs_:
             raise ValueError(f"y_init has {y_init.shape[1]} columns; expected {self.n_outputs_} (one per output).")
         X = self._check_X(X, y_init.shape[0])
-        n = min(X.shape[0], y_init.shape[0])
-        return self._initial_state(self.hidden_, self._candidate_, X[:n], y_init[:n], self.dt_)
+        check_option(self.initial_state, "initial_state", _INITIAL_STATES)
+        return self._initial_state(self.hidden_, self._candidate_, X, y_init, self.dt_, self.initial_state)
 
     def simulate(self, X, *, y_init=None, x0=None, on_divergence="raise"):
         """Open-loop simulation of the full state (measured and hidden).

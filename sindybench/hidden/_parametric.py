@@ -200,6 +200,10 @@ class ParametricHiddenState(HiddenStrategy):
         return phys, np.array([params[k] for k in x0_names], dtype=float)
 
     # -------------------------------------------------------------- protocol
+    def refinable(self, params):
+        """The parameters of ``rhs`` (not the training initial hidden state)."""
+        return tuple(self._split(params)[0])
+
     def structure(self, params, *, n_outputs, n_inputs):
         p = n_outputs
         q = len(self._x0_specs())

@@ -25,7 +25,11 @@ Stored ``fitted`` entries (a new fitted attribute goes into both functions;
     (``hidden_states_`` is taken from it);
 ``x0``
     array (n_states,);
-``dt``, ``n_features_in``, ``n_outputs``, ``output_1d``.
+``dt``, ``n_features_in``, ``n_outputs``, ``output_1d``;
+``refinement``
+    ``refinement_``, the record of the simulation-error refinement (null without
+    ``refine``; the refined values are in ``params``, ``coef``,
+    ``structure.fixed_coef`` and ``x0``).
 """
 
 from ..io import check_params, encode_array, encode_value, fitted_from_dict, fitted_to_dict
@@ -92,14 +96,8 @@ def hidden_sindy_to_dict(model):
         "n_features_in": int(model.n_features_in_),
         "n_outputs": int(model.n_outputs_),
         "output_1d": bool(model._y_1d),
+        "refinement": encode_value(model.refinement_, "fitted.refinement"),
     }
-
-
-def _dict_value(fitted, name):
-    value = fitted.value(name)
-    if not isinstance(value, dict):
-        raise ValueError(f"{fitted.where(name)}: expected a dict {{name: value}}; got {type(value).__name__}.")
-    return value
 
 
 def hidden_sindy_from_dict(model, fitted):
@@ -109,8 +107,8 @@ def hidden_sindy_from_dict(model, fitted):
         raise ValueError(f"fitted.hidden: expected a hidden-state strategy; got {type(hidden).__name__}.")
     n_inputs, n_outputs = fitted.int("n_features_in"), fitted.int("n_outputs", low=1)
     model.hidden_ = hidden
-    model.params_ = _dict_value(fitted, "params")
-    model.best_params_ = _dict_value(fitted, "best_params")
+    model.params_ = fitted.mapping("params")
+    model.best_params_ = fitted.mapping("best_params")
     results = fitted.value("search_results")
     if not isinstance(results, list):
         raise ValueError(f"fitted.search_results: expected a list of (values, score); got {type(results).__name__}.")
@@ -127,4 +125,5 @@ def hidden_sindy_from_dict(model, fitted):
     check_params(model._check_params, model.dt_)
     model.n_features_in_, model.n_outputs_ = n_inputs, n_outputs
     model._y_1d = fitted.bool("output_1d")
+    model.refinement_ = fitted.mapping("refinement", allow_none=True)
     model._rebuild_model()

@@ -1,7 +1,7 @@
 """Feature libraries: scikit-learn transformers applied to ``Z = [states, inputs]``."""
 
 from ._base import BaseLibrary
-from ._builtin import AbsProductLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
+from ._builtin import AbsProductLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
 from ._compose import ConcatLibrary, ProductLibrary
 from ._custom import CustomLibrary, ExternalLibrary, as_library
 from ._spec import fitted_library_from_dict, fitted_library_to_dict, library_from_spec, library_to_spec
@@ -10,8 +10,10 @@ from ._terms import (
     POW,
     SIGN,
     SQRT,
+    STEP,
     check_terms,
     evaluate_terms,
+    evaluate_terms_jacobian,
     term_name,
     terms_from_json,
     terms_to_arrays,
@@ -25,16 +27,19 @@ __all__ = [
     "ConcatLibrary",
     "CustomLibrary",
     "ExternalLibrary",
+    "IndicatorLibrary",
     "POW",
     "PolynomialLibrary",
     "ProductLibrary",
     "SIGN",
     "SQRT",
+    "STEP",
     "SqrtLibrary",
     "TermsLibrary",
     "as_library",
     "check_terms",
     "evaluate_terms",
+    "evaluate_terms_jacobian",
     "fitted_library_from_dict",
     "fitted_library_to_dict",
     "library_from_spec",

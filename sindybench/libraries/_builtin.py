@@ -9,9 +9,9 @@ import numpy as np
 from .._validation import check_bool, check_integer, check_positive
 from ..io import register_model
 from ._base import BaseLibrary, canonical_term, check_variables
-from ._terms import ABS_POW, POW, SQRT, check_terms
+from ._terms import ABS_POW, POW, SQRT, STEP, check_terms
 
-__all__ = ["AbsProductLibrary", "PolynomialLibrary", "SqrtLibrary", "TermsLibrary"]
+__all__ = ["AbsProductLibrary", "IndicatorLibrary", "PolynomialLibrary", "SqrtLibrary", "TermsLibrary"]
 
 
 def _per_variable(value, n, name):
@@ -113,6 +113,60 @@ class SqrtLibrary(BaseLibrary):
         if np.any(lower >= upper):
             raise ValueError(f"lower must be < upper; got lower={self.lower!r}, upper={self.upper!r}.")
         return [((c, SQRT, float(lo), float(hi)),) for c, lo, hi in zip(cols, lower, upper)]
+
+
+class IndicatorLibrary(BaseLibrary):
+    """Regime indicators ``[lower <= z <= upper]`` of the selected columns, alone and times others.
+
+    A hard nonlinearity often switches a flow on in one regime only: the
+    cascaded tanks' upper tank spills into the lower one while it is full,
+    i.e. while its (bounded) level sits at the top. With
+    ``lower=10, times=[u]`` the library holds ``[x1>=10]`` and
+    ``[x1>=10] u``, so the lower tank's equation can learn the spill flow
+    (``k u - k' sqrt(10)`` while full) and the refinement can fit it.
+
+    Parameters
+    ----------
+    variables : sequence of int
+        Columns of ``Z`` whose regime is indicated.
+    lower, upper : float, default=-inf, inf
+        The regime ``lower <= z <= upper`` (at least one finite).
+    times : sequence of int, optional
+        Columns multiplied by each indicator (each product is a term too).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> lib = IndicatorLibrary(variables=[0], lower=10.0, times=[1]).fit(np.zeros((1, 2)))
+    >>> lib.get_feature_names_out(["x1", "u"]).tolist()
+    ['[x1>=10]', '[x1>=10] u']
+    >>> lib.transform([[10.0, 2.0], [9.0, 2.0]])
+    array([[1., 2.],
+           [0., 0.]])
+    """
+
+    def __init__(self, *, variables=None, lower=-np.inf, upper=np.inf, times=None):
+        self.variables = variables
+        self.lower = lower
+        self.upper = upper
+        self.times = times
+
+    def _make_terms(self, n_features):
+        if self.variables is None:
+            raise ValueError("variables is None; expected the columns of Z whose regime is indicated.")
+        cols = check_variables(self.variables, n_features)
+        times = [] if self.times is None else check_variables(self.times, n_features, name="times")
+        lo, hi = float(self.lower), float(self.upper)
+        if np.isnan(lo) or np.isnan(hi) or not lo < hi or (np.isinf(lo) and np.isinf(hi)):
+            raise ValueError(
+                f"lower={self.lower!r}, upper={self.upper!r}; expected lower < upper with at least one finite."
+            )
+        terms = []
+        for c in cols:
+            step = (c, STEP, lo, hi)
+            terms.append((step,))
+            terms.extend(canonical_term((step, (t, POW, 1.0, 0.0))) for t in times)
+        return terms
 
 
 _ABS_PRODUCTS = {
@@ -238,3 +292,4 @@ register_model(PolynomialLibrary)
 register_model(SqrtLibrary)
 register_model(AbsProductLibrary)
 register_model(TermsLibrary)
+register_model(IndicatorLibrary)

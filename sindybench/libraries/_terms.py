@@ -16,7 +16,17 @@ POW       ``z ** a``                         ``z^a``
 ABS_POW   ``|z| ** a``                       ``|z|^a``
 SQRT      ``sqrt(clip(z, a, b))``            ``sqrt(z)``
 SIGN      ``sign(z)``                        ``sign(z)``
+STEP      ``1`` if ``a <= z <= b``, else 0   ``[z>=a]``, ``[z<=b]``, ``[a<=z<=b]``
 ========  =================================  ==========
+
+``STEP`` marks a regime, e.g. an overflowing tank (``[x1>=10]``: the level at
+the top of its bounded range) or a saturated actuator.
+
+Each operation has its derivative with respect to its column
+(:func:`evaluate_terms_jacobian`): ``a z^(a-1)``, ``a |z|^(a-1) sign(z)``,
+``1 / (2 sqrt(z))`` strictly inside ``(a, b)`` and 0 where the clip is active,
+and 0 for ``sign`` and ``STEP``. The compiled sensitivity kernel
+(:mod:`sindybench.refine`) uses the same rules.
 
 An empty term ``()`` is the constant 1.
 """
@@ -28,16 +38,18 @@ __all__ = [
     "POW",
     "SIGN",
     "SQRT",
+    "STEP",
     "check_terms",
     "evaluate_terms",
+    "evaluate_terms_jacobian",
     "term_name",
     "terms_from_json",
     "terms_to_arrays",
     "terms_to_json",
 ]
 
-POW, ABS_POW, SQRT, SIGN = 0, 1, 2, 3
-_OPS = (POW, ABS_POW, SQRT, SIGN)
+POW, ABS_POW, SQRT, SIGN, STEP = 0, 1, 2, 3, 4
+_OPS = (POW, ABS_POW, SQRT, SIGN, STEP)
 
 
 def _fmt_power(base, a):
@@ -55,6 +67,12 @@ def _factor_name(factor, names):
         return f"sqrt({z})"
     if op == SIGN:
         return f"sign({z})"
+    if op == STEP:
+        if np.isinf(b):
+            return f"[{z}>={a:g}]"
+        if np.isinf(a):
+            return f"[{z}<={b:g}]"
+        return f"[{a:g}<={z}<={b:g}]"
     raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
 
 
@@ -84,6 +102,8 @@ def _eval_factor(factor, Z):
         return np.sqrt(np.clip(z, a, b))
     if op == SIGN:
         return np.sign(z)
+    if op == STEP:
+        return ((z >= a) & (z <= b)).astype(float)
     raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
 
 
@@ -110,6 +130,56 @@ def evaluate_terms(terms, Z):
     for j, term in enumerate(terms):
         for factor in term:
             out[:, j] *= _eval_factor(factor, Z)
+    return out
+
+
+def _factor_derivative(factor, Z):
+    col, op, a, b = factor
+    z = Z[:, col]
+    if op == POW:
+        return np.ones_like(z) if a == 1 else (a * z ** (a - 1) if a != 0 else np.zeros_like(z))
+    if op == ABS_POW:
+        return np.sign(z) if a == 1 else (a * np.abs(z) ** (a - 1) * np.sign(z) if a != 0 else np.zeros_like(z))
+    if op == SQRT:
+        inside = (z > a) & (z < b)
+        return np.where(inside, 0.5 / np.sqrt(np.where(inside, z, 1.0)), 0.0)
+    if op in (SIGN, STEP):
+        return np.zeros_like(z)
+    raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
+
+
+def evaluate_terms_jacobian(terms, Z):
+    """Derivatives of ``terms`` with respect to the columns of ``Z``.
+
+    Parameters
+    ----------
+    terms : sequence of tuple of (col, op, a, b)
+    Z : ndarray of shape (n_samples, n_variables)
+
+    Returns
+    -------
+    ndarray of shape (n_samples, len(terms), n_variables)
+        ``out[k, j, c]`` is the derivative of term ``j`` with respect to
+        ``Z[:, c]`` at sample ``k`` (product rule over the term's factors).
+
+    Examples
+    --------
+    >>> Z = np.array([[2.0, -3.0]])
+    >>> evaluate_terms_jacobian([((0, POW, 2, 0), (1, ABS_POW, 1, 0))], Z)[0]
+    array([[12., -4.]])
+    >>> evaluate_terms_jacobian([((0, SQRT, 0.0, 1.0),)], np.array([[0.25], [4.0]]))[:, 0, 0]
+    array([1., 0.])
+    """
+    Z = np.asarray(Z, dtype=float)
+    out = np.zeros((Z.shape[0], len(terms), Z.shape[1]))
+    for j, term in enumerate(terms):
+        values = [_eval_factor(f, Z) for f in term]
+        for i, factor in enumerate(term):
+            d = _factor_derivative(factor, Z)
+            for k, v in enumerate(values):
+                if k != i:
+                    d = d * v
+            out[:, j, factor[0]] += d
     return out
 
 

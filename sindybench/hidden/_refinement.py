@@ -1,0 +1,107 @@
+"""Simulation-error refinement and initial states of a fitted ``HiddenStateSINDy`` candidate.
+
+The estimator's model is ``[learned rows | fixed rows]`` over the terms
+``library terms + strategy fixed terms``; this module lays it out as one
+coefficient matrix for :mod:`sindybench.refine`: the learned block's nonzero
+entries are free one by one, and the strategy's physical parameters
+(:meth:`HiddenStrategy.refinable`) enter the fixed block through
+``strategy.structure(params)``.
+"""
+
+import numbers
+
+import numpy as np
+
+from ..refine import Physical, estimate_initial_state
+from ..simulate import simulate
+
+__all__ = ["initial_state", "refine_candidate"]
+
+
+class _FixedBlock:
+    """``values -> C`` with the strategy's fixed rows for these physical values (learned block zero)."""
+
+    def __init__(self, hidden, params, names, n_lib, n_outputs, n_inputs):
+        self.hidden, self.params, self.names = hidden, params, names
+        self.n_lib, self.n_outputs, self.n_inputs = n_lib, n_outputs, n_inputs
+
+    def structure(self, values):
+        params = {**self.params, **{k: float(v) for k, v in zip(self.names, values)}}
+        return self.hidden.structure(params, n_outputs=self.n_outputs, n_inputs=self.n_inputs)
+
+    def __call__(self, values):
+        s = self.structure(values)
+        out = np.zeros((self.n_lib + len(s.fixed_terms), s.n_states))
+        fixed = s.fixed_coef.copy()
+        fixed[:, list(s.learned)] = 0.0
+        out[self.n_lib :] = fixed
+        return out
+
+
+class _PythonModel:
+    """``make_rhs(C, values)`` for models on the Python path."""
+
+    def __init__(self, block, library, learned, build):
+        self.block, self.library, self.learned, self.build = block, library, learned, build
+
+    def __call__(self, C, values=None):
+        s = self.block.structure(() if values is None else values)
+        n_lib = self.block.n_lib
+        return self.build(s, self.library, C[:n_lib, self.learned], C[n_lib:])
+
+
+def refine_candidate(cand, hidden, X, y, dt, refinement, *, build_rhs, python_rhs, settings):
+    """Refine ``cand`` on ``(X, y)``; return ``(params, coef, x0, result)``.
+
+    ``build_rhs(structure, library, coef)`` assembles the estimator's model,
+    ``python_rhs(structure, library, coef, fixed_coef)`` its Python-path form.
+    """
+    s = cand.structure
+    learned = list(s.learned)
+    lib_terms = getattr(cand.library, "terms_", None)
+    n_lib = cand.coef.shape[0]
+    names = tuple(k for k in hidden.refinable(cand.params)
+                  if isinstance(cand.params.get(k), numbers.Real) and not isinstance(cand.params[k], bool))
+    block = _FixedBlock(hidden, cand.params, names, n_lib, y.shape[1], X.shape[1])
+    values = np.array([float(cand.params[k]) for k in names])
+    coef = np.zeros((n_lib + len(s.fixed_terms), s.n_states))
+    coef[:n_lib, learned] = cand.coef
+    free = np.zeros(coef.shape, dtype=bool)
+    free[:n_lib, learned] = cand.coef != 0
+    compiled = lib_terms is not None and s.fixed_rhs is None
+    make_rhs = None if compiled else _PythonModel(block, cand.library, learned, python_rhs)
+    if names:
+        physical = Physical(names=names, values=values, lower=np.where(values > 0, 0.0, -np.inf),
+                            upper=np.full(len(names), np.inf), coef=block, make_rhs=make_rhs)
+    else:
+        physical = None
+        coef = coef + block(values)
+    terms = list(lib_terms) + list(s.fixed_terms) if compiled else None
+    x0 = np.asarray(cand.design.states[0], dtype=float)
+    result = refinement.run(terms, coef, X, y, dt, x0=x0, output_index=s.output_index, free=free, physical=physical,
+                            make_rhs=make_rhs, **settings)
+    params = {**cand.params, **result.physical}
+    return params, result.coef[:n_lib, learned].copy(), result.x0, result
+
+
+def initial_state(mode, rhs, x0, X, y_init, dt, *, output_index, settings):
+    """Polish a strategy's initial state: ``"fit"`` on ``y_init``, ``"periodic"`` from the input alone.
+
+    ``"fit"``: least squares of the simulation of the first ``len(y_init)``
+    samples (all states free, exact sensitivities when compiled).
+    ``"periodic"``: ``X`` is one period of a periodic input; simulate two
+    periods from ``x0`` and start from the state reached (the periodic
+    steady state), without using ``y_init``.
+    """
+    if mode == "fit":
+        n = min(len(y_init), len(X))
+        if n < 2:
+            return x0
+        return estimate_initial_state(rhs, X[:n], y_init[:n], dt, x0=x0, output_index=output_index, **settings)
+    if mode == "periodic":
+        period = np.vstack([X, X[:1]])
+        for _ in range(2):
+            x = simulate(rhs, x0, period, dt, on_divergence="raise", **settings)
+            x0 = x[-1]
+        return x0
+    return x0

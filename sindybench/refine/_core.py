@@ -1,0 +1,471 @@
+"""Output-error refinement: least squares on the open-loop simulation error.
+
+:func:`refine_simulation_error` is the functional core. The model is
+``x' = Theta([x, u]) C`` with a coefficient matrix ``C`` made of three parts:
+entries freed one by one (the sparse support found by STLS), *physical
+parameters* that enter through a map ``values -> C`` (e.g. ``m, c, k`` in
+``v' = (u - c v - k y - z) / m``, or the tanks' ``k1, k2``), and constants.
+The initial state, hidden states included, may be free too. The residual is
+the simulated output minus the measured one, scaled by the output's spread;
+:func:`scipy.optimize.least_squares` (trust-region reflective, bounds for the
+physical parameters and the states) minimizes it with the exact Jacobian of
+:func:`~sindybench.refine.simulate_sensitivity` for compiled models and a
+2-point finite-difference Jacobian for Python right-hand sides. The map
+``values -> C`` is differentiated by central differences: it is algebraic
+(no simulation), so this is exact to rounding.
+
+Multiple shooting (``n_segments > 1``) cuts the record into segments, each
+with its own free initial state, and adds the mismatch between a segment's
+final state and the next one's initial state to the residual (weighted by
+``continuity_weight`` over the state's spread): long or unstable records no
+longer make the cost surface a maze of local minima.
+
+A trial step whose simulation diverges gets a large finite residual (the
+optimizer rejects it and shrinks its trust region); NaN never reaches the
+optimizer. A starting model that diverges is refused with a
+:class:`~sindybench.simulate.SimulationError`.
+"""
+
+import logging
+from typing import Callable, NamedTuple
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .._validation import check_bounds, check_integer, check_positive, check_signal
+from ..libraries import evaluate_terms
+from ..simulate import SimulationError, TermsRHS, simulate
+from ._sensitivity import simulate_sensitivity
+
+__all__ = ["Physical", "RefinementResult", "estimate_initial_state", "refine_simulation_error"]
+
+logger = logging.getLogger(__name__)
+
+_DIVERGED = 1e3  # residual (in output spreads) of a diverged sample
+
+
+class Physical(NamedTuple):
+    """Physical parameters entering the coefficient matrix through a map.
+
+    Attributes
+    ----------
+    names : tuple of str
+    values : ndarray of shape (n_physical,)
+        Starting values.
+    lower, upper : ndarray of shape (n_physical,)
+        Bounds of the refined values.
+    coef : callable
+        ``coef(values) -> ndarray (n_terms, n_states)``, added to the constant
+        coefficients.
+    make_rhs : callable or None
+        For Python-path models: ``make_rhs(C, values) -> f(x, u)``.
+    """
+
+    names: tuple
+    values: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    coef: Callable
+    make_rhs: Callable = None
+
+
+class RefinementResult(NamedTuple):
+    """Outcome of :func:`refine_simulation_error`.
+
+    Attributes
+    ----------
+    coef : ndarray of shape (n_terms, n_states)
+        The refined coefficient matrix (physical part included).
+    physical : dict
+        Refined physical parameters by name.
+    x0 : ndarray of shape (n_states,)
+        Refined initial state.
+    initial_cost, cost : float
+        Half the mean squared scaled output error before and after (scaled by
+        the output's standard deviation).
+    nfev, njev : int
+        Model simulations and Jacobian evaluations.
+    status : int
+        :func:`scipy.optimize.least_squares` status (> 0: converged).
+    message : str
+    jacobian : {"sensitivity", "2-point"}
+    pruned : list of (int, int)
+        ``(term, state)`` entries set to zero by pruning.
+    """
+
+    coef: np.ndarray
+    physical: dict
+    x0: np.ndarray
+    initial_cost: float
+    cost: float
+    nfev: int
+    njev: int
+    status: int
+    message: str
+    jacobian: str
+    pruned: list
+
+    def summary(self):
+        """JSON-able record (no arrays)."""
+        return {"initial_cost": float(self.initial_cost), "cost": float(self.cost), "nfev": int(self.nfev),
+                "njev": int(self.njev), "status": int(self.status), "message": str(self.message),
+                "jacobian": self.jacobian, "physical": {k: float(v) for k, v in self.physical.items()},
+                "pruned": [[int(j), int(i)] for j, i in self.pruned]}
+
+
+class _Problem:
+    """Parameter vector ``p = (physical, free coefficients, free x0 of each segment)`` and its residuals."""
+
+    def __init__(self, terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, segments,
+                 continuity_weight, x_segments, state_scale):
+        self.terms, self.coef, self.physical = terms, coef, physical
+        self.free = np.argwhere(free)  # (n_free, 2) of (term, state)
+        self.x0, self.free_x0 = x0, np.asarray(free_x0, dtype=np.int64)
+        self.u, self.y, self.dt, self.sim = u, y, dt, sim
+        self.oidx = np.asarray(output_index, dtype=np.int64)
+        self.n_states = coef.shape[1]
+        self.n_phys = 0 if physical is None else len(physical.names)
+        self.n_model = self.n_phys + len(self.free)
+        self.segments = segments
+        self.weight = continuity_weight / state_scale
+        spread = np.std(y, axis=0)
+        self.y_scale = np.where(spread > 0, spread, 1.0)
+        self.n_res = y.size
+        self.x_segments = x_segments
+        self.compiled = terms is not None and (physical is None or physical.make_rhs is None)
+
+    # ------------------------------------------------------------- vectors
+    def pack(self):
+        parts = [] if self.physical is None else [np.asarray(self.physical.values, dtype=float)]
+        parts.append(self.coef[self.free[:, 0], self.free[:, 1]])
+        parts.append(self.x0[self.free_x0])
+        parts.extend(self.x_segments)
+        return np.concatenate(parts)
+
+    def bounds(self, lo, hi):
+        n_free = len(self.free)
+        lower = [np.full(n_free, -np.inf), lo[self.free_x0]] + [lo] * len(self.x_segments)
+        upper = [np.full(n_free, np.inf), hi[self.free_x0]] + [hi] * len(self.x_segments)
+        if self.physical is not None:
+            lower.insert(0, np.asarray(self.physical.lower, dtype=float))
+            upper.insert(0, np.asarray(self.physical.upper, dtype=float))
+        return np.concatenate(lower), np.concatenate(upper)
+
+    def matrix(self, p):
+        C = self.coef.copy()
+        C[self.free[:, 0], self.free[:, 1]] = p[self.n_phys : self.n_model]
+        if self.physical is not None:
+            C = C + self.physical.coef(p[: self.n_phys])
+        return C
+
+    def directions(self, p):
+        """dC/dp for the model parameters (physical by central differences of the algebraic map)."""
+        D = np.zeros((self.n_model,) + self.coef.shape)
+        for k in range(self.n_phys):
+            v = np.asarray(p[: self.n_phys], dtype=float)
+            step = 1e-6 * max(abs(v[k]), 1e-3)
+            hi, lo = v.copy(), v.copy()
+            hi[k] += step
+            lo[k] -= step
+            D[k] = (self.physical.coef(hi) - self.physical.coef(lo)) / (2 * step)
+        for e, (j, i) in enumerate(self.free):
+            D[self.n_phys + e, j, i] = 1.0
+        return D
+
+    def starts(self, p):
+        """Initial state of each segment."""
+        x0 = self.x0.copy()
+        n0 = self.n_model + self.free_x0.size
+        x0[self.free_x0] = p[self.n_model : n0]
+        out = [x0]
+        for s in range(len(self.x_segments)):
+            out.append(p[n0 + s * self.n_states : n0 + (s + 1) * self.n_states])
+        return out
+
+    def rhs(self, p):
+        C = self.matrix(p)
+        if self.compiled:
+            return TermsRHS(C, self.terms, self.n_states)
+        return self.physical.make_rhs(C, p[: self.n_phys]) if self.physical is not None else self.sim["make_rhs"](C)
+
+    # ----------------------------------------------------------- residuals
+    def _segment_residuals(self, x, seg, x_next):
+        a, b = seg
+        r = ((x[: b - a, self.oidx] - self.y[a:b]) / self.y_scale).ravel()
+        c = (x[-1] - x_next) * self.weight if x_next is not None else np.zeros(0)
+        return r, c
+
+    def residuals(self, p):
+        rhs = self.rhs(p)
+        starts = self.starts(p)
+        res, cont = [], []
+        for s, (a, b) in enumerate(self.segments):
+            last = b + 1 if s + 1 < len(self.segments) else b
+            with np.errstate(all="ignore"):
+                x = simulate(rhs, starts[s], self.u[a:last], self.dt, on_divergence="nan", **self.sim["settings"])
+            r, c = self._segment_residuals(x, (a, b), starts[s + 1] if s + 1 < len(self.segments) else None)
+            res.append(r)
+            cont.append(c)
+        out = np.concatenate(res + cont) / np.sqrt(self.n_res)
+        return np.where(np.isfinite(out), out, _DIVERGED / np.sqrt(self.n_res))
+
+    def jacobian(self, p):
+        """Exact Jacobian from the forward sensitivities (compiled models)."""
+        rhs, D, starts = self.rhs(p), self.directions(p), self.starts(p)
+        n, n_out = self.n_states, self.oidx.size
+        n_seg = len(self.segments)
+        q = p.size
+        J_out = np.zeros((self.n_res, q))
+        J_cont = np.zeros(((n_seg - 1) * n, q))
+        n0 = self.n_model
+        for s, (a, b) in enumerate(self.segments):
+            last = b + 1 if s + 1 < n_seg else b
+            free = self.free_x0 if s == 0 else np.arange(n)
+            x, S, S_end = simulate_sensitivity(rhs, starts[s], self.u[a:last], self.dt, directions=D, free_x0=free,
+                                               output_index=self.oidx, on_divergence="nan", **self.sim["settings"])
+            if not np.all(np.isfinite(S)):
+                raise SimulationError("the sensitivities of an accepted refinement step are not finite.", step=-1)
+            cols = np.r_[np.arange(self.n_model),
+                         (n0 + np.arange(self.free_x0.size)) if s == 0
+                         else n0 + self.free_x0.size + (s - 1) * n + np.arange(n)]
+            rows = slice(a * n_out, b * n_out)
+            J_out[rows, cols] = (S[: b - a] / self.y_scale[None, :, None]).reshape((b - a) * n_out, -1)
+            if s + 1 < n_seg:
+                crow = slice(s * n, (s + 1) * n)
+                J_cont[crow, cols] = S_end * self.weight[:, None]
+                nxt = n0 + self.free_x0.size + s * n
+                J_cont[crow, nxt : nxt + n] -= np.diag(self.weight)
+        return np.vstack([J_out, J_cont]) / np.sqrt(self.n_res)
+
+
+def _segments(n, n_segments):
+    edges = np.linspace(0, n, n_segments + 1).round().astype(int)
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def _contributions(terms, C, x, u, free, rows):
+    """RMS of each free entry's term times its coefficient, relative to its state's derivative RMS."""
+    theta = evaluate_terms(terms, np.hstack([x, u]))
+    rhs = theta @ C
+    scale = np.sqrt(np.mean(rhs[rows] ** 2, axis=0))
+    out = []
+    for j, i in free:
+        part = np.sqrt(np.mean((theta[rows, j] * C[j, i]) ** 2))
+        out.append(part / scale[i] if scale[i] > 0 else 0.0)
+    return np.array(out)
+
+
+def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), free=None, physical=None,
+                            free_x0=None, make_rhs=None, n_segments=1, continuity_weight=1.0, prune=0.0,
+                            n_substeps=1, method="rk4", input_hold="zoh", bounds=None, max_abs=np.inf,
+                            max_nfev=100, ftol=1e-8, xtol=1e-8):
+    """Refine a model's coefficients and initial state by open-loop simulation error.
+
+    Parameters
+    ----------
+    terms : sequence of term tuples or None
+        Terms of ``Z = [x, u]``, one per row of ``coef``; None for a Python
+        right-hand side (then give ``make_rhs`` or ``physical.make_rhs``).
+    coef : array-like of shape (n_terms, n_states)
+        Starting coefficients, without the physical part (which
+        ``physical.coef(values)`` adds).
+    u : array-like of shape (n_samples, n_inputs)
+    y : array-like of shape (n_samples, n_outputs)
+        Measured outputs: the states ``output_index``.
+    dt : float
+    x0 : array-like of shape (n_states,)
+        Starting initial state (hidden states included).
+    output_index : sequence of int, default=(0,)
+    free : array-like of bool of shape (n_terms, n_states), optional
+        Entries refined one by one; default: the nonzero entries of ``coef``.
+    physical : Physical, optional
+        Physical parameters refined through ``physical.coef``.
+    free_x0 : sequence of int, optional
+        States whose initial value is refined; default: all.
+    make_rhs : callable, optional
+        ``make_rhs(C) -> f(x, u)`` for Python right-hand sides without
+        physical parameters.
+    n_segments : int, default=1
+        Multiple-shooting segments (1 = single shooting).
+    continuity_weight : float, default=1.0
+        Weight of the continuity residuals (per state spread) relative to the
+        output residuals (per output spread).
+    prune : float, default=0.0
+        After a refinement, free entries whose term contributes less than
+        ``prune`` times the RMS of its state's derivative along the simulated
+        trajectory are set to zero and the model is refined again (until
+        nothing more is pruned).
+    n_substeps, method, input_hold, bounds, max_abs
+        Simulation settings, as in :func:`sindybench.simulate.simulate`.
+    max_nfev : int, default=100
+        Budget of simulations per refinement round.
+    ftol, xtol : float, default=1e-8
+        Stopping tolerances of :func:`scipy.optimize.least_squares`.
+
+    Returns
+    -------
+    RefinementResult
+
+    Raises
+    ------
+    SimulationError
+        When the starting model's simulation diverges.
+
+    Examples
+    --------
+    Recover ``x' = -a x + b u`` from a biased start:
+
+    >>> from sindybench.libraries import POW
+    >>> from sindybench.simulate import TermsRHS, simulate
+    >>> terms = [((0, POW, 1, 0),), ((1, POW, 1, 0),)]
+    >>> u = np.sign(np.sin(np.arange(400) * 0.05))[:, None]
+    >>> y = simulate(TermsRHS([[-1.0], [2.0]], terms, 1), [0.5], u, 0.05)
+    >>> res = refine_simulation_error(terms, [[-0.8], [1.7]], u, y, 0.05, x0=[0.0])
+    >>> np.round(res.coef.ravel(), 6).tolist(), round(float(res.x0[0]), 6), res.jacobian
+    ([-1.0, 2.0], 0.5, 'sensitivity')
+    """
+    u = np.ascontiguousarray(check_signal(u, "u"))
+    y = check_signal(y, "y", n_samples=u.shape[0])
+    coef = np.asarray(coef, dtype=float)
+    if coef.ndim == 1:
+        coef = coef.reshape(-1, 1)
+    n_states = coef.shape[1]
+    x0 = np.asarray(x0, dtype=float).reshape(-1)
+    if x0.shape[0] != n_states:
+        raise ValueError(f"x0 has {x0.shape[0]} entries; expected {n_states} (one per column of coef).")
+    output_index = tuple(int(i) for i in output_index)
+    if len(output_index) != y.shape[1] or min(output_index) < 0 or max(output_index) >= n_states:
+        raise ValueError(
+            f"output_index={output_index} does not match y with {y.shape[1]} columns and {n_states} states; "
+            "expected one state index per output column."
+        )
+    if terms is None and make_rhs is None and (physical is None or physical.make_rhs is None):
+        raise ValueError("terms is None; give make_rhs (or physical.make_rhs) for a Python right-hand side.")
+    free = (coef != 0) if free is None else np.asarray(free, dtype=bool)
+    if free.shape != coef.shape:
+        raise ValueError(f"free has shape {free.shape}; expected {coef.shape} (the shape of coef).")
+    free_x0 = np.arange(n_states) if free_x0 is None else np.asarray(free_x0, dtype=np.int64).reshape(-1)
+    n_segments = check_integer(n_segments, "n_segments", high=max(1, u.shape[0] // 10))
+    check_positive(continuity_weight, "continuity_weight")
+    prune = check_positive(prune, "prune", strict=False)
+    max_nfev = check_integer(max_nfev, "max_nfev")
+    lo, hi = check_bounds(bounds, n_states)
+    settings = dict(n_substeps=n_substeps, method=method, input_hold=input_hold, bounds=bounds, max_abs=max_abs)
+    sim = {"settings": settings, "make_rhs": make_rhs}
+
+    pruned, nfev, njev = [], 0, 0
+    initial_cost = None
+    while True:
+        problem = _build(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, n_segments,
+                         continuity_weight, lo, hi)
+        p0 = problem.pack()
+        r0 = problem.residuals(p0)
+        if np.any(r0[: problem.n_res] == _DIVERGED / np.sqrt(problem.n_res)):
+            raise SimulationError("cannot refine: the starting model's simulation diverges on the record; "
+                                  "expected a model that simulates the training data.", step=-1)
+        if initial_cost is None:
+            initial_cost = 0.5 * float(r0[: problem.n_res] @ r0[: problem.n_res])
+        if p0.size == 0:
+            raise ValueError("nothing to refine: no free coefficient, physical parameter or initial state.")
+        lower, upper = problem.bounds(lo, hi)
+        p0 = np.clip(p0, lower, upper)
+        jac = problem.jacobian if problem.compiled else "2-point"
+        fit = least_squares(problem.residuals, p0, jac=jac, bounds=(lower, upper), method="trf", x_scale="jac",
+                            max_nfev=max_nfev, ftol=ftol, xtol=xtol)
+        nfev, njev = nfev + fit.nfev, njev + (fit.njev or 0)
+        p = fit.x
+        coef_all = problem.matrix(p)
+        x0 = problem.starts(p)[0]
+        if physical is not None:
+            physical = physical._replace(values=p[: problem.n_phys])
+        coef = coef_all - (physical.coef(physical.values) if physical is not None else 0.0)
+        if prune <= 0 or terms is None or not problem.free.size:
+            break
+        with np.errstate(all="ignore"):
+            x = simulate(problem.rhs(p), x0, u, dt, on_divergence="nan", **settings)
+        rows = np.all(np.isfinite(x), axis=1)
+        small = _contributions(terms, coef_all, x, u, problem.free, rows) < prune
+        if not small.any():
+            break
+        for j, i in problem.free[small]:
+            coef[j, i] = 0.0
+            free[j, i] = False
+            pruned.append((int(j), int(i)))
+        logger.debug("pruned %d terms; refining again", int(small.sum()))
+    final = problem.residuals(p)[: problem.n_res]
+    names = () if physical is None else physical.names
+    phys = dict(zip(names, (float(v) for v in (physical.values if physical is not None else ()))))
+    return RefinementResult(coef=coef_all, physical=phys, x0=x0, initial_cost=initial_cost,
+                            cost=0.5 * float(final @ final), nfev=nfev, njev=njev, status=int(fit.status),
+                            message=str(fit.message), jacobian="sensitivity" if problem.compiled else "2-point",
+                            pruned=pruned)
+
+
+def _build(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, n_segments, continuity_weight,
+           lo, hi):
+    segments = _segments(u.shape[0], n_segments)
+    C = coef + (physical.coef(np.asarray(physical.values, dtype=float)) if physical is not None else 0.0)
+    if terms is not None and (physical is None or physical.make_rhs is None):
+        rhs = TermsRHS(C, terms, coef.shape[1])
+    elif physical is not None and physical.make_rhs is not None:
+        rhs = physical.make_rhs(C, np.asarray(physical.values, dtype=float))
+    else:
+        rhs = sim["make_rhs"](C)
+    with np.errstate(all="ignore"):
+        x = simulate(rhs, x0, u, dt, on_divergence="nan", **sim["settings"])
+    finite = np.all(np.isfinite(x), axis=1)
+    spread = np.std(x[finite], axis=0) if finite.any() else np.ones(coef.shape[1])
+    state_scale = np.where(spread > 0, spread, 1.0)
+    x_segments = []
+    if n_segments > 1:
+        if not finite.all():
+            raise SimulationError("cannot start multiple shooting: the starting model diverges on the record.",
+                                  step=int(np.argmin(finite)))
+        x_segments = [np.clip(x[a], lo, hi) for a, _ in segments[1:]]
+    return _Problem(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, segments,
+                    continuity_weight, x_segments, state_scale)
+
+
+def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None, n_substeps=1, method="rk4",
+                           input_hold="zoh", bounds=None, max_abs=np.inf, max_nfev=50):
+    """Initial state that best simulates the first output samples ``y`` (only ``x0`` free).
+
+    The same least squares as :func:`refine_simulation_error` with the
+    coefficients held: exact sensitivities for a :class:`TermsRHS`, finite
+    differences for a Python right-hand side.
+
+    Parameters
+    ----------
+    rhs : TermsRHS or callable
+    u : array-like of shape (n_samples, n_inputs)
+    y : array-like of shape (n_samples, n_outputs)
+    dt : float
+    x0 : array-like of shape (n_states,)
+        Starting guess (e.g. a strategy's heuristic).
+    output_index, free_x0, n_substeps, method, input_hold, bounds, max_abs, max_nfev
+        As in :func:`refine_simulation_error`.
+
+    Returns
+    -------
+    ndarray of shape (n_states,)
+
+    Examples
+    --------
+    >>> from sindybench.libraries import POW
+    >>> from sindybench.simulate import TermsRHS, simulate
+    >>> rhs = TermsRHS.from_equations([{((1, POW, 1, 0),): 1.0}, {((0, POW, 1, 0),): -4.0}])  # y'' = -4 y
+    >>> y = simulate(rhs, [1.0, 0.5], np.zeros((20, 0)), 0.05)[:, :1]
+    >>> np.round(estimate_initial_state(rhs, np.zeros((20, 0)), y, 0.05, x0=[0.9, 0.0]), 6).tolist()
+    [1.0, 0.5]
+    """
+    if isinstance(rhs, TermsRHS):
+        terms, coef, make = rhs.terms, rhs.coef, None
+        free = np.zeros_like(coef, dtype=bool)
+    else:
+        n = np.asarray(x0).reshape(-1).shape[0]
+        terms, coef, make = None, np.zeros((0, n)), (lambda C: rhs)
+        free = np.zeros((0, n), dtype=bool)
+    res = refine_simulation_error(terms, coef, u, y, dt, x0=x0, output_index=output_index, free=free,
+                                  free_x0=free_x0, make_rhs=make, n_substeps=n_substeps, method=method,
+                                  input_hold=input_hold, bounds=bounds, max_abs=max_abs, max_nfev=max_nfev)
+    return res.x0

@@ -1,0 +1,423 @@
+"""sindybench.refine: exact sensitivities, output-error refinement, estimator integration, bad input."""
+
+import numpy as np
+import pytest
+from sklearn.base import clone
+from sklearn.model_selection import GridSearchCV, KFold
+
+import sindybench.refine._core as core
+from sindybench import STLS, HiddenStateSINDy
+from sindybench.hidden import DerivativeHiddenState
+from sindybench.libraries import PolynomialLibrary
+from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT, evaluate_terms, evaluate_terms_jacobian
+from sindybench.refine import (
+    OutputErrorRefinement,
+    Physical,
+    estimate_initial_state,
+    refine_simulation_error,
+    simulate_sensitivity,
+)
+from sindybench.simulate import SimulationError, TermsRHS, simulate
+
+X0, X1, X2, U = 0, 1, 2, 3
+DT = 0.05
+
+
+def lin(col):
+    return ((col, POW, 1.0, 0.0),)
+
+
+# A 3-state model that uses every factor operation: an oscillator (x0, x1) with cubic, |x1| x0,
+# |x0|^2.5 and sign(x1) x1^2 terms, driven by u and by a positive lag state x2 with a
+# non-integer power x2^1.5 and a clipped square root of x0 (clip active on both sides).
+TERMS = [lin(X1), lin(X0), ((X0, POW, 3.0, 0.0),), ((X1, ABS_POW, 1.0, 0.0), (X0, POW, 1.0, 0.0)), lin(U),
+         ((X0, ABS_POW, 2.5, 0.0),), ((X1, SIGN, 0.0, 0.0), (X1, POW, 2.0, 0.0)), lin(X2),
+         ((X2, POW, 1.5, 0.0),), ((X0, SQRT, 0.05, 0.3),), ()]
+X2_BOUNDS = ([-np.inf, -np.inf, 0.0], [np.inf, np.inf, 0.7])
+
+
+def every_op_coef(cubic=-1.0):
+    coef = np.zeros((len(TERMS), 3))
+    coef[0, 0] = 1.0
+    coef[1:8, 1] = [-4.0, cubic, -0.3, 1.0, -0.2, -0.05, 0.3]
+    coef[[8, 9, 10, 4], 2] = [-0.8, 0.4, 0.45, 0.3]
+    return coef
+
+
+@pytest.fixture
+def u_sines():
+    k = np.arange(400)
+    return (np.sin(0.05 * k) + 0.5 * np.sin(0.13 * k))[:, None]
+
+
+def unit_directions(coef):
+    free = np.argwhere(coef != 0)
+    D = np.zeros((len(free),) + coef.shape)
+    D[np.arange(len(free)), free[:, 0], free[:, 1]] = 1.0
+    return free, D
+
+
+def fd_sensitivities(coef, x0, u, free, settings, eps=1e-6):
+    """Central differences of simulate() for every free coefficient, then every x0 entry."""
+    cols = []
+    for j, i in free:
+        step = eps * max(1.0, abs(coef[j, i]))
+        hi, lo = coef.copy(), coef.copy()
+        hi[j, i] += step
+        lo[j, i] -= step
+        cols.append((simulate(TermsRHS(hi, TERMS, 3), x0, u, DT, **settings)
+                     - simulate(TermsRHS(lo, TERMS, 3), x0, u, DT, **settings)) / (2 * step))
+    rhs = TermsRHS(coef, TERMS, 3)
+    for k in range(x0.size):
+        hi, lo = x0.copy(), x0.copy()
+        hi[k] += eps
+        lo[k] -= eps
+        cols.append((simulate(rhs, hi, u, DT, **settings) - simulate(rhs, lo, u, DT, **settings)) / (2 * eps))
+    return np.stack(cols, axis=2)
+
+
+SETTINGS = [
+    pytest.param({}, id="rk4-zoh"),
+    pytest.param({"method": "euler", "n_substeps": 4}, id="euler-substeps"),
+    pytest.param({"input_hold": "linear", "n_substeps": 3}, id="rk4-linear-substeps"),
+    pytest.param({"bounds": X2_BOUNDS}, id="rk4-bounded"),
+]
+
+
+# ------------------------------------------------------------- sensitivities
+@pytest.mark.parametrize("settings", SETTINGS)
+def test_sensitivity_states_equal_simulate_and_match_finite_differences(settings, u_sines):
+    coef = every_op_coef(cubic=0.0)  # x0^3 (POW 3) has its own test below
+    x0 = np.array([0.5, 0.1, 0.6])
+    free, D = unit_directions(coef)
+    rhs = TermsRHS(coef, TERMS, 3)
+    x, S, S_end = simulate_sensitivity(rhs, x0, u_sines, DT, directions=D, free_x0=[0, 1, 2], **settings)
+    assert np.array_equal(x, simulate(rhs, x0, u_sines, DT, **settings))
+    assert S.shape == (400, 3, len(free) + 3)
+    assert np.array_equal(S_end, S[-1])
+    J = fd_sensitivities(coef, x0, u_sines, free, settings)
+    rel = np.abs(J - S).max(axis=(0, 1)) / np.abs(S).max(axis=(0, 1))
+    assert rel.max() < 1e-6
+    assert np.all(np.abs(S).max(axis=(0, 1)) > 1e-3)  # every parameter moves the trajectory
+
+
+def test_sensitivity_is_zero_while_clipped_at_a_bound(u_sines):
+    coef = every_op_coef(cubic=0.0)
+    x0 = np.array([0.5, 0.1, 0.6])
+    free, D = unit_directions(coef)
+    x, S, _ = simulate_sensitivity(TermsRHS(coef, TERMS, 3), x0, u_sines, DT, directions=D, free_x0=[0, 1, 2],
+                                   bounds=X2_BOUNDS)
+    held = x[:, 2] == 0.7
+    assert 50 < held.sum() < 350  # the bound is hit, left and hit again
+    assert np.all(S[held, 2] == 0.0)
+    assert np.abs(S[~held, 2]).max() > 1e-2
+
+
+@pytest.mark.parametrize("op", [POW, ABS_POW])
+def test_cube_bit_for_bit(op, u_sines):
+    terms = [lin(X1), lin(X0), ((X0, op, 3.0, 0.0),), lin(2)]  # two states: the input is column 2
+    coef = np.array([[1.0, 0.0], [0.0, -4.0], [0.0, -1.0], [0.0, 1.0]])
+    rhs = TermsRHS(coef, terms, 2)
+    x, _, _ = simulate_sensitivity(rhs, [0.5, 0.1], u_sines, DT)
+    assert np.array_equal(x, simulate(rhs, [0.5, 0.1], u_sines, DT))
+
+
+def test_zero_coefficient_direction_leaves_the_state_unchanged(u_sines):
+    terms = [lin(X1), lin(X0), lin(2), ((X0, POW, 0.5, 0.0),)]  # two states: the input is column 2
+    coef = np.array([[1.0, 0.0], [0.0, -4.0], [0.0, 1.0], [0.0, 0.0]])
+    rhs = TermsRHS(coef, terms, 2)
+    D = np.zeros((1, 4, 2))
+    D[0, 3, 1] = 1.0  # free the zero coefficient of x0^0.5 (x0 goes negative)
+    x_ref = simulate(rhs, [0.5, 0.1], u_sines, DT)
+    assert x_ref[:, 0].min() < 0
+    x, _, _ = simulate_sensitivity(rhs, [0.5, 0.1], u_sines, DT, directions=D, on_divergence="nan")
+    assert np.array_equal(x, x_ref)
+
+
+def test_sensitivity_output_index_and_divergence(u_sines):
+    coef = every_op_coef()
+    rhs = TermsRHS(coef, TERMS, 3)
+    _, D = unit_directions(coef)
+    x, S, S_end = simulate_sensitivity(rhs, [0.5, 0.1, 0.6], u_sines, DT, directions=D, output_index=[2, 0])
+    _, S_all, _ = simulate_sensitivity(rhs, [0.5, 0.1, 0.6], u_sines, DT, directions=D)
+    assert np.array_equal(S, S_all[:, [2, 0]])
+    assert S_end.shape == (3, D.shape[0])
+    blow = TermsRHS([[1.0]], [((0, POW, 2.0, 0.0),)], 1)  # x' = x^2 from 1 blows up at t = 1
+    with pytest.raises(SimulationError, match="diverged at step"):
+        simulate_sensitivity(blow, [1.0], np.zeros((30, 0)), 0.1, free_x0=[0])
+    x, S, S_end = simulate_sensitivity(blow, [1.0], np.zeros((30, 0)), 0.1, free_x0=[0], on_divergence="nan")
+    k = int(np.argmax(np.isnan(x[:, 0])))
+    assert 5 < k < 15 and np.all(np.isnan(x[k:])) and np.all(np.isnan(S[k:])) and np.all(np.isnan(S_end))
+    assert np.all(np.isfinite(S[:k]))
+
+
+def test_evaluate_terms_jacobian_matches_finite_differences(rng):
+    Z = np.column_stack([rng.uniform(-1, 1, 200), rng.uniform(-2, 2, 200), rng.uniform(0.2, 1.0, 200),
+                         rng.uniform(-1, 1, 200)])
+    Z = Z[np.abs(Z[:, 0] - 0.05) > 1e-3]
+    Z = Z[np.abs(Z[:, 0] - 0.3) > 1e-3]  # away from the clip kinks of sqrt
+    J = evaluate_terms_jacobian(TERMS, Z)
+    assert J.shape == (Z.shape[0], len(TERMS), 4)
+    eps = 1e-6
+    for c in range(4):
+        hi, lo = Z.copy(), Z.copy()
+        hi[:, c] += eps
+        lo[:, c] -= eps
+        fd = (evaluate_terms(TERMS, hi) - evaluate_terms(TERMS, lo)) / (2 * eps)
+        np.testing.assert_allclose(J[:, :, c], fd, rtol=1e-6, atol=1e-6)
+    clipped = (Z[:, 0] < 0.05) | (Z[:, 0] > 0.3)
+    assert clipped.any() and np.all(J[clipped, 9, 0] == 0.0)
+    assert np.all(J[:, 6, 1] == 2 * np.abs(Z[:, 1]))  # d(sign(v) v^2)/dv = 2 |v|
+
+
+# ---------------------------------------------------------------- refinement
+DUFFING = [lin(1), lin(0), lin(2), ((0, POW, 3.0, 0.0),)]  # v, y, u, y^3 over Z = [y, v, u]
+TRUE_COEF = np.array([[1.0, -0.5], [0.0, -4.0], [0.0, 2.0], [0.0, -1.0]])
+TRUE_X0 = np.array([0.3, -0.2])
+FREE = TRUE_COEF != 0
+FREE[0, 0] = False  # y' = v held: the scale of the unmeasured v would be free otherwise
+
+
+@pytest.fixture
+def duffing(rng):
+    """Noise-free outputs of y'' = -4 y - 0.5 y' - y^3 + 2 u (multisine-like input)."""
+    t = np.arange(600) * DT
+    u = (np.sin(0.9 * t + 0.3) + 0.6 * np.sin(2.3 * t) + 0.3 * rng.standard_normal(t.size).cumsum() / 30)[:, None]
+    y = simulate(TermsRHS(TRUE_COEF, DUFFING, 2), TRUE_X0, u, DT)[:, :1]
+    return u, y
+
+
+@pytest.mark.parametrize("n_segments", [1, 3])
+def test_refine_recovers_coefficients_and_initial_state(duffing, n_segments):
+    u, y = duffing
+    start = TRUE_COEF * np.array([[1.0, 0.8], [1.0, 1.15], [1.0, 0.9], [1.0, 0.7]])
+    res = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, n_segments=n_segments,
+                                  max_nfev=50)
+    assert res.jacobian == "sensitivity" and res.status > 0
+    np.testing.assert_allclose(res.coef, TRUE_COEF, rtol=1e-6, atol=1e-9)
+    np.testing.assert_allclose(res.x0, TRUE_X0, rtol=1e-6, atol=1e-8)
+    assert res.cost < 1e-14 < res.initial_cost
+    assert res.pruned == [] and res.coef[0, 0] == 1.0
+
+
+def test_refine_physical_parameters_through_a_nonlinear_map(duffing):
+    u, y = duffing
+    m, c, k = 0.5, 0.25, 2.0  # TRUE_COEF's velocity row = [-c/m, -k/m, 1/m]
+
+    def to_coef(values):
+        mm, cc, kk = values
+        out = np.zeros((4, 2))
+        out[:3, 1] = [-cc / mm, -kk / mm, 1.0 / mm]
+        return out
+
+    start = np.zeros((4, 2))
+    start[0, 0], start[3, 1] = 1.0, -1.0  # y' = v held (not free), cubic free
+    free = np.zeros((4, 2), dtype=bool)
+    free[3, 1] = True
+    physical = Physical(names=("m", "c", "k"), values=np.array([0.6, 0.2, 2.5]), lower=np.full(3, 1e-3),
+                        upper=np.full(3, np.inf), coef=to_coef)
+    res = refine_simulation_error(DUFFING, start, u, y, DT, x0=TRUE_X0 * 0.9, free=free, physical=physical,
+                                  max_nfev=60)
+    assert set(res.physical) == {"m", "c", "k"}
+    np.testing.assert_allclose([res.physical[n] for n in "mck"], [m, c, k], rtol=1e-4)
+    np.testing.assert_allclose(res.coef, TRUE_COEF, rtol=1e-4, atol=1e-8)
+    assert res.cost < 1e-10
+
+
+def test_refine_prunes_a_spurious_term_and_keeps_the_true_ones(duffing):
+    u, y = duffing
+    terms = DUFFING + [((1, POW, 2.0, 0.0),)]  # a spurious v^2 in the velocity row
+    start = np.vstack([TRUE_COEF * 1.05, [[0.0, 0.03]]])
+    start[0, 0] = 1.0
+    free = np.vstack([FREE, [[False, True]]])
+    res = refine_simulation_error(terms, start, u, y, DT, x0=TRUE_X0, free=free, prune=0.01, max_nfev=50)
+    assert res.pruned == [(4, 1)]
+    assert res.coef[4, 1] == 0.0
+    np.testing.assert_allclose(res.coef[:4], TRUE_COEF, rtol=1e-6, atol=1e-9)
+    no_prune = refine_simulation_error(terms, start, u, y, DT, x0=TRUE_X0, free=free, max_nfev=50)
+    assert no_prune.pruned == [] and no_prune.coef[4, 1] != 0.0
+
+
+def test_refine_python_rhs_uses_finite_differences(duffing):
+    u, y = duffing
+
+    def make_rhs(C):
+        def f(x, uu):
+            return np.array([C[0, 0] * x[1], C[0, 1] * x[1] + C[1, 1] * x[0] + C[2, 1] * uu[0]
+                             + C[3, 1] * x[0] ** 3])
+        return f
+
+    u, y = u[:200], y[:200]
+    start = TRUE_COEF * np.array([[1.0, 0.9], [1.0, 1.1], [1.0, 0.95], [1.0, 0.8]])
+    res = refine_simulation_error(None, start, u, y, DT, x0=TRUE_X0, free=FREE, free_x0=[], make_rhs=make_rhs,
+                                  max_nfev=40)
+    assert res.jacobian == "2-point"
+    assert res.status > 0
+    np.testing.assert_allclose(res.coef, TRUE_COEF, rtol=1e-5, atol=1e-8)
+    assert res.cost < 1e-12 < res.initial_cost
+
+
+def test_refine_refuses_a_diverging_start(duffing):
+    u, y = duffing
+    bad = TRUE_COEF.copy()
+    bad[3, 1] = 2.0  # +2 y^3: finite-time blow-up
+    with pytest.raises(SimulationError, match="starting model's simulation diverges"):
+        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3)
+
+
+def test_diverging_trial_steps_never_reach_the_optimizer(duffing, monkeypatch):
+    """A start near instability: the optimizer's trial steps diverge, yet it only sees finite residuals."""
+    u, y = duffing
+    seen = {"bad": 0, "diverged": 0, "calls": 0}
+    original = core.least_squares
+
+    def spy(fun, x0, **kwargs):
+        def wrapped(p):
+            r = fun(p)
+            seen["calls"] += 1
+            seen["bad"] += int(not np.all(np.isfinite(r)))
+            seen["diverged"] += int(np.any(r == core._DIVERGED / np.sqrt(y.size)))
+            return r
+        return original(wrapped, x0, **kwargs)
+
+    monkeypatch.setattr(core, "least_squares", spy)
+    start = TRUE_COEF.copy()
+    start[0, 1], start[3, 1] = -0.01, -0.01  # hardly damped, hardly any stiffening cubic
+    res = refine_simulation_error(DUFFING, start, u, y, DT, x0=TRUE_X0, free=FREE, max_abs=50.0, max_nfev=80)
+    assert seen["diverged"] >= 1  # the start is close enough to instability that a trial step blows up
+    assert seen["calls"] > 3 and seen["bad"] == 0
+    assert np.isfinite(res.cost) and np.all(np.isfinite(res.coef))
+    assert res.cost < 1e-12 < res.initial_cost
+
+
+def test_estimate_initial_state_recovers_x0(duffing):
+    u, y = duffing
+    rhs = TermsRHS(TRUE_COEF, DUFFING, 2)
+    x0 = estimate_initial_state(rhs, u[:40], y[:40], DT, x0=[0.0, 0.0])
+    np.testing.assert_allclose(x0, TRUE_X0, rtol=1e-6, atol=1e-9)
+    only_v = estimate_initial_state(rhs, u[:40], y[:40], DT, x0=[0.3, 0.5], free_x0=[1])
+    assert only_v[0] == 0.3 and only_v[1] == pytest.approx(-0.2, rel=1e-6)
+
+
+# ------------------------------------------------------------------ bad input
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"coef": np.zeros((3, 2))}, "rows but there are 4 terms"),
+        ({"x0": [0.0, 0.0, 0.0]}, "x0 has 3 entries; expected 2"),
+        ({"free": np.ones((4, 3), dtype=bool)}, r"free has shape \(4, 3\); expected \(4, 2\)"),
+        ({"output_index": (0, 1)}, "output_index=.0, 1. does not match y"),
+        ({"output_index": (2,)}, "output_index=.2,. does not match"),
+        ({"n_segments": 0}, "n_segments must be an integer"),
+        ({"n_segments": 1000}, "n_segments must be an integer in"),
+        ({"prune": -0.1}, "prune"),
+        ({"max_nfev": 0}, "max_nfev must be an integer"),
+        ({"terms": None}, "terms is None; give make_rhs"),
+        ({"y": np.zeros((10, 1))}, "y"),
+    ],
+)
+def test_refine_bad_input(duffing, kwargs, match):
+    u, y = duffing
+    args = {"terms": DUFFING, "coef": TRUE_COEF, "u": u, "y": y, "dt": DT, "x0": TRUE_X0}
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        refine_simulation_error(args.pop("terms"), args.pop("coef"), args.pop("u"), args.pop("y"), args.pop("dt"),
+                                **args)
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"directions": np.zeros((1, 3, 2))}, r"directions has shape \(1, 3, 2\)"),
+        ({"directions": np.full((1, 4, 2), np.nan)}, "directions contains NaN"),
+        ({"free_x0": [2]}, r"free_x0 = \[2\] has a state index outside \[0, 1\]"),
+        ({"output_index": [-1]}, "output_index = .-1. has a state index outside"),
+        ({"method": "rk45"}, "method"),
+        ({"x0": [0.0]}, r"x0 has shape \(1,\)"),
+    ],
+)
+def test_sensitivity_bad_input(duffing, kwargs, match):
+    u, _ = duffing
+    args = {"x0": TRUE_X0}
+    args.update(kwargs)
+    with pytest.raises(ValueError, match=match):
+        simulate_sensitivity(TermsRHS(TRUE_COEF, DUFFING, 2), args.pop("x0"), u, DT, **args)
+    with pytest.raises(ValueError, match="rhs must be a TermsRHS"):
+        simulate_sensitivity(lambda x, uu: -x, [1.0], u, DT)
+
+
+@pytest.mark.parametrize(
+    "params, match",
+    [
+        ({"max_samples": 3}, "max_samples must be an integer >= 10 or None"),
+        ({"max_samples": True}, "max_samples must be an integer >= 10 or None"),
+        ({"max_samples": 50.0}, "max_samples must be an integer >= 10 or None"),
+        ({"max_nfev": 0}, "max_nfev must be an integer"),
+        ({"n_segments": 0}, "n_segments must be an integer"),
+        ({"continuity_weight": 0.0}, "continuity_weight"),
+        ({"prune": -1.0}, "prune"),
+        ({"physical": "yes"}, "physical"),
+        ({"initial_state": 1}, "initial_state"),
+    ],
+)
+def test_output_error_refinement_bad_params(duffing, params, match):
+    u, y = duffing
+    with pytest.raises(ValueError, match=match):
+        OutputErrorRefinement(**params).run(DUFFING, TRUE_COEF, u, y, DT, x0=TRUE_X0, output_index=(0,))
+
+
+def test_hidden_state_sindy_bad_refine_and_initial_state(duffing):
+    u, y = duffing
+    with pytest.raises(ValueError, match="refine must be an OutputErrorRefinement or None; got object"):
+        HiddenStateSINDy(refine=object(), dt=DT).fit(u, y)
+    with pytest.raises(ValueError, match="initial_state"):
+        HiddenStateSINDy(initial_state="bogus", dt=DT).fit(u, y)
+
+
+# ------------------------------------------------------------ estimator use
+def msd_model(**refine):
+    return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=1),
+                            optimizer=STLS(threshold=0.05), dt=DT, refine=OutputErrorRefinement(**refine))
+
+
+@pytest.fixture
+def msd(rng):
+    """y'' = -4 y - 0.5 y' + 2 u, slightly noisy outputs."""
+    t = np.arange(400) * DT
+    u = (np.sin(0.9 * t) + 0.6 * np.sin(2.3 * t + 1.0))[:, None]
+    coef = TRUE_COEF[:3]
+    y = simulate(TermsRHS(coef, DUFFING[:3], 2), [0.0, 0.0], u, DT)[:, :1]
+    return u, y + 1e-4 * np.std(y) * rng.standard_normal(y.shape)
+
+
+def test_refine_in_hidden_state_sindy_improves_the_fit(msd):
+    u, y = msd
+    plain = msd_model()
+    plain.refine = None
+    plain.fit(u, y)
+    model = msd_model(max_nfev=20).fit(u, y)
+    assert model.refinement_["jacobian"] == "sensitivity"
+    assert model.refinement_["cost"] < model.refinement_["initial_cost"]
+    truth = np.array([-4.0, -0.5, 2.0])  # over [y, y', u] (bias pruned by STLS)
+    names = list(model.library_.get_feature_names_out(["y0", "y0'", "u0"]))
+    learned = model.coef_[0][[names.index(n) for n in ("y0", "y0'", "u0")]]
+    plain_learned = plain.coef_[0][[names.index(n) for n in ("y0", "y0'", "u0")]]
+    err, plain_err = np.abs(learned / truth - 1).max(), np.abs(plain_learned / truth - 1).max()
+    assert err < 1e-3 < plain_err
+    assert "0.5" in model.equations(precision=3)[1]
+
+
+def test_refine_params_are_nested_clonable_and_searchable(msd):
+    u, y = msd
+    model = msd_model(prune=0.0)
+    assert model.get_params()["refine__prune"] == 0.0
+    model.set_params(refine__prune=0.02, refine__max_nfev=5)
+    assert model.refine.prune == 0.02 and model.refine.max_nfev == 5
+    cloned = clone(model)
+    assert cloned.refine is not model.refine and cloned.get_params()["refine__prune"] == 0.02
+    search = GridSearchCV(msd_model(), {"refine__max_nfev": [1, 15], "refine__prune": [0.0, 0.01]},
+                          cv=KFold(2), error_score="raise").fit(u, y)
+    assert len(search.cv_results_["params"]) == 4
+    assert search.best_params_["refine__max_nfev"] == 15
+    assert search.best_estimator_.refinement_ is not None
+    assert np.all(np.isfinite(search.cv_results_["mean_test_score"]))

@@ -14,6 +14,7 @@ MODULES = (
     ("sindybench.plotting", "Plotting"),
     ("sindybench.model_selection", "Model selection"),
     ("sindybench.baselines", "Baselines"),
+    ("sindybench.io", "Saving and loading models"),
     ("sindybench.datasets", "Datasets"),
     ("sindybench.systems", "Simulated systems"),
     ("sindybench.experiments", "The study's experiments"),

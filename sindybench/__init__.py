@@ -1,6 +1,6 @@
 """sindybench: SINDy with control for systems with hidden states and hard nonlinearities."""
 
-from . import differentiation
+from . import baselines, differentiation
 from ._sindy import SINDy
 from ._stls import STLS, GramCache, stls
 from .hidden import HiddenStateSINDy
@@ -16,6 +16,7 @@ __all__ = [
     "STLS",
     "SimulationError",
     "__version__",
+    "baselines",
     "differentiation",
     "load_model",
     "stls",

@@ -8,6 +8,8 @@ from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
 from ._equations import EquationRow, EquationsDisplayMixin, format_equations
+from ._params import SharedDefaultsMixin
+from ._sindy_persist import sindy_from_dict, sindy_to_dict
 from ._stls import STLS
 from ._validation import (
     check_array_like,
@@ -23,8 +25,9 @@ from ._validation import (
     check_time,
     uniform_step,
 )
-from .differentiation import as_differentiation
-from .libraries import as_library
+from .differentiation import FiniteDifference, as_differentiation
+from .io import SaveLoadMixin, register_model
+from .libraries import PolynomialLibrary, as_library
 from .metrics import make_simulation_scorer
 from .simulate import _HOLDS, _METHODS, SimulationError, make_rhs, simulate
 
@@ -41,7 +44,7 @@ def _check_names(names, n, prefix, name):
     return list(names)
 
 
-class SINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
+class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
     """Continuous-time SINDy with control: ``y' = Theta([y, u]) coef``.
 
     ``fit`` differentiates the measured states ``y``, evaluates the library on
@@ -51,15 +54,15 @@ class SINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
 
     Parameters
     ----------
-    library : library, pysindy feature library or None, default=None
-        Candidate terms over ``Z = [y, u]`` (states first);
-        None means ``PolynomialLibrary(degree=2)``.
-    optimizer : regressor or None, default=None
+    library : library, pysindy feature library or None, default=PolynomialLibrary(degree=2)
+        Candidate terms over ``Z = [y, u]`` (states first); None means the
+        default. Its parameters are searchable (``library__degree``).
+    optimizer : regressor or None, default=STLS()
         Sparse regression ``fit(Theta, y_dot)`` exposing ``coef_`` of shape
-        (n_states, n_terms); None means :class:`~sindybench.STLS`. Pass
-        ``optimizer=STLS()`` to search ``optimizer__threshold``.
-    differentiation : differentiation method or None, default=None
-        Estimates ``y'`` from ``y``; None means finite differences; pysindy
+        (n_states, n_terms); None means the default :class:`~sindybench.STLS`
+        (threshold 0.1), whose ``optimizer__threshold`` is searchable.
+    differentiation : differentiation method or None, default=FiniteDifference()
+        Estimates ``y'`` from ``y``; None means the default; pysindy
         differentiation objects are accepted.
     dt : float or None, default=None
         Sampling interval, used unless ``fit``/``simulate`` receive ``dt`` or ``t``.
@@ -125,9 +128,9 @@ class SINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
     def __init__(
         self,
         *,
-        library=None,
-        optimizer=None,
-        differentiation=None,
+        library=PolynomialLibrary(degree=2),
+        optimizer=STLS(),
+        differentiation=FiniteDifference(),
         dt=None,
         n_substeps=1,
         integrator="rk4",
@@ -409,12 +412,6 @@ class SINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
         return [EquationRow(name, row, self.feature_names_, self.terms_, names)
                 for name, row in zip(self.output_names_, self.coef_)]
 
-    def to_json(self, path):
-        """Save the fitted model as plain JSON; see :func:`sindybench.load_model`."""
-        from .io import save_model
-
-        save_model(self, path)
-
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.target_tags.multi_output = True
@@ -422,3 +419,6 @@ class SINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
         tags.regressor_tags.poor_score = True
         tags.input_tags.allow_nan = False
         return tags
+
+
+register_model(SINDy, to_dict=sindy_to_dict, from_dict=sindy_from_dict)

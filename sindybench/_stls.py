@@ -36,6 +36,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ._validation import check_bool, check_integer, check_positive, check_signal
+from .io import SaveLoadMixin, check_params, encode_array, register_model
 
 __all__ = ["GramCache", "STLS", "clear_stls_cache", "stls"]
 
@@ -349,7 +350,7 @@ def stls(theta, target, *, threshold, alpha=0.0, max_iter=20, normalize_columns=
     return (coef[:, 0] if target_1d else coef), n_iter
 
 
-class STLS(RegressorMixin, BaseEstimator):
+class STLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
     """Sequentially thresholded least squares regressor (``pysindy.STLSQ`` semantics).
 
     A scikit-learn regressor around :func:`stls`, usable as the ``optimizer``
@@ -458,3 +459,25 @@ class STLS(RegressorMixin, BaseEstimator):
         tags = super().__sklearn_tags__()
         tags.target_tags.multi_output = True
         return tags
+
+
+def _stls_to_dict(model):
+    return {"coef": encode_array(model.coef_), "n_iter": int(model.n_iter_),
+            "n_features_in": int(model.n_features_in_)}
+
+
+def _stls_from_dict(model, fitted):
+    check_params(_check_params, model.threshold, model.alpha, model.max_iter, model.normalize_columns, model.unbias)
+    n_features = fitted.int("n_features_in", low=1)
+    coef = fitted.array("coef")
+    if coef.ndim not in (1, 2) or coef.shape[-1] != n_features:
+        raise ValueError(
+            f"{fitted.where('coef')}: expected an array of shape (n_features_in,) or (n_targets, n_features_in) with "
+            f"n_features_in = {n_features}; got shape {coef.shape}."
+        )
+    model.coef_, model.n_iter_, model.n_features_in_ = coef, fitted.int("n_iter"), n_features
+    model.ind_ = model.coef_ != 0
+    model.intercept_ = 0.0
+
+
+register_model(STLS, to_dict=_stls_to_dict, from_dict=_stls_from_dict)

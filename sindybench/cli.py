@@ -1,8 +1,10 @@
-"""Command line interface: ``sindybench run <benchmark>``.
+"""Command line interface: ``sindybench run <benchmark>`` and ``sindybench simulate MODEL.json``.
 
-Reproduces the benchmarking study on one or all of its benchmarks and writes
-results, fitted models, figures and reports into an output folder. This is a
-leaf module: nothing in the library imports it.
+``run`` reproduces the benchmarking study on one or all of its benchmarks and
+writes results, fitted models, figures and reports into an output folder.
+``simulate`` runs a saved model (a file of :func:`sindybench.load_model`, e.g.
+one of ``run``'s ``models/*.json``) on an input record from a CSV file. This
+is a leaf module: nothing in the library imports it.
 
 Examples
 --------
@@ -11,13 +13,20 @@ Examples
     $ sindybench run all                       # default budgets (a few minutes on 2 cores)
     $ sindybench run cascaded-tanks --quick    # a smoke run, seconds
     $ sindybench run bouc-wen --trials 200 --storage sqlite:///bw.db --n-jobs 2
+    $ sindybench simulate out/cascaded-tanks/models/arx.json --input u.csv --output y.csv --y-init y0.csv
 """
 
 import argparse
+import csv
+import io
 import logging
+import math
 import sys
 import time
+import warnings
 from pathlib import Path
+
+import numpy as np
 
 from . import __version__
 
@@ -88,6 +97,24 @@ def build_parser():
     run.add_argument("--no-progress", action="store_true",
                      help="no progress bars (drawn only when stderr is a terminal; SINDYBENCH_PROGRESS=0 also turns them off)")
     run.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors on stderr")
+    sim = sub.add_parser(
+        "simulate",
+        help="simulate a saved model on an input record (CSV)",
+        description="Load MODEL.json (written by model.to_json or by 'sindybench run'), simulate it open loop "
+        "on the inputs of --input and write the simulated outputs to --output. CSV files have a header row and "
+        "one row per sample. The input columns are taken by name when the model names its inputs, else in order.",
+    )
+    sim.add_argument("model", type=Path, metavar="MODEL.json", help="saved model")
+    sim.add_argument("--input", type=Path, required=True, metavar="FILE.csv",
+                     help="input record: one column per input of the model")
+    sim.add_argument("--output", type=Path, required=True, metavar="FILE.csv",
+                     help="where to write the simulated outputs (one column per output)")
+    sim.add_argument("--y-init", type=Path, default=None, metavar="FILE.csv",
+                     help="first measured output samples (one column per output) to start from; "
+                     "default: the model's own initial state")
+    sim.add_argument("--allow-import", action="store_true",
+                     help="import the module-level Python function the model names (ParametricHiddenState)")
+    sim.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors on stderr")
     return parser
 
 
@@ -120,6 +147,86 @@ def _run(args):
     return 0
 
 
+def _read_csv(path, what):
+    """``(header, data)`` of a CSV file with a header row; ``ValueError`` naming line and column."""
+    with open(path, newline="", encoding="utf-8") as f:
+        rows = [row for row in csv.reader(f) if row]
+    if len(rows) < 2:
+        raise ValueError(f"{what} {path} has no samples; expected a header row and one row per sample.")
+    header = [name.strip() for name in rows[0]]
+    data = np.empty((len(rows) - 1, len(header)))
+    for i, row in enumerate(rows[1:]):
+        if len(row) != len(header):
+            raise ValueError(f"{what} {path}, line {i + 2}: {len(row)} values; expected {len(header)} "
+                             f"(one per column of the header {header}).")
+        for j, text in enumerate(row):
+            try:
+                value = float(text)
+            except ValueError:
+                value = None
+            if value is None or not math.isfinite(value):
+                raise ValueError(f"{what} {path}, line {i + 2}, column {header[j]!r}: {text.strip()!r}; "
+                                 "expected a finite number (no NaN, no empty cell).")
+            data[i, j] = value
+    return header, data
+
+
+def _model_inputs(model, header, data, path):
+    """The columns of the input file that feed ``model``, in the model's order."""
+    n_inputs = int(model.n_features_in_)
+    names = getattr(model, "input_names", None)  # a SINDy model with named inputs
+    if names is None and getattr(model, "feature_names_in_", None) is not None:
+        names = [str(name) for name in model.feature_names_in_]
+    if names is not None:
+        missing = [name for name in names if name not in header]
+        if missing:
+            raise ValueError(f"input {path} has no column {missing[0]!r}; expected the model's inputs {list(names)} "
+                             f"(found {header}).")
+        return data[:, [header.index(name) for name in names]]
+    if n_inputs == 0:  # an autonomous model: the file only gives the number of samples
+        return data[:, :0]
+    if len(header) != n_inputs:
+        raise ValueError(f"input {path} has {len(header)} column(s) {header}; the model has {n_inputs} input(s): "
+                         f"expected {n_inputs} column(s), in the order of the model's inputs.")
+    return data
+
+
+def _output_names(model, n_outputs):
+    names = getattr(model, "output_names_", None)
+    if names is None and hasattr(model, "structure_"):
+        names = [model.state_names_[i] for i in model.structure_.output_index]
+    return list(names) if names is not None and len(names) == n_outputs else [f"y{i}" for i in range(n_outputs)]
+
+
+def _simulate(args):
+    from . import SINDy, load_model
+    from .io import write_text_atomic
+
+    model = load_model(args.model, allow_import=args.allow_import)
+    header, data = _read_csv(args.input, "input")
+    X = _model_inputs(model, header, data, args.input)
+    y_init = None if args.y_init is None else _read_csv(args.y_init, "--y-init")[1]
+    if y_init is not None:
+        y_pred = model.predict(X, y_init=y_init)
+    elif isinstance(model, SINDy):
+        y_pred = model.predict(X, x0=model.x0_)
+    else:
+        with warnings.catch_warnings():  # the model's own initial state is what was asked for
+            warnings.filterwarnings("ignore", message="predict without")
+            y_pred = model.predict(X)
+    y_pred = np.asarray(y_pred, dtype=float).reshape(X.shape[0], -1)
+    text = io.StringIO()
+    writer = csv.writer(text, lineterminator="\n")
+    writer.writerow(_output_names(model, y_pred.shape[1]))
+    writer.writerows([repr(float(v)) for v in row] for row in y_pred)
+    write_text_atomic(text.getvalue(), args.output)
+    n_bad = int(np.sum(~np.all(np.isfinite(y_pred), axis=1)))
+    if n_bad:
+        logger.warning("the simulation diverged: %d of %d samples are NaN", n_bad, len(y_pred))
+    logger.info("wrote %d samples of %d output(s) to %s", y_pred.shape[0], y_pred.shape[1], args.output)
+    return 0
+
+
 def main(argv=None):
     """Entry point of the ``sindybench`` console script.
 
@@ -131,10 +238,17 @@ def main(argv=None):
     Returns
     -------
     int
-        Exit status: 0 on success, 2 when data are missing or an argument is bad.
+        Exit status: 0 on success, 2 when data are missing, an argument is bad, or (``simulate``)
+        a file cannot be read or does not fit the model.
     """
     args = build_parser().parse_args(argv)
     _configure_logging(args.quiet)
+    if args.command == "simulate":
+        try:
+            return _simulate(args)
+        except (OSError, ValueError) as exc:  # unreadable or bad files: say what, write nothing
+            print(f"sindybench: error: {exc}", file=sys.stderr)
+            return 2
     from .experiments import DataNotFoundError
 
     try:

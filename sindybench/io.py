@@ -1,53 +1,102 @@
-"""Save and load fitted models as plain JSON (never pickle).
+"""Save and load fitted estimators as plain JSON (never pickle).
 
-A model file is one JSON object::
+A model file is one JSON object (the *envelope*)::
 
-    {"format": "sindybench-model", "format_version": 1, "sindybench_version": "...",
-     "class": "SINDy", "params": {...}, "fitted": {...}}
+    {"format": "sindybench-model", "format_version": 2, "sindybench_version": "0.1.0",
+     "class": "HiddenStateSINDy", "params": {...}, "fitted": {...}}
 
-``params`` holds the constructor settings that matter for simulation (``dt``,
-``n_substeps``, ``integrator``, ``input_hold``, ``bounds``, ``max_abs``, names)
-and plain descriptions of the library, optimizer and differentiation;
-``fitted`` holds the coefficients, the symbolic library terms, the feature
-names and the training ``dt``. Infinite numbers are stored as ``"inf"``.
+``params`` holds the estimator's constructor parameters (``get_params(deep=False)``),
+encoded generically (see :func:`encode_value`), so a loaded model clones,
+refits and searches like the saved one. ``fitted`` holds the fitted state that
+each class lists explicitly (coefficients, symbolic terms, state trajectory,
+network weights ...). Arrays keep their dtype and shape, and floats are
+written with Python's shortest round-trip representation, so a loaded model
+simulates bit for bit like the saved one. The full schema is in the
+documentation (``docs/persistence.rst``).
 
-Other estimators plug in with :func:`register_model`: a class name, a
-``to_dict(model) -> (params, fitted)`` and a ``from_dict(params, fitted) ->
-model``, both on plain JSON data. This module sits above the estimators
-(it imports them); an estimator's ``to_json`` imports it lazily.
+This module holds only the format: versions, the envelope and its checks, the
+atomic write, and a registry that classes join with :func:`register_model`
+from their own modules. It imports no estimator: an estimator module imports
+it, never the other way round. A class name in a file is looked up in the
+registry only; nothing is imported because a file names it, except a
+module-level function stored by its import path (a
+``ParametricHiddenState``'s ``rhs``), and only when the caller passes
+``allow_import=True``.
 """
 
 import importlib
 import json
+import math
 import os
 import tempfile
+import types
 from pathlib import Path
+from typing import Callable, NamedTuple
 
 import numpy as np
+from sklearn.utils.validation import check_is_fitted
 
-from ._sindy import SINDy
-from .libraries import TermsLibrary, library_from_spec, library_to_spec, terms_from_json, terms_to_json
-from .libraries._spec import _plain, _unplain
-
-__all__ = ["load_model", "model_from_dict", "model_to_dict", "register_model", "save_model"]
+__all__ = [
+    "Fields",
+    "check_params",
+    "SaveLoadMixin",
+    "decode_array",
+    "decode_value",
+    "encode_array",
+    "encode_value",
+    "fitted_from_dict",
+    "fitted_to_dict",
+    "load_model",
+    "model_from_dict",
+    "model_to_dict",
+    "register_model",
+    "save_model",
+    "write_text_atomic",
+]
 
 FORMAT = "sindybench-model"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+_TAGS = ("array", "dict", "estimator", "float", "function", "tuple")
+_DTYPES = {"float64": float, "int64": np.int64, "bool": bool}
+_SPECIAL = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
+
+
+class _Entry(NamedTuple):
+    cls: type
+    to_dict: Callable
+    from_dict: Callable
+
+
 _REGISTRY = {}
 
 
-def register_model(cls, *, to_dict, from_dict):
-    """Make ``cls`` savable with :func:`save_model` and loadable with :func:`load_model`.
+def register_model(cls, *, to_dict=None, from_dict=None):
+    """Let instances of ``cls`` be stored in model files.
+
+    Every class whose instances appear in a file (as the saved model or inside
+    its parameters: optimizer, library, differentiation, strategy) must be
+    registered; a file can only name registered classes. Files name a class
+    by ``cls.__name__``.
 
     Parameters
     ----------
     cls : type
-        Estimator class; files name it by ``cls.__name__``.
-    to_dict : callable
-        ``to_dict(model) -> (params, fitted)``, two JSON-able dicts; raise
-        ``ValueError`` for a model that cannot be stored as plain data.
-    from_dict : callable
-        ``from_dict(params, fitted) -> model``, the fitted model.
+        A scikit-learn style estimator: ``__init__`` stores its arguments and
+        ``get_params(deep=False)`` returns them.
+    to_dict : callable, optional
+        ``to_dict(model) -> dict``: the fitted state of a fitted ``model`` as
+        JSON-able data (use :func:`encode_array` and :func:`encode_value`);
+        raise ``ValueError`` when it cannot be stored. Without ``to_dict`` and
+        ``from_dict`` the class can be a parameter of a saved model, but not be
+        saved on its own.
+    from_dict : callable, optional
+        ``from_dict(model, fitted)``: set the fitted attributes of ``model``
+        (constructed from the stored parameters) from ``fitted``, a
+        :class:`Fields` view of the stored dict.
+
+    Returns
+    -------
+    cls
 
     Examples
     --------
@@ -58,11 +107,9 @@ def register_model(cls, *, to_dict, from_dict):
     ...     def fit(self, X, y):
     ...         self.gain_ = self.k * float(np.mean(y))
     ...         return self
-    >>> def gain_from_dict(params, fitted):
-    ...     model = Gain(**params)
-    ...     model.gain_ = fitted["gain"]
-    ...     return model
-    >>> register_model(Gain, to_dict=lambda m: ({"k": m.k}, {"gain": m.gain_}), from_dict=gain_from_dict)
+    >>> def gain_from_dict(model, fitted):
+    ...     model.gain_ = fitted.float("gain")
+    >>> _ = register_model(Gain, to_dict=lambda m: {"gain": m.gain_}, from_dict=gain_from_dict)
     >>> data = model_to_dict(Gain(k=2.0).fit(None, [1.0, 2.0]))
     >>> data["class"], data["params"], data["fitted"]
     ('Gain', {'k': 2.0}, {'gain': 3.0})
@@ -70,108 +117,435 @@ def register_model(cls, *, to_dict, from_dict):
     3.0
     >>> _ = _REGISTRY.pop("Gain")  # unregister the example class again
     """
-    _REGISTRY[cls.__name__] = (cls, to_dict, from_dict)
+    if (to_dict is None) != (from_dict is None):
+        raise ValueError("register_model needs both to_dict and from_dict, or neither.")
+    name = cls.__name__
+    old = _REGISTRY.get(name)
+    if old is not None and (old.cls.__module__, old.cls.__qualname__) != (cls.__module__, cls.__qualname__):
+        raise ValueError(
+            f"another class named {name!r} is registered ({old.cls.__module__}.{old.cls.__qualname__}); "
+            "expected one class per name."
+        )
+    _REGISTRY[name] = _Entry(cls, to_dict, from_dict)
+    return cls
 
 
-# ------------------------------------------------------------ plain helpers
-def estimator_spec(obj):
-    """``{"class": name, "params": {...}}`` of an estimator with plain parameters, else None.
+def _registered(models_only=False):
+    return sorted(n for n, e in _REGISTRY.items() if not models_only or e.to_dict is not None)
+
+
+# ------------------------------------------------------------------ values
+def _kind(value):
+    """Short description of a decoded JSON value, for messages."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return f"a boolean ({value})"
+    if isinstance(value, (int, float)):
+        return f"a number ({value!r})"
+    if isinstance(value, str):
+        return f"a string ({value[:40]!r})"
+    if isinstance(value, list):
+        return f"a list of {len(value)}"
+    return f"an object with keys {sorted(value)[:6]}"
+
+
+def encode_array(a):
+    """A numpy array as ``{"dtype", "shape", "data"}``, exact (non-finite floats as strings).
+
+    Examples
+    --------
+    >>> encode_array(np.array([[1.5, np.inf]]))
+    {'dtype': 'float64', 'shape': [1, 2], 'data': [1.5, 'inf']}
+    >>> decode_array(encode_array(np.array([0.1, -0.0])), "x").tolist()
+    [0.1, -0.0]
+    """
+    a = np.asarray(a)
+    if a.dtype == bool:
+        dtype, data = "bool", [bool(v) for v in a.ravel()]
+    elif np.issubdtype(a.dtype, np.integer):
+        dtype, data = "int64", [int(v) for v in a.ravel()]
+    elif np.issubdtype(a.dtype, np.floating):
+        dtype = "float64"
+        data = [v if math.isfinite(v) else repr(v) for v in a.astype(float).ravel().tolist()]
+    else:
+        raise ValueError(f"cannot store an array of dtype {a.dtype}; expected float, int or bool.")
+    return {"dtype": dtype, "shape": list(a.shape), "data": data}
+
+
+def decode_array(value, field, shape=None):
+    """Inverse of :func:`encode_array`; ``shape`` entries ``None`` match any length.
+
+    Raises ``ValueError`` naming ``field`` for anything that is not such an
+    array, or whose shape differs from ``shape``.
+
+    Examples
+    --------
+    >>> decode_array({"dtype": "float64", "shape": [2], "data": [1.0, 2.0]}, "fitted.x0", shape=(3,))
+    Traceback (most recent call last):
+    ...
+    ValueError: fitted.x0: expected an array of shape (3,); got shape (2,).
+    """
+    if not isinstance(value, dict) or set(value) != {"dtype", "shape", "data"}:
+        raise ValueError(f"{field}: expected an array {{'dtype', 'shape', 'data'}}; got {_kind(value)}.")
+    dtype, dims, data = value["dtype"], value["shape"], value["data"]
+    if dtype not in _DTYPES:
+        raise ValueError(f"{field}.dtype: expected one of {sorted(_DTYPES)}; got {dtype!r}.")
+    if not isinstance(dims, list) or not all(isinstance(d, int) and not isinstance(d, bool) and d >= 0 for d in dims):
+        raise ValueError(f"{field}.shape: expected a list of integers >= 0; got {dims!r}.")
+    if not isinstance(data, list) or len(data) != math.prod(dims):
+        raise ValueError(f"{field}.data: expected a list of {math.prod(dims)} values (shape {dims}); got {_kind(data)}.")
+    if dtype == "float64":
+        ok = all((isinstance(v, (int, float)) and not isinstance(v, bool)) or v in _SPECIAL for v in data)
+        values = [_SPECIAL.get(v, v) if isinstance(v, str) else v for v in data] if ok else None
+    elif dtype == "int64":
+        ok, values = all(isinstance(v, int) and not isinstance(v, bool) for v in data), data
+    else:
+        ok, values = all(isinstance(v, bool) for v in data), data
+    if not ok:
+        raise ValueError(f"{field}.data: expected {dtype} values; got {[v for v in data][:5]}...")
+    a = np.array(values, dtype=_DTYPES[dtype]).reshape(dims)
+    if shape is not None and (a.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, a.shape))):
+        want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
+        raise ValueError(f"{field}: expected an array of shape {want}; got shape {tuple(a.shape)}.")
+    return a
+
+
+def _function_path(func, field):
+    qualname = getattr(func, "__qualname__", "")
+    if not isinstance(func, types.FunctionType) or "<lambda>" in qualname or "<locals>" in qualname:
+        raise ValueError(
+            f"{field} = {func!r} cannot be stored: only a module-level function can be saved (by its import "
+            "path); move it to the top level of an importable module (no lambda, no function defined inside "
+            "another function)."
+        )
+    if func.__module__ == "__main__":
+        raise ValueError(
+            f"{field} = {func.__qualname__} is defined in __main__ (a script or notebook), which another "
+            "process cannot import; move it to an importable module."
+        )
+    path = f"{func.__module__}:{qualname}"
+    try:
+        found = _import_function(path, field)
+    except ValueError:
+        found = None
+    if found is not func:
+        raise ValueError(f"{field} = {func!r} is not importable as {path!r}; expected a module-level function.")
+    return path
+
+
+def _import_function(path, field):
+    module, _, qualname = path.partition(":")
+    if not module or not qualname:
+        raise ValueError(f"{field}: expected a function path 'module:name'; got {path!r}.")
+    try:
+        obj = importlib.import_module(module)
+        for part in qualname.split("."):
+            obj = getattr(obj, part)
+    except (ImportError, AttributeError) as exc:
+        raise ValueError(f"{field}: cannot import the function {path!r} ({exc}); expected an installed module.") from None
+    if not isinstance(obj, types.FunctionType):
+        raise ValueError(f"{field}: {path!r} is a {type(obj).__name__}; expected a Python function.")
+    return obj
+
+
+def encode_value(value, field="value"):
+    """A parameter value as JSON-able data; see :func:`decode_value`.
+
+    ``None``, bool, int, str, finite floats and lists stay as they are; every
+    other value becomes a one-key object: ``{"float": "inf"}``,
+    ``{"tuple": [...]}``, ``{"dict": {...}}`` (string keys),
+    ``{"array": {...}}`` (:func:`encode_array`), ``{"estimator": {"class":
+    name, "params": {...}}}`` for an instance of a registered class (its
+    ``get_params(deep=False)``, recursively), and ``{"function":
+    "module:qualname"}`` for a module-level function.
+
+    Raises ``ValueError`` naming ``field`` for anything else (lambdas, local
+    functions, unregistered classes, foreign objects).
 
     Examples
     --------
     >>> from sindybench import STLS
-    >>> estimator_spec(STLS(threshold=0.2))["params"]["threshold"]
+    >>> encode_value((1, 2.5, np.inf))
+    {'tuple': [1, 2.5, {'float': 'inf'}]}
+    >>> encode_value(STLS(threshold=0.2))["estimator"]["params"]["threshold"]
     0.2
+    >>> encode_value(lambda x: x, "params.rhs")
+    Traceback (most recent call last):
+    ...
+    ValueError: params.rhs = <function <lambda> at ...> cannot be stored: only a module-level function ...
     """
-    if obj is None or not hasattr(obj, "get_params"):
-        return None
-    try:
-        params = {k: _plain(v) for k, v in obj.get_params(deep=False).items()}
-    except ValueError:
-        return None
-    return {"class": type(obj).__name__, "params": params}
-
-
-def _rebuild_estimator(spec, module):
-    """The estimator ``spec`` describes if ``module`` (a sindybench module name) exports its class."""
-    if spec is None:
-        return None
-    try:
-        found = importlib.import_module(module)
-    except ModuleNotFoundError:
-        return None
-    name = spec.get("class")
-    if name not in getattr(found, "__all__", ()):
-        return None
-    return getattr(found, name)(**{k: _unplain(v) for k, v in spec["params"].items()})
-
-
-# ------------------------------------------------------------------- SINDy
-_SIM_PARAMS = ("dt", "n_substeps", "integrator", "input_hold", "bounds", "max_abs", "output_names", "input_names")
-
-
-def _sindy_to_dict(model):
-    if model.terms_ is None:
-        raise ValueError(
-            f"this {type(model).__name__} cannot be saved as JSON: its library "
-            f"({type(model.library_).__name__}) has no symbolic terms (custom Python functions or an "
-            "external library); use built-in libraries to save models."
-        )
-    try:
-        library = library_to_spec(model.library if model.library is not None else model.library_)
-    except ValueError:
-        library = None
-    params = {name: _plain(getattr(model, name)) for name in _SIM_PARAMS}
-    params["library"] = library
-    params["optimizer"] = estimator_spec(model.optimizer)
-    params["differentiation"] = estimator_spec(model.differentiation)
-    fitted = {
-        "coef": model.coef_.tolist(),
-        "terms": terms_to_json(model.terms_),
-        "feature_names": list(model.feature_names_),
-        "output_names": list(model.output_names_),
-        "input_names": list(model.input_names_),
-        "n_states": int(model.n_states_),
-        "n_inputs": int(model.n_inputs_),
-        "dt": model.dt_,
-        "x0": model.x0_.tolist(),
-        "output_1d": bool(getattr(model, "_y_1d", False)),
-    }
-    return params, fitted
-
-
-def _sindy_from_dict(params, fitted):
-    kwargs = {name: _unplain(params.get(name)) for name in _SIM_PARAMS}
-    if isinstance(kwargs["bounds"], list):
-        kwargs["bounds"] = tuple(kwargs["bounds"])
-    library = params.get("library")
-    model = SINDy(
-        library=library_from_spec(library) if library is not None else None,
-        optimizer=_rebuild_estimator(params.get("optimizer"), "sindybench"),
-        differentiation=_rebuild_estimator(params.get("differentiation"), "sindybench.differentiation"),
-        **kwargs,
+    if value is None or isinstance(value, (bool, str)):
+        return value
+    if isinstance(value, np.bool_):
+        return bool(value)
+    if isinstance(value, (int, np.integer)):
+        return int(value)
+    if isinstance(value, (float, np.floating)):
+        v = float(value)
+        return v if math.isfinite(v) else {"float": repr(v)}
+    if isinstance(value, list):
+        return [encode_value(v, f"{field}[{i}]") for i, v in enumerate(value)]
+    if isinstance(value, tuple):
+        return {"tuple": [encode_value(v, f"{field}[{i}]") for i, v in enumerate(value)]}
+    if isinstance(value, dict):
+        bad = [k for k in value if not isinstance(k, str)]
+        if bad:
+            raise ValueError(f"{field} has the key {bad[0]!r}; expected string keys only.")
+        return {"dict": {k: encode_value(v, f"{field}[{k!r}]") for k, v in value.items()}}
+    if isinstance(value, np.ndarray):
+        return {"array": encode_array(value)}
+    if isinstance(value, types.FunctionType):
+        return {"function": _function_path(value, field)}
+    name = type(value).__name__
+    entry = _REGISTRY.get(name)
+    if entry is not None and type(value) is entry.cls:
+        return {"estimator": {"class": name, "params": _encode_params(value, field)}}
+    raise ValueError(
+        f"{field} = {value!r} cannot be stored as JSON: {name} is not a registered class (custom Python "
+        f"functions or foreign objects); expected plain values or one of {_registered()}."
     )
-    n_states, n_inputs = int(fitted["n_states"]), int(fitted["n_inputs"])
-    terms = terms_from_json(fitted["terms"])
-    coef = np.asarray(fitted["coef"], dtype=float)
-    if coef.shape != (n_states, len(terms)):
-        raise ValueError(f"coef has shape {coef.shape}; expected ({n_states}, {len(terms)}) (states, terms).")
-    model.library_ = TermsLibrary(terms=terms).fit(np.zeros((1, n_states + n_inputs)))
-    model.coef_ = coef
-    model.terms_ = model.library_.terms_
-    model.feature_names_ = list(fitted["feature_names"])
-    model.output_names_ = list(fitted["output_names"])
-    model.input_names_ = list(fitted["input_names"])
-    model.n_states_ = n_states
-    model.n_inputs_ = n_inputs
-    model.n_features_in_ = n_inputs
-    model.dt_ = fitted["dt"]
-    model.x0_ = np.asarray(fitted["x0"], dtype=float)
-    model._y_1d = bool(fitted["output_1d"])
+
+
+def _encode_params(estimator, field):
+    return {k: encode_value(v, f"{field}.{k}") for k, v in estimator.get_params(deep=False).items()}
+
+
+def decode_value(value, field="value", *, allow_import=False):
+    """Inverse of :func:`encode_value`; ``ValueError`` naming ``field`` for malformed data.
+
+    Parameters
+    ----------
+    value : JSON data
+    field : str
+        Where ``value`` sits in the file (``"params.optimizer"``), for messages.
+    allow_import : bool, default=False
+        Import the module-level functions the data names (``{"function":
+        "module:qualname"}``); otherwise such a value is refused.
+
+    Examples
+    --------
+    >>> decode_value({"tuple": [1, {"float": "-inf"}]})
+    (1, -inf)
+    >>> decode_value({"estimator": {"class": "os.system", "params": {}}}, "params.optimizer")
+    Traceback (most recent call last):
+    ...
+    ValueError: params.optimizer.estimator.class: unknown class 'os.system'; expected one of [...].
+    """
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return value
+    if isinstance(value, list):
+        return [decode_value(v, f"{field}[{i}]", allow_import=allow_import) for i, v in enumerate(value)]
+    if not isinstance(value, dict) or len(value) != 1 or next(iter(value)) not in _TAGS:
+        raise ValueError(f"{field}: expected a plain value or a one-key object tagged {list(_TAGS)}; got {_kind(value)}.")
+    tag, inner = next(iter(value.items()))
+    if tag == "float":
+        if inner not in _SPECIAL:
+            raise ValueError(f"{field}.float: expected one of {sorted(_SPECIAL)}; got {_kind(inner)}.")
+        return _SPECIAL[inner]
+    if tag == "tuple":
+        if not isinstance(inner, list):
+            raise ValueError(f"{field}.tuple: expected a list; got {_kind(inner)}.")
+        return tuple(decode_value(v, f"{field}[{i}]", allow_import=allow_import) for i, v in enumerate(inner))
+    if tag == "dict":
+        if not isinstance(inner, dict):
+            raise ValueError(f"{field}.dict: expected an object; got {_kind(inner)}.")
+        return {k: decode_value(v, f"{field}[{k!r}]", allow_import=allow_import) for k, v in inner.items()}
+    if tag == "array":
+        return decode_array(inner, f"{field}.array")
+    if tag == "function":
+        if not isinstance(inner, str):
+            raise ValueError(f"{field}.function: expected 'module:name'; got {_kind(inner)}.")
+        if not allow_import:
+            raise ValueError(
+                f"{field} is the Python function {inner!r}; loading it imports that module: pass "
+                "allow_import=True if you trust this file."
+            )
+        return _import_function(inner, field)
+    return _decode_estimator(Fields(inner, f"{field}.estimator"), allow_import=allow_import)
+
+
+def _lookup(name, field, *, model=False):
+    if not isinstance(name, str) or name not in _REGISTRY or (model and _REGISTRY[name].to_dict is None):
+        raise ValueError(f"{field}: unknown class {name!r}; expected one of {_registered(model)}.")
+    return _REGISTRY[name]
+
+
+def _construct(cls, params, field, allow_import):
+    """``cls(**params)`` from encoded parameters; absent parameters take their defaults."""
+    params = Fields(params, field)
+    valid = cls._get_param_names()
+    unknown = sorted(set(params.data) - set(valid))
+    if unknown:
+        raise ValueError(f"{field}: unknown parameter(s) {unknown} of {cls.__name__}; expected some of {valid}.")
+    kwargs = {k: decode_value(v, f"{field}.{k}", allow_import=allow_import) for k, v in params.data.items()}
+    try:
+        return cls(**kwargs)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{field}: {cls.__name__}(...) refused these parameters: {exc}") from exc
+
+
+def _decode_estimator(spec, *, allow_import):
+    entry = _lookup(spec.data.get("class"), f"{spec.path}.class")
+    return _construct(entry.cls, spec.get("params"), f"{spec.path}.params", allow_import)
+
+
+# ------------------------------------------------------------------ fields
+class Fields:
+    """Typed, checked access to one JSON object of a model file.
+
+    Every accessor raises ``ValueError`` naming the field (``fitted.coef``)
+    and what was expected, for a missing or null entry and for a value of the
+    wrong type or shape.
+
+    Parameters
+    ----------
+    data : dict
+    path : str
+        Where ``data`` sits in the file, e.g. ``"fitted"``.
+    allow_import : bool, default=False
+        Passed on to :func:`decode_value`.
+
+    Examples
+    --------
+    >>> f = Fields({"n_states": 2, "names": ["a", 3]}, "fitted")
+    >>> f.int("n_states")
+    2
+    >>> f.strings("names")
+    Traceback (most recent call last):
+    ...
+    ValueError: fitted.names: expected a list of strings; got a list of 2.
+    >>> f.float("dt")
+    Traceback (most recent call last):
+    ...
+    ValueError: fitted.dt: missing or null; expected a number.
+    """
+
+    def __init__(self, data, path, *, allow_import=False):
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: expected a JSON object; got {_kind(data)}.")
+        self.data, self.path, self.allow_import = data, path, allow_import
+
+    def where(self, name):
+        """Where entry ``name`` sits in the file, for messages (``fitted.coef``)."""
+        return f"{self.path}.{name}" if self.path else name
+
+    def get(self, name, expected="a value", *, allow_none=False):
+        """The raw JSON value of ``name``."""
+        value = self.data.get(name)
+        if value is None and not (allow_none and name in self.data):
+            raise ValueError(f"{self.where(name)}: missing or null; expected {expected}.")
+        return value
+
+    def _typed(self, name, expected, check, allow_none):
+        value = self.get(name, expected, allow_none=allow_none)
+        if value is None or check(value):
+            return value
+        raise ValueError(f"{self.where(name)}: expected {expected}; got {_kind(value)}.")
+
+    def int(self, name, *, low=0):
+        """An integer ``>= low``."""
+        return self._typed(name, f"an integer >= {low}",
+                           lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= low, False)
+
+    def float(self, name, *, allow_none=False):
+        """A number (``{"float": "inf"}`` for non-finite values)."""
+        value = self.get(name, "a number", allow_none=allow_none)
+        if value is None:
+            return None
+        if isinstance(value, dict):
+            return float(decode_value(value, self.where(name)))
+        return float(self._typed(name, "a number", lambda v: isinstance(v, (int, float)) and not isinstance(v, bool),
+                                 False))
+
+    def bool(self, name):
+        """``true`` or ``false``."""
+        return self._typed(name, "true or false", lambda v: isinstance(v, bool), False)
+
+    def str(self, name):
+        """A string."""
+        return self._typed(name, "a string", lambda v: isinstance(v, str), False)
+
+    def strings(self, name, n=None):
+        """A list of ``n`` strings (any number when ``n`` is None)."""
+        expected = "a list of strings" if n is None else f"a list of {n} strings"
+        return list(self._typed(name, expected, lambda v: isinstance(v, list) and all(isinstance(s, str) for s in v)
+                                and (n is None or len(v) == n), False))
+
+    def ints(self, name, *, high=None):
+        """A list of integers in ``[0, high)``."""
+        expected = "a list of integers >= 0" + ("" if high is None else f" and < {high}")
+        return [int(v) for v in self._typed(
+            name, expected, lambda v: isinstance(v, list) and all(
+                isinstance(i, int) and not isinstance(i, bool) and 0 <= i and (high is None or i < high) for i in v),
+            False)]
+
+    def array(self, name, shape=None):
+        """An array stored by :func:`encode_array`, of ``shape`` (``None`` = any length)."""
+        return decode_array(self.get(name, "an array"), self.where(name), shape)
+
+    def _list(self, name, n, what):
+        value = self.get(name, f"a list of {n} {what}")
+        if not isinstance(value, list) or len(value) != n:
+            raise ValueError(f"{self.where(name)}: expected a list of {n} {what}; got {_kind(value)}.")
+        return value
+
+    def arrays(self, name, shapes):
+        """A list of arrays, one per entry of ``shapes``."""
+        return [decode_array(a, f"{self.where(name)}[{i}]", shape)
+                for i, (a, shape) in enumerate(zip(self._list(name, len(shapes), "arrays"), shapes))]
+
+    def items(self, name, n):
+        """A list of ``n`` objects, each as :class:`Fields`."""
+        return [Fields(v, f"{self.where(name)}[{i}]", allow_import=self.allow_import)
+                for i, v in enumerate(self._list(name, n, "objects"))]
+
+    def mapping(self, name, *, allow_none=False):
+        """A dict stored by :func:`encode_value` (``None`` too with ``allow_none``)."""
+        value = self.value(name, allow_none=allow_none)
+        if not isinstance(value, dict) and not (allow_none and value is None):
+            raise ValueError(f"{self.where(name)}: expected a dict {{name: value}}; got {type(value).__name__}.")
+        return value
+
+    def value(self, name, *, allow_none=False):
+        """A value stored by :func:`encode_value` (estimators, dicts, tuples ...)."""
+        raw = self.get(name, "a value", allow_none=allow_none)
+        return decode_value(raw, self.where(name), allow_import=self.allow_import)
+
+    def fields(self, name):
+        """The nested object ``name`` as :class:`Fields`."""
+        return Fields(self.get(name, "an object"), self.where(name), allow_import=self.allow_import)
+
+
+def check_params(check, *args):
+    """Run an estimator's parameter check at loading; its ``ValueError`` names ``params``."""
+    try:
+        return check(*args)
+    except ValueError as exc:
+        raise ValueError(f"params: {exc}") from exc
+
+
+# ------------------------------------------------------ fitted estimators
+def fitted_to_dict(estimator, field="fitted"):
+    """``{"class", "params", "fitted"}`` of a fitted estimator of a registered class.
+
+    For a fitted estimator held by another one (``optimizer_``); a class
+    registered without ``to_dict`` stores its parameters only.
+    """
+    entry = _lookup(type(estimator).__name__, f"{field}.class")
+    out = {"class": type(estimator).__name__, "params": _encode_params(estimator, f"{field}.params")}
+    if entry.to_dict is not None:
+        out["fitted"] = entry.to_dict(estimator)
+    return out
+
+
+def fitted_from_dict(fields):
+    """Inverse of :func:`fitted_to_dict`, from a :class:`Fields` view."""
+    entry = _lookup(fields.data.get("class"), fields.where("class"))
+    model = _construct(entry.cls, fields.get("params", "an object"), fields.where("params"), fields.allow_import)
+    if entry.from_dict is not None:
+        entry.from_dict(model, fields.fields("fitted"))
     return model
-
-
-register_model(SINDy, to_dict=_sindy_to_dict, from_dict=_sindy_from_dict)
 
 
 # ---------------------------------------------------------------- public API
@@ -180,82 +554,95 @@ def model_to_dict(model):
 
     Parameters
     ----------
-    model : fitted estimator of a registered class (e.g. :class:`~sindybench.SINDy`)
+    model : fitted estimator of a class registered with ``to_dict``
+        (:class:`~sindybench.SINDy`, :class:`~sindybench.HiddenStateSINDy`,
+        :class:`~sindybench.STLS`, :class:`~sindybench.baselines.ARX`,
+        :class:`~sindybench.baselines.NNARX`)
 
     Returns
     -------
     dict
         ``format``, ``format_version``, ``sindybench_version``, ``class``,
-        ``params`` and ``fitted`` (see the module docstring).
+        ``params`` and ``fitted``.
 
     Raises
     ------
     ValueError
-        For an unfitted model, an unregistered class, or a model that cannot be
-        stored as plain data (e.g. custom library functions).
+        For an unregistered class, or a model that cannot be stored as plain
+        data (e.g. custom library functions, a lambda).
+    sklearn.exceptions.NotFittedError
+        For an unfitted model.
 
     Examples
     --------
-    >>> from sindybench import STLS
+    >>> from sindybench import SINDy, STLS
     >>> from sindybench.libraries import PolynomialLibrary
     >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
     >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01).fit(None, y)
     >>> data = model_to_dict(model)
-    >>> data["class"], data["fitted"]["terms"]
-    ('SINDy', [[], [[0, 0, 1.0, 0.0]]])
+    >>> data["class"], data["params"]["optimizer"], data["fitted"]["library"]["terms"]
+    ('SINDy', {'estimator': {'class': 'STLS', 'params': {..., 'threshold': 0.1, ...}}}, [[], [[0, 0, 1.0, 0.0]]])
     >>> model_from_dict(data).equations()
     ["y0' = -1.000 y0"]
     """
-    name = type(model).__name__
-    if name not in _REGISTRY or not isinstance(model, _REGISTRY[name][0]):
-        raise ValueError(f"cannot save a {name}; expected one of {sorted(_REGISTRY)}.")
-    from sklearn.utils.validation import check_is_fitted
-
     from . import __version__
 
+    name = type(model).__name__
+    entry = _REGISTRY.get(name)
+    if entry is None or entry.to_dict is None or type(model) is not entry.cls:
+        raise ValueError(f"cannot save a {name}; expected one of {_registered(True)}.")
     check_is_fitted(model)
-    params, fitted = _REGISTRY[name][1](model)
+    params = _encode_params(model, "params")
     return {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "sindybench_version": __version__,
         "class": name,
         "params": params,
-        "fitted": fitted,
+        "fitted": entry.to_dict(model),
     }
 
 
-def model_from_dict(data):
+def model_from_dict(data, *, allow_import=False):
     """Rebuild a fitted model from the dict of :func:`model_to_dict`.
 
     Parameters
     ----------
     data : dict
         As written by :func:`model_to_dict` (or read back from a model file).
+    allow_import : bool, default=False
+        Import the module-level functions the file names (see :func:`load_model`).
 
     Returns
     -------
     fitted estimator
 
+    Raises
+    ------
+    ValueError
+        Naming the first field that is missing, null, of the wrong type or
+        shape, or an unknown class.
+
     Examples
     --------
-    >>> model_from_dict({"format": "sindybench-model", "format_version": 2})
+    >>> model_from_dict({"format": "sindybench-model", "format_version": 3})
     Traceback (most recent call last):
     ...
-    ValueError: model file format_version 2 is not supported; expected 1.
+    ValueError: format_version: model file version 3 is not supported; expected 2.
     """
     if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise ValueError(f"not a sindybench model: expected a JSON object with format = {FORMAT!r}.")
+        raise ValueError(f"format: not a sindybench model; expected a JSON object with format = {FORMAT!r}.")
     version = data.get("format_version")
     if version != FORMAT_VERSION:
-        raise ValueError(f"model file format_version {version!r} is not supported; expected {FORMAT_VERSION}.")
-    name = data.get("class")
-    if name not in _REGISTRY:
-        raise ValueError(f"unknown model class {name!r} in the file; expected one of {sorted(_REGISTRY)}.")
+        raise ValueError(f"format_version: model file version {version!r} is not supported; expected {FORMAT_VERSION}.")
+    envelope = Fields(data, "", allow_import=allow_import)  # top-level fields are named bare: "fitted.coef"
+    entry = _lookup(data.get("class"), "class", model=True)
+    model = _construct(entry.cls, envelope.get("params", "an object"), "params", allow_import)
     try:
-        return _REGISTRY[name][2](data["params"], data["fitted"])
-    except (KeyError, TypeError) as exc:
-        raise ValueError(f"the {name} model data is incomplete or malformed: {exc!r}.") from exc
+        entry.from_dict(model, envelope.fields("fitted"))
+    except (KeyError, TypeError, IndexError, AttributeError) as exc:  # a hook without a check of its own
+        raise ValueError(f"fitted: the {entry.cls.__name__} data is malformed: {exc!r}.") from exc
+    return model
 
 
 def save_model(model, path):
@@ -267,23 +654,26 @@ def save_model(model, path):
 
     Parameters
     ----------
-    model : fitted estimator of a registered class (e.g. :class:`~sindybench.SINDy`)
+    model : fitted estimator of a registered class (see :func:`model_to_dict`)
     path : str or path-like
 
     Examples
     --------
     >>> import tempfile, pathlib
-    >>> from sindybench import STLS
+    >>> from sindybench import SINDy, STLS
     >>> from sindybench.libraries import PolynomialLibrary
-    >>> t = np.arange(0, 5, 0.01)
-    >>> y = np.exp(-t)[:, None]
+    >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
     >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01).fit(None, y)
     >>> path = pathlib.Path(tempfile.mkdtemp()) / "model.json"
     >>> save_model(model, path)
     >>> load_model(path).equations()
     ["y0' = -1.000 y0"]
     """
-    text = json.dumps(model_to_dict(model), indent=1, allow_nan=False)
+    write_text_atomic(json.dumps(model_to_dict(model), allow_nan=False), path)
+
+
+def write_text_atomic(text, path):
+    """Write ``text`` to ``path`` through a temporary file in the same folder (no partial file)."""
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
@@ -297,22 +687,35 @@ def save_model(model, path):
         raise
 
 
-def load_model(path):
+def load_model(path, *, allow_import=False):
     """Load a model saved by :func:`save_model` (or ``model.to_json``).
 
     Parameters
     ----------
     path : str or path-like
+    allow_import : bool, default=False
+        A :class:`~sindybench.hidden.ParametricHiddenState` stores its ``rhs``
+        as the import path of a module-level function. Loading such a file
+        imports that module and takes the function from it, which runs the
+        module's code: only with ``allow_import=True``. Without it the file is
+        refused with a message naming the function. No other code is run.
 
     Returns
     -------
     fitted estimator
-        Simulates exactly like the saved one.
+        Simulates and predicts exactly like the saved one; ``get_params()``
+        returns the saved hyperparameters (it clones, refits and searches).
+
+    Raises
+    ------
+    ValueError
+        For a file that is not valid JSON or not a valid model file; the
+        message names the field and what was expected.
 
     Examples
     --------
     >>> import tempfile, pathlib
-    >>> from sindybench import STLS
+    >>> from sindybench import SINDy
     >>> from sindybench.libraries import PolynomialLibrary
     >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
     >>> model = SINDy(library=PolynomialLibrary(degree=1), dt=0.01).fit(None, y)
@@ -325,6 +728,19 @@ def load_model(path):
     with open(path, encoding="utf-8") as f:
         try:
             data = json.load(f)
-        except json.JSONDecodeError as exc:
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
             raise ValueError(f"{path} is not valid JSON: {exc}") from exc
-    return model_from_dict(data)
+    return model_from_dict(data, allow_import=allow_import)
+
+
+class SaveLoadMixin:
+    """Adds ``to_json(path)`` to an estimator registered with :func:`register_model`."""
+
+    def to_json(self, path):
+        """Save the fitted model as plain JSON (atomically); load it with :func:`sindybench.load_model`.
+
+        Parameters
+        ----------
+        path : str or path-like
+        """
+        save_model(self, path)

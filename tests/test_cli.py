@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 from sklearn.utils import Bunch
 
+from sindybench import load_model
 from sindybench.cli import build_parser, main
 from sindybench.experiments import (
     PUBLISHED,
@@ -35,6 +36,7 @@ from sindybench.experiments import (
 from sindybench.experiments._common import arx_model, arx_space, refinement, sindy_model, stls_space
 from sindybench.experiments._runner import run_benchmark
 from test_examples import NOTEBOOKS  # the notebooks, the figures and typeset models each must show
+from sindybench.metrics import r2
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -78,12 +80,15 @@ def test_runner_writes_every_output(tmp_path):
     folder = tmp_path / "out" / "toy"
     results = json.loads((folder / "results.json").read_text())
     assert results["seed"] == 3 and results["quick"] is True
+    test = _synthetic().load()["test"]
     for model in results["models"]:
         assert model["status"] == "ok" and model["n_trials"] == 2
         scores = model["scores"]["test"]
         assert scores["r2"] > 0.99, model  # the toy system is in both model classes
         assert 100 * (1 - math.sqrt(1 - scores["r2"])) == pytest.approx(scores["fit_index"], rel=1e-9)
-        assert (folder / "models" / f"{model['key']}.json").is_file()
+        # the model file is a real model: it simulates the test set to the very score of the run
+        loaded = load_model(folder / results["files"]["models"][model["key"]])
+        assert r2(test.y, loaded.predict(test.u, y_init=test.y[:2])) == scores["r2"]
     assert (folder / "test_test.png").stat().st_size > 1000
     assert "| SINDy |" in (folder / "results.md").read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left
@@ -206,6 +211,79 @@ def test_missing_data_message_and_exit_status(tmp_path):
     assert not out.exists() and not [p for p in tmp_path.iterdir() if p.name != "empty"]
 
 
+# --------------------------------------------------------------------------- simulate a saved model
+def _write_csv(path, header, rows):
+    path.write_text(",".join(header) + "\n" + "".join(",".join(str(v) for v in row) + "\n" for row in rows))
+    return path
+
+
+@pytest.fixture(scope="module")
+def saved_models(tmp_path_factory):
+    """A toy record and two saved models of it: SINDy with named inputs, ARX without names."""
+    from sindybench import SINDy
+    from sindybench.baselines import ARX
+    from sindybench.libraries import PolynomialLibrary
+
+    folder = tmp_path_factory.mktemp("simulate")
+    rec = _record(np.random.default_rng(1), 300)
+    u = np.hstack([rec.u, 0.5 * rec.u**2])
+    sindy = SINDy(library=PolynomialLibrary(degree=1), dt=rec.dt, input_names=["pump", "aux"]).fit(u, rec.y)
+    arx = ARX(na=1, nb=1).fit(u, rec.y)
+    sindy.to_json(folder / "sindy.json")
+    arx.to_json(folder / "arx.json")
+    inputs = _write_csv(folder / "u.csv", ["aux", "pump", "time"], np.column_stack([u[:, 1], u[:, 0], rec.t]))
+    return folder, u, rec.y, {"sindy": sindy, "arx": arx}, inputs
+
+
+@pytest.mark.parametrize("key, y_init", [("sindy", False), ("sindy", True), ("arx", True), ("arx", False)])
+def test_simulate_command_writes_the_models_prediction(saved_models, tmp_path, key, y_init):
+    folder, u, y, models, inputs = saved_models
+    if key == "arx":  # no input names: the columns are taken in order
+        inputs = _write_csv(tmp_path / "u.csv", ["a", "b"], u)
+    argv = ["simulate", str(folder / f"{key}.json"), "--input", str(inputs), "--output", str(tmp_path / "y.csv"), "-q"]
+    if y_init:
+        argv += ["--y-init", str(_write_csv(tmp_path / "y0.csv", ["level"], y[:5]))]
+    assert main(argv) == 0
+    header, *rows = (tmp_path / "y.csv").read_text().splitlines()
+    model = models[key]
+    expected = model.predict(u, y_init=y[:5]) if y_init else (
+        model.predict(u, x0=model.x0_) if key == "sindy" else model.predict(u))
+    assert header == "y0" and np.array_equal(np.array([float(r) for r in rows]), np.asarray(expected).ravel())
+
+
+@pytest.mark.parametrize("edit, message", [
+    (lambda d: _write_csv(d / "u.csv", ["aux", "time"], [[0.1, 0.0], [0.2, 0.1]]), "no column 'pump'"),
+    (lambda d: _write_csv(d / "u.csv", ["aux", "pump"], [[0.1, 0.0], [0.2, "nan"]]),
+     "line 3, column 'pump': 'nan'; expected a finite number"),
+    (lambda d: _write_csv(d / "u.csv", ["aux", "pump"], [[0.1, 0.0], [0.2, ""]]), "line 3, column 'pump': ''"),
+    (lambda d: _write_csv(d / "u.csv", ["aux", "pump"], [[0.1, 0.0], [0.2]]), "line 3: 1 values; expected 2"),
+    (lambda d: _write_csv(d / "u.csv", ["aux", "pump"], []), "has no samples"),
+    (lambda d: _write_csv(d / "y0.csv", ["a", "b"], [[0.1, 0.0]]), "y_init has 2 columns; expected 1"),
+    (lambda d: (d / "model.json").write_text('{"format": "sindybench-model", '), "is not valid JSON"),
+    (lambda d: (d / "model.json").unlink(), "No such file"),
+])
+def test_simulate_command_errors_write_nothing(saved_models, tmp_path, capsys, edit, message):
+    folder, u, y, models, inputs = saved_models
+    shutil.copy(folder / "sindy.json", tmp_path / "model.json")
+    shutil.copy(inputs, tmp_path / "u.csv")
+    _write_csv(tmp_path / "y0.csv", ["level"], y[:3])
+    edit(tmp_path)
+    status = main(["simulate", str(tmp_path / "model.json"), "--input", str(tmp_path / "u.csv"),
+                   "--y-init", str(tmp_path / "y0.csv"), "--output", str(tmp_path / "y.csv")])
+    assert status == 2
+    assert message in capsys.readouterr().err
+    assert not (tmp_path / "y.csv").exists() and not list(tmp_path.glob(".y.csv*"))
+
+
+def test_simulate_command_wrong_number_of_inputs(saved_models, tmp_path, capsys):
+    folder, u, y, models, inputs = saved_models
+    _write_csv(tmp_path / "u.csv", ["a"], u[:, :1])
+    assert main(["simulate", str(folder / "arx.json"), "--input", str(tmp_path / "u.csv"), "--output",
+                 str(tmp_path / "y.csv")]) == 2
+    assert "has 1 column(s) ['a']; the model has 2 input(s)" in capsys.readouterr().err
+    assert not (tmp_path / "y.csv").exists()
+
+
 # --------------------------------------------------------------------------- smoke run of the study
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory, data_home):
@@ -238,7 +316,8 @@ def test_quick_run_outputs(quick_run, name):
     assert all(math.isfinite(x) for x in _numbers(results))
     for model in results["models"]:
         assert model["status"] == "ok", model["status"]
-        assert json.loads((folder / results["files"]["models"][model["key"]]).read_text())
+        loaded = load_model(folder / results["files"]["models"][model["key"]])
+        assert getattr(loaded, "equations", list)() == model["equations"]
         for test_name, scores in model["scores"].items():
             assert scores["status"] == "ok", (model["key"], test_name, scores["status"])
             assert scores["rmse"] > 0 and scores["fit_index"] < 100

@@ -6,8 +6,11 @@ cannot apply to time-series models, an entry ``{check name: reason}`` under
 its class name in ``EXPECTED_FAILED``.
 """
 
+import inspect
+
 import numpy as np
 import pytest
+from sklearn.base import clone
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 import pysindy as ps
@@ -46,6 +49,11 @@ _SINDY = {
     "check_regressor_multioutput": (
         "the check's data has more library terms (one per input and output) than samples; "
         "SINDy refuses an under-determined regression with a ValueError by design"
+    ),
+    "check_parameters_default_constructible": (
+        "optimizer, differentiation (and library, hidden) default to estimator instances so that "
+        "optimizer__threshold exists on a default-constructed estimator; the check admits only scalars, "
+        "tuples, types and callables as defaults. test_default_estimator_parameters checks the rest"
     ),
 }
 
@@ -89,3 +97,21 @@ def _expected_failed_checks(estimator):
 def test_sklearn_compatible_estimator(estimator, check):
     check(estimator)
 
+
+
+@pytest.mark.parametrize("cls", [SINDy, HiddenStateSINDy])
+def test_default_estimator_parameters(cls):
+    """Default instances are stored as given, nest in set_params, and are never changed by it."""
+    defaults = {name: p.default for name, p in inspect.signature(cls.__init__).parameters.items()
+                if hasattr(p.default, "get_params")}
+    assert {"optimizer", "differentiation"} <= set(defaults)
+    model = cls()
+    assert model.set_params() is model
+    for name, default in defaults.items():
+        assert getattr(model, name) is default  # __init__ stores its arguments unchanged
+    before = {name: repr(default) for name, default in defaults.items()}
+    model.set_params(optimizer__threshold=0.37, differentiation__accuracy=4)
+    assert model.optimizer.threshold == 0.37 and model.differentiation.accuracy == 4
+    assert {name: repr(default) for name, default in defaults.items()} == before
+    assert cls().optimizer.threshold != 0.37
+    assert clone(cls()).optimizer is not defaults["optimizer"]

@@ -195,7 +195,7 @@ def test_spec_round_trip(Z, lib):
 
 
 def test_spec_rejects_custom():
-    with pytest.raises(ValueError, match="cannot be stored as a plain spec"):
+    with pytest.raises(ValueError, match="CustomLibrary is not a registered class"):
         library_to_spec(CustomLibrary(functions=[np.sin]))
 
 
@@ -295,7 +295,7 @@ def test_custom_bad_output_shape(Z):
 
 
 def test_bad_spec():
-    with pytest.raises(ValueError, match="unknown library class 'Foo'"):
+    with pytest.raises(ValueError, match=r"library.estimator.class: unknown class 'Foo'; expected one of \["):
         library_from_spec({"class": "Foo", "params": {}})
 
 

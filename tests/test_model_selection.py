@@ -13,8 +13,9 @@ from scipy.special import ndtr
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.model_selection import GridSearchCV, RandomizedSearchCV, TimeSeriesSplit, cross_val_score
 
-from sindybench import STLS, SimulationError, SINDy
+from sindybench import STLS, HiddenStateSINDy, SimulationError, SINDy
 from sindybench.baselines import ARX
+from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.metrics import make_simulation_scorer, rmse
 from sindybench.model_selection import (
@@ -29,6 +30,7 @@ from sindybench.model_selection import (
     check_storage,
     tune,
 )
+from sindybench.model_selection._space import check_search_space
 from sindybench.model_selection._storage import make_storage, worker_id
 from sindybench.simulate import simulate
 
@@ -151,6 +153,46 @@ def test_sindy_randomized_and_optuna_search(sindy_data):
             scoring=SCORER, n_trials=6, random_state=0,
         ).fit(u, y)
     assert search.best_score_ > -0.01
+
+
+def test_one_optuna_space_serves_tune_and_optuna_search_cv(sindy_data):
+    """Optuna's distributions in tune: the very dict OptunaSearchCV takes, on a default-constructed SINDy."""
+    optuna_integration = pytest.importorskip("optuna_integration")
+    u, y = sindy_data
+    space = {
+        "optimizer__threshold": optuna.distributions.FloatDistribution(1e-3, 10.0, log=True),
+        "library__degree": optuna.distributions.IntDistribution(1, 3),
+        "input_hold": optuna.distributions.CategoricalDistribution(["zoh", "linear"]),
+    }
+    cv = HoldoutSplit(validation_size=150)
+    best, study = tune(SINDy(dt=0.05), space, u, y, cv=cv, n_trials=12, random_state=0)
+    assert set(study.best_trial.params) == set(space)
+    assert best.library.degree == 3 and best.optimizer.threshold < 1.0 and study.best_value < 0.01
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        search = optuna_integration.OptunaSearchCV(SINDy(dt=0.05), space, cv=cv, scoring=SCORER, n_trials=12,
+                                                   random_state=0).fit(u, y)
+    assert set(search.best_params_) == set(space) and search.best_score_ > -0.01
+
+
+@pytest.mark.parametrize("estimator, grid", [
+    (SINDy(dt=0.05, input_hold="linear"),
+     {"optimizer__threshold": [0.05, 3.0], "library__degree": [3], "differentiation__accuracy": [4]}),
+    (HiddenStateSINDy(dt=0.05, input_hold="linear", hidden=DerivativeHiddenState(order=1)),
+     {"optimizer__threshold": [0.05, 3.0], "library": [PolynomialLibrary(degree=3)]}),
+], ids=["SINDy", "HiddenStateSINDy"])
+def test_grid_search_on_default_constructed_estimators(sindy_data, estimator, grid):
+    """The default optimizer is a real STLS: optimizer__threshold nests without passing STLS()."""
+    u, y = sindy_data
+    search = GridSearchCV(estimator, grid, cv=HoldoutSplit(validation_size=150), scoring=SCORER).fit(u, y)
+    scores = search.cv_results_["mean_test_score"]
+    assert search.best_params_["optimizer__threshold"] == 0.05 and scores[0] > -0.01 > scores[1]
+    assert type(estimator)().optimizer.threshold == type(estimator)().get_params()["optimizer__threshold"]
+
+
+def test_search_space_refuses_other_optuna_objects():
+    with pytest.raises(ValueError, match="expected Uniform, .* or optuna's FloatDistribution"):
+        check_search_space({"na": optuna.samplers.RandomSampler()})
 
 
 # --- tune ------------------------------------------------------------------------------------------

@@ -4,8 +4,10 @@ import numpy as np
 from scipy.signal import lfilter, lfiltic
 
 from .._validation import check_bool
+from ..io import SaveLoadMixin, register_model
 from ._base import LagModel
 from ._lags import free_run, input_lags
+from ._persist import arx_from_dict, arx_to_dict
 
 __all__ = ["ARX", "least_squares"]
 
@@ -31,7 +33,7 @@ def least_squares(phi, target, *, fit_intercept=True):
     return theta, np.zeros(target.shape[1]), residual
 
 
-class ARX(LagModel):
+class ARX(SaveLoadMixin, LagModel):
     """Linear ARX model fitted by least squares, evaluated in free run.
 
     ``y[t] = a_1 y[t-1] + ... + a_na y[t-na] + b_0 u[t-nk] + ... + b_{nb-1} u[t-nk-nb+1] + c``,
@@ -124,3 +126,6 @@ class ARX(LagModel):
             return np.concatenate([y_start[:, 0], out]).reshape(-1, 1)
         coef_y = self.coef_[:n_y]
         return free_run(lambda past, i: past @ coef_y + drive[i], u, y_start, na, nb, nk)
+
+
+register_model(ARX, to_dict=arx_to_dict, from_dict=arx_from_dict)

@@ -7,9 +7,11 @@ from sklearn.utils import check_random_state
 from threadpoolctl import threadpool_limits
 
 from .._validation import check_bool, check_integer, check_option
+from ..io import SaveLoadMixin, register_model
 from ._arx import least_squares
 from ._base import LagModel
 from ._lags import free_run, input_lags
+from ._persist import nnarx_from_dict, nnarx_to_dict
 
 __all__ = ["NNARX"]
 
@@ -42,7 +44,7 @@ def _stack_networks(networks):
     return weights, biases
 
 
-class NNARX(LagModel):
+class NNARX(SaveLoadMixin, LagModel):
     """Neural ARX model: ``MLPRegressor`` networks trained one step ahead, simulated free-run.
 
     The networks map the standardised lags ``[y[t-1], ..., y[t-na], u[t-nk], ...,
@@ -207,25 +209,23 @@ class NNARX(LagModel):
         # times slower on a busy machine), and a thread count would change the rounding, hence the networks
         features, z = features.astype(self.dtype), z.astype(self.dtype)
         with threadpool_limits(limits=1, user_api="blas"):
-            self.estimators_ = self._train(features, z, seeds)
+            self.estimators_ = [self._network(seed).fit(features, z if z.shape[1] > 1 else z[:, 0]) for seed in seeds]
         self.mlp_ = self.estimators_[0]
         self.n_iter_ = max(net.n_iter_ for net in self.estimators_)
         return self
 
-    def _train(self, features, z, seeds):
-        return [
-            MLPRegressor(
-                hidden_layer_sizes=self.hidden_layer_sizes,
-                activation=self.activation,
-                solver=self.solver,
-                alpha=self.alpha,
-                learning_rate_init=self.learning_rate_init,
-                max_iter=self.max_iter,
-                tol=self.tol,
-                random_state=seed,
-            ).fit(features, z if z.shape[1] > 1 else z[:, 0])
-            for seed in seeds
-        ]
+    def _network(self, seed):
+        """One unfitted network with this model's settings (also rebuilt by a loaded model)."""
+        return MLPRegressor(
+            hidden_layer_sizes=self.hidden_layer_sizes,
+            activation=self.activation,
+            solver=self.solver,
+            alpha=self.alpha,
+            learning_rate_init=self.learning_rate_init,
+            max_iter=self.max_iter,
+            tol=self.tol,
+            random_state=int(seed),
+        )
 
     def _simulate(self, u, y_start):
         na, nb, nk = int(self.na), int(self.nb), int(self.nk)
@@ -246,3 +246,6 @@ class NNARX(LagModel):
 
         z = free_run(step, u, (y_start - self.y_mean_) / self.y_scale_, na, nb, nk)
         return z * self.y_scale_ + self.y_mean_
+
+
+register_model(NNARX, to_dict=nnarx_to_dict, from_dict=nnarx_from_dict)

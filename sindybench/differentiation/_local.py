@@ -5,6 +5,7 @@ from pysindy.differentiation import FiniteDifference as _PySINDyFiniteDifference
 from scipy.signal import savgol_filter
 
 from .._validation import check_integer
+from ..io import register_model
 from ._base import BaseDifferentiation
 
 __all__ = ["FiniteDifference", "SavitzkyGolay", "finite_difference"]
@@ -131,3 +132,7 @@ class SavitzkyGolay(BaseDifferentiation):
         return savgol_filter(
             y, self.window_length, self.polyorder, deriv=order, delta=step, axis=0, mode="interp"
         )
+
+
+register_model(FiniteDifference)
+register_model(SavitzkyGolay)

@@ -16,6 +16,7 @@ import numpy as np
 from scipy.linalg import LinAlgError, solveh_banded
 
 from .._validation import check_positive
+from ..io import register_model
 from ._base import BaseDifferentiation
 
 __all__ = ["Kalman", "SmoothingSpline", "kalman_smooth"]
@@ -167,3 +168,7 @@ class Kalman(BaseDifferentiation):
 
     def _derivative(self, y, t, step, order):
         return kalman_smooth(y, t, alpha=self.alpha, n_states=3)[:, order]
+
+
+register_model(SmoothingSpline)
+register_model(Kalman)

@@ -4,6 +4,7 @@ import numpy as np
 from scipy import fft as sp_fft
 
 from .._validation import check_positive
+from ..io import register_model
 from ._base import BaseDifferentiation
 
 __all__ = ["Spectral", "spectral_derivative"]
@@ -166,3 +167,6 @@ class Spectral(BaseDifferentiation):
             )
         cutoff = None if self.cutoff is None else float(self.cutoff)
         return spectral_derivative(y, step, order=order, cutoff=cutoff, taper=float(self.taper), edge=self.edge)
+
+
+register_model(Spectral)

@@ -8,6 +8,7 @@ from numba import njit
 from sklearn.exceptions import ConvergenceWarning
 
 from .._validation import check_integer, check_positive
+from ..io import register_model
 from ._base import BaseDifferentiation
 from ._local import finite_difference
 
@@ -337,3 +338,6 @@ class TotalVariation(BaseDifferentiation):
             y, t, gamma=self.gamma, tv_order=tv_order, epsilon=self.epsilon, tol=self.tol, max_iter=self.max_iter
         )
         return finite_difference(x, t, order=order, accuracy=2, step=step)
+
+
+register_model(TotalVariation)

@@ -7,6 +7,7 @@ no partial files behind.
 
 import contextlib
 import json
+import logging
 import math
 import os
 import shutil
@@ -28,6 +29,7 @@ __all__ = [
     "write_results",
 ]
 
+logger = logging.getLogger(__name__)
 _COLUMNS = ("model", "RMSE", "RMSE (study)", "R^2", "R^2 (study)", "fit %", "fit % (study)")
 
 
@@ -191,23 +193,14 @@ def _short(v):
     return f"{v:.4g}" if isinstance(v, float) else str(v)
 
 
-def _save_model(estimator, entry, path):
-    """Save a fitted model as JSON: its own format when it has one, else a summary."""
-    to_json = getattr(estimator, "to_json", None)
-    if to_json is not None:
-        try:
-            to_json(path)
-            return
-        except (NotImplementedError, TypeError, ValueError):
-            pass
-    params = {k: repr(v) if not isinstance(v, (int, float, str, bool, type(None))) else v
-              for k, v in estimator.get_params(deep=False).items()}
-    doc = {"class": type(estimator).__name__, "params": params, "equations": entry["equations"]}
-    for attr in ("coef_", "intercept_"):
-        value = getattr(estimator, attr, None)
-        if value is not None:
-            doc[attr] = np.asarray(value, float).tolist()
-    path.write_text(json.dumps(doc, indent=2) + "\n")
+def _save_model(estimator, path):
+    """Save a fitted model as a model file (:func:`sindybench.load_model` reads it); False if it cannot be."""
+    try:
+        estimator.to_json(path)
+    except (AttributeError, ValueError) as exc:
+        logger.warning("model %s not saved: %s", path.name, exc)
+        return False
+    return True
 
 
 def _figure(nrows, *, figsize, **subplot_kw):
@@ -245,6 +238,10 @@ def _hysteresis_figure(results, test_name, test, simulations):
 def write_results(results, fitted, simulations, tests, out_dir, *, hysteresis_test=None):
     """Write ``results.json``, ``results.md``, ``models/*.json`` and PNG figures.
 
+    The model files are those of :func:`sindybench.load_model` (a model that
+    cannot be saved as plain data is left out, with a warning); the
+    equations stay in the results.
+
     Parameters
     ----------
     results, fitted, simulations
@@ -268,8 +265,8 @@ def write_results(results, fitted, simulations, tests, out_dir, *, hysteresis_te
         estimator = fitted.get(entry["key"])
         if estimator is not None:
             name = f"models/{entry['key']}.json"
-            _save_model(estimator, entry, out_dir / name)
-            files["models"][entry["key"]] = name
+            if _save_model(estimator, out_dir / name):
+                files["models"][entry["key"]] = name
     for test_name, test in tests.items():
         name = f"test_{test_name}.png"
         _test_figure(results, test_name, test, simulations[test_name]).savefig(out_dir / name, dpi=110)

@@ -3,6 +3,7 @@
 import numpy as np
 
 from .._validation import check_integer
+from ..io import register_model
 from ._base import Design, HiddenStrategy, Structure, linear_term
 
 __all__ = ["DerivativeHiddenState"]
@@ -66,3 +67,6 @@ class DerivativeHiddenState(HiddenStrategy):
     def initial_state(self, u, y_init, dt, *, derivative, params, model):
         y_init = y_init[: self.init_size]
         return np.concatenate([derivative(y_init, k)[0] for k in range(self.order)])
+
+
+register_model(DerivativeHiddenState)

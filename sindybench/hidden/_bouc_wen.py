@@ -35,6 +35,7 @@ from scipy.integrate import cumulative_simpson, cumulative_trapezoid
 from scipy.optimize import least_squares
 
 from .._validation import check_bool, check_integer
+from ..io import register_model
 from ._base import Design, HiddenStrategy, Structure, linear_term
 
 __all__ = ["BoucWenHiddenState", "DEFAULT_BOUNDS"]
@@ -240,3 +241,6 @@ def _refine_initial_state(x0, y, u, model):
 
     method = "lm" if y.shape[0] >= x0.shape[0] else "trf"
     return least_squares(residuals, x0, x_scale="jac", method=method).x
+
+
+register_model(BoucWenHiddenState)

@@ -10,6 +10,7 @@ from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
 from .._equations import EquationRow, EquationsDisplayMixin, format_equations
+from .._params import SharedDefaultsMixin
 from .._stls import STLS
 from .._validation import (
     check_array_like,
@@ -23,11 +24,14 @@ from .._validation import (
     check_positive,
     check_signal,
 )
-from ..differentiation import as_differentiation
+from ..differentiation import FiniteDifference, as_differentiation
+from ..io import SaveLoadMixin, register_model
 from ..libraries import as_library, evaluate_terms, term_name
 from ..metrics import make_simulation_scorer
 from ..simulate import _HOLDS, SimulationError, TermsRHS, simulate
+from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy, ModelView, Structure
+from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
 from ._refinement import initial_state, refine_candidate
 from ._search import check_space, minimize
 
@@ -135,7 +139,7 @@ class _PythonRHS:
         return dx
 
 
-class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
+class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
     """SINDy with control for partly hidden states, with a physics-guided hidden-state strategy.
 
     The ``hidden`` strategy turns measured outputs into a full state (observed +
@@ -150,16 +154,18 @@ class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
 
     Parameters
     ----------
-    hidden : HiddenStrategy, default=None
-        The strategy; None means ``DerivativeHiddenState(order=2)``.
+    hidden : HiddenStrategy, default=DerivativeHiddenState(order=2)
+        The strategy (None means the default); its parameters are
+        searchable (``hidden__order``).
     library : transformer, default=None
         Candidate functions of ``Z = [states, inputs]``; None means the
-        strategy's ``default_library()``. pysindy libraries are wrapped.
-    optimizer : regressor, default=None
-        Sparse regressor with ``coef_`` (n_targets, n_features); None means
-        ``STLS(threshold=0.0)`` -- plain least squares; pass
-        ``STLS(threshold=...)`` for sparsity in the units of your problem.
-    differentiation : object, default=None
+        strategy's ``default_library()`` (it depends on the strategy, so it
+        is chosen in ``fit``). pysindy libraries are wrapped.
+    optimizer : regressor, default=STLS(threshold=0.0)
+        Sparse regressor with ``coef_`` (n_targets, n_features); the default
+        is plain least squares (None means the same), and
+        ``optimizer__threshold`` sets sparsity in the units of your problem.
+    differentiation : object, default=FiniteDifference()
         Derivative method with ``derivative(y, *, dt, order)`` (see
         :mod:`sindybench.differentiation`); None means finite differences.
     dt : float, default=None
@@ -280,10 +286,10 @@ class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
     def __init__(
         self,
         *,
-        hidden=None,
+        hidden=DerivativeHiddenState(order=2),
         library=None,
-        optimizer=None,
-        differentiation=None,
+        optimizer=STLS(threshold=0.0),
+        differentiation=FiniteDifference(),
         dt=None,
         validation_size=0.2,
         validation="block",
@@ -544,16 +550,34 @@ class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
         self.library_, self.optimizer_, self.differentiation_ = cand.library, cand.optimizer, cand.differentiation
         self.coef_ = cand.coef.T.copy()
         self.structure_ = s
-        self.rhs_ = cand.rhs
-        self._candidate_ = cand
         self.states_ = np.asarray(cand.design.states, dtype=float)
-        hidden_idx = [i for i in range(s.n_states) if i not in s.output_index]
-        self.hidden_states_ = self.states_[:, hidden_idx]
         self.x0_ = self.states_[0].copy()
-        self.state_names_ = list(s.state_names)
         self.dt_ = dt
         self.n_features_in_ = X.shape[1]
         self.n_outputs_ = y.shape[1]
+        self._rebuild_model()
+
+    def _rebuild_model(self):
+        """Assemble ``rhs_``, ``_candidate_`` and the derived attributes from the plain fitted attributes.
+
+        The one way the fitted model is put together: after ``fit``, after a
+        change of ``coef_`` or ``structure_.fixed_coef``, and when a model file
+        is loaded (:mod:`sindybench.hidden._persist`). Reads ``structure_``,
+        ``library_``, ``coef_``, ``params_``, ``optimizer_``,
+        ``differentiation_``, ``dt_`` and ``states_``.
+        """
+        s = self.structure_
+        coef = self.coef_.T
+        self.rhs_ = _build_rhs(s, self.library_, coef)
+        design = Design(states=self.states_, targets=np.empty((self.states_.shape[0], 0)))
+        self._candidate_ = _Candidate(
+            params=self.params_, structure=s, library=self.library_, optimizer=self.optimizer_,
+            differentiation=self.differentiation_, coef=coef, derivative=_Derivative(self.differentiation_, self.dt_),
+            design=design, rhs=self.rhs_,
+        )
+        hidden_idx = [i for i in range(s.n_states) if i not in s.output_index]
+        self.hidden_states_ = self.states_[:, hidden_idx]
+        self.state_names_ = list(s.state_names)
 
     # ------------------------------------------------------------- simulation
     def _check_X(self, X, n_samples=None):
@@ -684,8 +708,6 @@ class HiddenStateSINDy(EquationsDisplayMixin, RegressorMixin, BaseEstimator):
 
 
 def _default_strategy():
-    from ._augmentation import DerivativeHiddenState
-
     return DerivativeHiddenState(order=2)
 
 
@@ -695,3 +717,6 @@ def _check_fit_data(X, y):
     check_array_like(X, "X")
     check_array_like(y, "y")
     return check_inputs_outputs(X, y)
+
+
+register_model(HiddenStateSINDy, to_dict=hidden_sindy_to_dict, from_dict=hidden_sindy_from_dict)

@@ -8,6 +8,7 @@ from scipy.optimize import minimize as scipy_minimize
 from scipy.optimize import minimize_scalar
 
 from .._validation import check_bounds, check_integer, check_option
+from ..io import register_model
 from ..simulate import simulate
 from ._base import Design, HiddenStrategy, Structure
 
@@ -287,3 +288,6 @@ class ParametricHiddenState(HiddenStrategy):
             if np.isfinite(res.fun) and res.fun <= cost(best):
                 return np.asarray(res.x, dtype=float)
         return best
+
+
+register_model(ParametricHiddenState)

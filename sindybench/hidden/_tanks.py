@@ -5,6 +5,7 @@ import numbers
 import numpy as np
 
 from .._validation import check_bounds
+from ..io import register_model
 from ..libraries import POW, SQRT, ConcatLibrary, PolynomialLibrary, SqrtLibrary
 from ..simulate import TermsRHS, simulate
 from ._base import Structure
@@ -174,3 +175,5 @@ class TanksHiddenState(ParametricHiddenState):
         rhs = TermsRHS(coef[:, None], terms, 1)
         return simulate(rhs, x0, u, dt, n_substeps=self.n_substeps, bounds=self._tank_bounds())
 
+
+register_model(TanksHiddenState)

@@ -4,7 +4,7 @@ from ._base import BaseLibrary
 from ._builtin import AbsProductLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
 from ._compose import ConcatLibrary, ProductLibrary
 from ._custom import CustomLibrary, ExternalLibrary, as_library
-from ._spec import library_from_spec, library_to_spec
+from ._spec import fitted_library_from_dict, fitted_library_to_dict, library_from_spec, library_to_spec
 from ._terms import (
     ABS_POW,
     POW,
@@ -43,6 +43,8 @@ __all__ = [
     "check_terms",
     "evaluate_terms",
     "evaluate_terms_jacobian",
+    "fitted_library_from_dict",
+    "fitted_library_to_dict",
     "library_from_spec",
     "library_to_spec",
     "symbol_latex",

@@ -7,6 +7,7 @@ from itertools import combinations, combinations_with_replacement
 import numpy as np
 
 from .._validation import check_bool, check_integer, check_positive
+from ..io import register_model
 from ._base import BaseLibrary, canonical_term, check_variables
 from ._terms import ABS_POW, POW, SQRT, STEP, check_terms
 
@@ -285,3 +286,10 @@ class TermsLibrary(BaseLibrary):
         if self.terms is None:
             raise ValueError("terms is None; expected a sequence of terms.")
         return check_terms(self.terms, n_features)
+
+
+register_model(PolynomialLibrary)
+register_model(SqrtLibrary)
+register_model(AbsProductLibrary)
+register_model(TermsLibrary)
+register_model(IndicatorLibrary)

@@ -3,6 +3,7 @@
 import numpy as np
 from sklearn.base import clone
 
+from ..io import register_model
 from ._base import BaseLibrary, canonical_term
 from ._custom import as_library
 
@@ -157,3 +158,7 @@ class ProductLibrary(BaseLibrary):
             for b in self.right_.get_feature_names_out(names):
                 out.append(" ".join(n for n in (a, b) if n != "1") or "1")
         return out
+
+
+register_model(ConcatLibrary)
+register_model(ProductLibrary)

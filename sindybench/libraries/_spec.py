@@ -1,44 +1,19 @@
-"""Plain JSON-able description of a (unfitted) built-in library.
+"""Plain JSON-able description of an (unfitted) built-in library.
 
-``library_to_spec`` turns a library into nested dicts and lists of plain
-numbers and strings (infinite values as ``"inf"``); ``library_from_spec``
-rebuilds it. For a fitted model, the terms alone (``terms_to_json`` of
-``library.terms_``) suffice to rebuild a compiled predictor through
-:class:`TermsLibrary`; the spec additionally keeps the library's parameters.
+``library_to_spec`` turns a library into ``{"class": name, "params": {...}}``
+with the parameters encoded as in model files (:func:`sindybench.io.encode_value`);
+``library_from_spec`` rebuilds it. For a fitted model, the terms alone
+(``terms_to_json`` of ``library.terms_``) suffice to rebuild a compiled
+predictor through :class:`TermsLibrary`; the spec keeps the library's parameters.
 """
 
 import numpy as np
 
-from ._builtin import AbsProductLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
-from ._compose import ConcatLibrary, ProductLibrary
-from ._terms import terms_to_json
+from ..io import decode_value, encode_value
+from ._base import BaseLibrary
+from ._terms import check_terms, terms_to_json
 
-__all__ = ["library_from_spec", "library_to_spec"]
-
-_SIMPLE = {cls.__name__: cls for cls in (AbsProductLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary)}
-
-
-def _plain(value):
-    if isinstance(value, (bool, np.bool_)):
-        return bool(value)
-    if isinstance(value, (int, np.integer)):
-        return int(value)
-    if isinstance(value, (float, np.floating)):
-        v = float(value)
-        return v if np.isfinite(v) else ("inf" if v > 0 else ("-inf" if v < 0 else "nan"))
-    if isinstance(value, (str, type(None))):
-        return value
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return [_plain(v) for v in value]
-    raise ValueError(f"parameter value {value!r} is not JSON-able; expected numbers, strings or lists.")
-
-
-def _unplain(value):
-    if value in ("inf", "-inf"):
-        return float(value)
-    if isinstance(value, list):
-        return [_unplain(v) for v in value]
-    return value
+__all__ = ["fitted_library_from_dict", "fitted_library_to_dict", "library_from_spec", "library_to_spec"]
 
 
 def library_to_spec(library):
@@ -49,42 +24,64 @@ def library_to_spec(library):
 
     Examples
     --------
+    >>> from sindybench.libraries import PolynomialLibrary, SqrtLibrary
     >>> spec = library_to_spec(PolynomialLibrary(degree=3) + SqrtLibrary())
     >>> spec["class"], spec["params"]["libraries"][1]
-    ('ConcatLibrary', {'class': 'SqrtLibrary', 'params': {'lower': 0.0, 'upper': 'inf', 'variables': None}})
+    ('ConcatLibrary', {'estimator': {'class': 'SqrtLibrary', 'params': {'lower': 0.0, 'upper': {'float': 'inf'}, 'variables': None}}})
     >>> library_from_spec(spec)
     ConcatLibrary(libraries=[PolynomialLibrary(degree=3), SqrtLibrary()])
     """
-    name = type(library).__name__
-    if name in _SIMPLE and isinstance(library, _SIMPLE[name]):
-        params = {k: _plain(v) for k, v in library.get_params(deep=False).items()}
-    elif isinstance(library, TermsLibrary):
-        params = {"terms": terms_to_json(library.terms) if library.terms is not None else None}
-    elif isinstance(library, ConcatLibrary):
-        params = {"libraries": [library_to_spec(lib) for lib in library.libraries]}
-    elif isinstance(library, ProductLibrary):
-        params = {"left": library_to_spec(library.left), "right": library_to_spec(library.right)}
-    else:
-        raise ValueError(
-            f"{name} cannot be stored as a plain spec (custom functions or external objects); "
-            "store the fitted terms_ instead, or use a built-in library."
-        )
-    return {"class": name, "params": params}
+    spec = encode_value(library, "library")
+    if not isinstance(library, BaseLibrary):
+        raise ValueError(f"library_to_spec takes a sindybench library; got {type(library).__name__}.")
+    return spec["estimator"]
 
 
 def library_from_spec(spec):
     """Rebuild the (unfitted) library described by ``spec``; see :func:`library_to_spec`."""
-    try:
-        name, params = spec["class"], dict(spec["params"])
-    except (TypeError, KeyError) as exc:
-        raise ValueError(f"a library spec is a dict with keys 'class' and 'params'; got {spec!r}.") from exc
-    if name in _SIMPLE:
-        return _SIMPLE[name](**{k: _unplain(v) for k, v in params.items()})
-    if name == "TermsLibrary":
-        return TermsLibrary(**params)
-    if name == "ConcatLibrary":
-        return ConcatLibrary([library_from_spec(s) for s in params["libraries"]])
-    if name == "ProductLibrary":
-        return ProductLibrary(library_from_spec(params["left"]), library_from_spec(params["right"]))
-    raise ValueError(f"unknown library class {name!r} in spec; expected one of "
-                     f"{sorted([*_SIMPLE, 'ConcatLibrary', 'ProductLibrary', 'TermsLibrary'])}.")
+    library = decode_value({"estimator": spec}, "library")
+    if not isinstance(library, BaseLibrary):
+        raise ValueError(f"library spec names {type(library).__name__}; expected a library class.")
+    return library
+
+
+def fitted_library_to_dict(library):
+    """``{"library": ..., "terms": ...}`` of a fitted built-in library, for model files.
+
+    The library is stored by its parameters; its terms (which depend only on
+    the number of columns of ``Z``) are stored too, to be checked at loading.
+    """
+    if getattr(library, "terms_", None) is None:
+        raise ValueError(
+            f"the model cannot be saved as JSON: its library ({type(library).__name__}) has no symbolic terms "
+            "(custom Python functions or an external library); use built-in libraries to save models."
+        )
+    return {"library": encode_value(library, "fitted.library"), "terms": terms_to_json(library.terms_)}
+
+
+def fitted_library_from_dict(fields, n_columns):
+    """The fitted library of :func:`fitted_library_to_dict`, fitted on ``n_columns`` columns of ``Z``.
+
+    Parameters
+    ----------
+    fields : sindybench.io.Fields
+        The stored dict.
+    n_columns : int
+        Number of columns of ``Z`` (states and inputs) at ``fit``.
+
+    Returns
+    -------
+    library
+        Fitted, with the very terms of the saved library.
+    """
+    library = fields.value("library")
+    if not isinstance(library, BaseLibrary):
+        raise ValueError(f"{fields.where('library')}: expected a sindybench library; got {type(library).__name__}.")
+    terms = check_terms(fields.get("terms", "a list of terms"), n_columns, name=fields.where("terms"))
+    library.fit(np.zeros((1, n_columns)))
+    if library.terms_ != terms:
+        raise ValueError(
+            f"{fields.where('terms')}: expected the {len(library.terms_)} terms of {library!r} on {n_columns} "
+            f"columns; got {len(terms)} other terms."
+        )
+    return library

@@ -13,12 +13,19 @@ dimension turns into one Optuna suggestion:
   value is ``mean + sigma * Phi^-1(q)`` (exponentiated for the log-normal). Random
   sampling then follows the prior exactly (truncated at ``n_sigma``), and TPE models
   the quantile.
+
+Optuna's own distributions (``optuna.distributions.FloatDistribution``,
+``IntDistribution``, ``CategoricalDistribution``) are accepted too, so one
+search space serves :func:`~sindybench.model_selection.tune` and
+``optuna_integration.OptunaSearchCV``; each is suggested with the matching
+``trial.suggest_*`` call.
 """
 
 import math
 import numbers
 from dataclasses import dataclass
 
+from optuna.distributions import CategoricalDistribution, FloatDistribution, IntDistribution
 from scipy.special import ndtr, ndtri
 
 from .._validation import check_integer
@@ -216,14 +223,29 @@ class LogNormal(Normal):
         return math.exp(self._normal(trial, name))
 
 
+_OPTUNA = (FloatDistribution, IntDistribution, CategoricalDistribution)
+
+
+def _suggest(dim, trial, name):
+    """Suggest ``name`` on ``trial`` from a dimension or an Optuna distribution."""
+    if isinstance(dim, FloatDistribution):
+        return trial.suggest_float(name, dim.low, dim.high, step=dim.step, log=dim.log)
+    if isinstance(dim, IntDistribution):
+        return trial.suggest_int(name, dim.low, dim.high, step=dim.step, log=dim.log)
+    if isinstance(dim, CategoricalDistribution):
+        return trial.suggest_categorical(name, dim.choices)
+    return dim.suggest(trial, name)
+
+
 def check_search_space(search_space, estimator=None):
     """Check a search space; with ``estimator``, also check the parameter names.
 
     Parameters
     ----------
     search_space : dict or callable
-        ``{name: Dimension}``, or a callable ``search_space(trial) -> dict of
-        parameter values`` for conditional spaces (not checked further).
+        ``{name: Dimension or Optuna distribution}``, or a callable
+        ``search_space(trial) -> dict of parameter values`` for conditional
+        spaces (not checked further).
     estimator : object with ``get_params``, optional
 
     Examples
@@ -243,10 +265,11 @@ def check_search_space(search_space, estimator=None):
     for name, dim in search_space.items():
         if not isinstance(name, str) or ":" in name:
             raise ValueError(f"search_space key {name!r} must be a parameter name (str, no ':').")
-        if not isinstance(dim, Dimension):
+        if not isinstance(dim, (Dimension, *_OPTUNA)):
             raise ValueError(
                 f"search_space[{name!r}] is {dim!r}; expected Uniform, LogUniform, IntRange, "
-                "Categorical, Normal or LogNormal."
+                "Categorical, Normal, LogNormal or optuna's FloatDistribution, IntDistribution, "
+                "CategoricalDistribution."
             )
     if estimator is not None:
         valid = estimator.get_params(deep=True)
@@ -271,10 +294,13 @@ def sample_params(search_space, trial):
     >>> import optuna
     >>> sample_params({"na": IntRange(1, 5)}, optuna.trial.FixedTrial({"na": 3}))
     {'na': 3}
+    >>> space = {"alpha": optuna.distributions.FloatDistribution(1e-3, 1.0, log=True)}
+    >>> sample_params(space, optuna.trial.FixedTrial({"alpha": 0.01}))
+    {'alpha': 0.01}
     """
     if callable(search_space) and not isinstance(search_space, dict):
         params = search_space(trial)
         if not isinstance(params, dict):
             raise ValueError(f"the search_space callable returned {type(params).__name__}; expected a dict.")
         return params
-    return {name: dim.suggest(trial, name) for name, dim in search_space.items()}
+    return {name: _suggest(dim, trial, name) for name, dim in search_space.items()}

@@ -179,8 +179,10 @@ def tune(
     search_space : dict or callable
         ``{parameter name: dimension}`` with the dimensions of
         :mod:`sindybench.model_selection` (``LogUniform``, ``LogNormal``,
-        ``IntRange``, ``Categorical``, ...), names as in ``set_params``
-        (``"optimizer__threshold"``). Or a callable ``f(trial) -> dict`` of
+        ``IntRange``, ``Categorical``, ...) or Optuna's ``FloatDistribution``,
+        ``IntDistribution`` and ``CategoricalDistribution`` (the same dict then
+        serves ``optuna_integration.OptunaSearchCV``), names as in
+        ``set_params`` (``"optimizer__threshold"``). Or a callable ``f(trial) -> dict`` of
         parameter values for conditional spaces.
     X : array-like of shape (n_samples, n_inputs) or None
         Inputs.

@@ -5,6 +5,7 @@ import numbers
 from sklearn.base import BaseEstimator
 
 from .._validation import check_bool, check_integer, check_positive
+from ..io import register_model
 from ._core import refine_simulation_error
 
 __all__ = ["OutputErrorRefinement"]
@@ -95,3 +96,6 @@ class _Held:
 
     def __call__(self, C):
         return self.make_rhs(C, self.values)
+
+
+register_model(OutputErrorRefinement)

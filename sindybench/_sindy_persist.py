@@ -1,0 +1,71 @@
+"""The fitted state of :class:`~sindybench.SINDy` in model files (see :mod:`sindybench.io`).
+
+Stored ``fitted`` entries (add a new fitted attribute to both functions):
+
+``library``
+    the fitted library: its parameters and its symbolic terms
+    (:func:`~sindybench.libraries.fitted_library_to_dict`);
+``optimizer``
+    the fitted optimizer (``{"class", "params", "fitted"}``);
+``differentiation``
+    the differentiation method used;
+``coef``
+    array (n_states, n_terms);
+``feature_names``, ``output_names``, ``input_names``
+    lists of strings;
+``n_states``, ``n_inputs``
+    integers;
+``dt``
+    the training sampling interval (null for non-uniform sample times);
+``x0``
+    array (n_states,), the first training sample;
+``output_1d``
+    whether ``fit`` got a 1-D ``y``;
+``refinement``
+    ``refinement_``, the record of the simulation-error refinement (null without
+    ``refine``; the refined coefficients and first state are ``coef`` and ``x0``).
+"""
+
+from .io import check_params, encode_array, encode_value, fitted_from_dict, fitted_to_dict
+from .libraries import fitted_library_from_dict, fitted_library_to_dict
+
+__all__ = ["sindy_from_dict", "sindy_to_dict"]
+
+
+def sindy_to_dict(model):
+    """The ``fitted`` dict of a fitted SINDy model."""
+    return {
+        "library": fitted_library_to_dict(model.library_),
+        "optimizer": fitted_to_dict(model.optimizer_, "fitted.optimizer"),
+        "differentiation": encode_value(model.differentiation_, "fitted.differentiation"),
+        "coef": encode_array(model.coef_),
+        "feature_names": list(model.feature_names_),
+        "output_names": list(model.output_names_),
+        "input_names": list(model.input_names_),
+        "n_states": int(model.n_states_),
+        "n_inputs": int(model.n_inputs_),
+        "dt": None if model.dt_ is None else float(model.dt_),
+        "x0": encode_array(model.x0_),
+        "output_1d": bool(getattr(model, "_y_1d", False)),
+        "refinement": encode_value(model.refinement_, "fitted.refinement"),
+    }
+
+
+def sindy_from_dict(model, fitted):
+    """Set the fitted attributes of ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
+    n_states, n_inputs = fitted.int("n_states", low=1), fitted.int("n_inputs")
+    check_params(model._check_params, n_states)
+    model.library_ = fitted_library_from_dict(fitted.fields("library"), n_states + n_inputs)
+    model.terms_ = model.library_.terms_
+    n_terms = len(model.terms_)
+    model.coef_ = fitted.array("coef", (n_states, n_terms))
+    model.optimizer_ = fitted_from_dict(fitted.fields("optimizer"))
+    model.differentiation_ = fitted.value("differentiation")
+    model.feature_names_ = fitted.strings("feature_names", n_terms)
+    model.output_names_ = fitted.strings("output_names", n_states)
+    model.input_names_ = fitted.strings("input_names", n_inputs)
+    model.n_states_, model.n_inputs_, model.n_features_in_ = n_states, n_inputs, n_inputs
+    model.dt_ = fitted.float("dt", allow_none=True)
+    model.x0_ = fitted.array("x0", (n_states,))
+    model._y_1d = fitted.bool("output_1d")
+    model.refinement_ = fitted.mapping("refinement", allow_none=True)

@@ -1,0 +1,129 @@
+"""The fitted state of :class:`~sindybench.HiddenStateSINDy` in model files (see :mod:`sindybench.io`).
+
+Stored ``fitted`` entries (a new fitted attribute goes into both functions;
+``HiddenStateSINDy._rebuild_model`` then assembles the model from them):
+
+``hidden``
+    the fitted strategy ``hidden_`` (its parameters);
+``params``, ``best_params``, ``search_results``
+    ``params_``, ``best_params_`` and ``search_results_``;
+``library``
+    the fitted library: parameters and symbolic terms;
+``optimizer``
+    the fitted optimizer (``{"class", "params", "fitted"}``);
+``differentiation``
+    the differentiation method ``differentiation_``;
+``coef``
+    array (n_learned, n_terms);
+``structure``
+    ``n_states``, ``learned``, ``output_index``, ``fixed_terms``,
+    ``fixed_coef`` (array (n_fixed_terms, n_states)), ``state_names``,
+    ``bounds`` and ``fixed_rhs`` (true when the fixed rows are a Python
+    function: it is rebuilt from the strategy and ``params``);
+``states``
+    array (n_samples, n_states), the state trajectory on the training data
+    (``hidden_states_`` is taken from it);
+``x0``
+    array (n_states,);
+``dt``, ``n_features_in``, ``n_outputs``, ``output_1d``;
+``refinement``
+    ``refinement_``, the record of the simulation-error refinement (null without
+    ``refine``; the refined values are in ``params``, ``coef``,
+    ``structure.fixed_coef`` and ``x0``).
+"""
+
+from ..io import check_params, encode_array, encode_value, fitted_from_dict, fitted_to_dict
+from ..libraries import check_terms, fitted_library_from_dict, fitted_library_to_dict, terms_to_json
+from ._base import HiddenStrategy, Structure
+
+__all__ = ["hidden_sindy_from_dict", "hidden_sindy_to_dict"]
+
+
+def _structure_to_dict(s):
+    return {
+        "n_states": int(s.n_states),
+        "learned": list(s.learned),
+        "output_index": list(s.output_index),
+        "fixed_terms": terms_to_json(s.fixed_terms),
+        "fixed_coef": encode_array(s.fixed_coef),
+        "state_names": list(s.state_names),
+        "bounds": encode_value(s.bounds, "fitted.structure.bounds"),
+        "fixed_rhs": s.fixed_rhs is not None,
+    }
+
+
+def _structure_from_dict(f, hidden, params, n_outputs, n_inputs):
+    n_states = f.int("n_states", low=1)
+    learned = f.ints("learned", high=n_states)
+    output_index = f.ints("output_index", high=n_states)
+    if len(output_index) != n_outputs:
+        raise ValueError(f"{f.where('output_index')}: expected {n_outputs} indices (one per output); "
+                         f"got {len(output_index)}.")
+    fixed_terms = check_terms(f.get("fixed_terms", "a list of terms"), n_states + n_inputs,
+                              name=f.where("fixed_terms"))
+    fixed_rhs = None
+    if f.bool("fixed_rhs"):  # a Python function: rebuilt from the strategy, never stored
+        fixed_rhs = hidden.structure(params, n_outputs=n_outputs, n_inputs=n_inputs).fixed_rhs
+        if fixed_rhs is None:
+            raise ValueError(f"{f.where('fixed_rhs')}: true, but {type(hidden).__name__} has no Python fixed rows.")
+    return Structure(
+        n_states=n_states,
+        learned=tuple(learned),
+        output_index=tuple(output_index),
+        fixed_terms=fixed_terms,
+        fixed_coef=f.array("fixed_coef", (len(fixed_terms), n_states)),
+        state_names=f.strings("state_names", n_states),
+        bounds=f.value("bounds", allow_none=True),
+        fixed_rhs=fixed_rhs,
+    )
+
+
+def hidden_sindy_to_dict(model):
+    """The ``fitted`` dict of a fitted HiddenStateSINDy model."""
+    return {
+        "hidden": encode_value(model.hidden_, "fitted.hidden"),
+        "params": encode_value(model.params_, "fitted.params"),
+        "best_params": encode_value(model.best_params_, "fitted.best_params"),
+        "search_results": encode_value(model.search_results_, "fitted.search_results"),
+        "library": fitted_library_to_dict(model.library_),
+        "optimizer": fitted_to_dict(model.optimizer_, "fitted.optimizer"),
+        "differentiation": encode_value(model.differentiation_, "fitted.differentiation"),
+        "coef": encode_array(model.coef_),
+        "structure": _structure_to_dict(model.structure_),
+        "states": encode_array(model.states_),
+        "x0": encode_array(model.x0_),
+        "dt": float(model.dt_),
+        "n_features_in": int(model.n_features_in_),
+        "n_outputs": int(model.n_outputs_),
+        "output_1d": bool(model._y_1d),
+        "refinement": encode_value(model.refinement_, "fitted.refinement"),
+    }
+
+
+def hidden_sindy_from_dict(model, fitted):
+    """Set the fitted attributes of ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
+    hidden = fitted.value("hidden")
+    if not isinstance(hidden, HiddenStrategy):
+        raise ValueError(f"fitted.hidden: expected a hidden-state strategy; got {type(hidden).__name__}.")
+    n_inputs, n_outputs = fitted.int("n_features_in"), fitted.int("n_outputs", low=1)
+    model.hidden_ = hidden
+    model.params_ = fitted.mapping("params")
+    model.best_params_ = fitted.mapping("best_params")
+    results = fitted.value("search_results")
+    if not isinstance(results, list):
+        raise ValueError(f"fitted.search_results: expected a list of (values, score); got {type(results).__name__}.")
+    model.search_results_ = results
+    s = _structure_from_dict(fitted.fields("structure"), hidden, model.params_, n_outputs, n_inputs)
+    model.structure_ = s
+    model.library_ = fitted_library_from_dict(fitted.fields("library"), s.n_states + n_inputs)
+    model.coef_ = fitted.array("coef", (len(s.learned), len(model.library_.terms_)))
+    model.optimizer_ = fitted_from_dict(fitted.fields("optimizer"))
+    model.differentiation_ = fitted.value("differentiation")
+    model.states_ = fitted.array("states", (None, s.n_states))
+    model.x0_ = fitted.array("x0", (s.n_states,))
+    model.dt_ = fitted.float("dt")
+    check_params(model._check_params, model.dt_)
+    model.n_features_in_, model.n_outputs_ = n_inputs, n_outputs
+    model._y_1d = fitted.bool("output_1d")
+    model.refinement_ = fitted.mapping("refinement", allow_none=True)
+    model._rebuild_model()

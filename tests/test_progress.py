@@ -1,4 +1,4 @@
-"""Progress bars: drawn in a terminal or a notebook, switched off by a parameter or SINDYBENCH_PROGRESS, never in a log."""
+"""Progress bars: in a terminal or a notebook, off by a parameter or SINDYBENCH_PROGRESS, never in a log."""
 
 import functools
 import io

@@ -337,6 +337,8 @@ def test_quick_run_report(quick_run):
     for title in ("Pick-and-place machine", "Bouc-Wen oscillator", "Cascaded tanks"):
         assert title in text
     assert "Total wall time" in text
+    # the fit time of each model family and its share of the wall time, the NN-ARX baselines among them
+    assert re.search(r"Fit times: .*nnarx \d+\.\d s \(\d+ %", text)
 
 
 def test_docs_build_with_generated_figures(quick_run, notebooks, tmp_path):

@@ -100,13 +100,17 @@ def arx_space(max_na=10, max_nb=10):
     return space
 
 
-def nnarx_model(*, hidden_layer_sizes=(16,), max_iter=300, quick_max_iter=60):
-    """Factory of an :class:`~sindybench.baselines.NNARX` model (seeded; smaller with ``quick``)."""
+def nnarx_model(*, hidden_layer_sizes=(16,), max_iter=300, quick_max_iter=60, dtype="float64"):
+    """Factory of an :class:`~sindybench.baselines.NNARX` model (seeded; smaller with ``quick``).
+
+    ``dtype="float32"`` trains the networks in single precision: two to four times faster, at
+    the same validation error on the long records (pick-and-place, Bouc-Wen).
+    """
     def make(*, random_state, quick, dt, n_val, n_samples):
         from ..baselines import NNARX
 
         return NNARX(na=2, nb=2, hidden_layer_sizes=(8,) if quick else hidden_layer_sizes,
-                     max_iter=quick_max_iter if quick else max_iter, random_state=random_state)
+                     max_iter=quick_max_iter if quick else max_iter, dtype=dtype, random_state=random_state)
 
     return make
 

@@ -282,10 +282,31 @@ def write_results(results, fitted, simulations, tests, out_dir, *, hysteresis_te
     return results
 
 
+def _fit_time_shares(all_results, wall_time_s):
+    """One sentence: the fit time of each model family (by key, across benchmarks) and its share of the wall time.
+
+    Examples
+    --------
+    >>> runs = [{"models": [{"key": "nnarx", "fit_time_s": 6.0}, {"key": "sindy_poly", "fit_time_s": 2.0}]},
+    ...         {"models": [{"key": "nnarx", "fit_time_s": 4.0}, {"key": "arx", "fit_time_s": None}]}]
+    >>> _fit_time_shares(runs, 40.0)
+    'Fit times: nnarx 10.0 s (25 % of the wall time), sindy_poly 2.0 s (5 %).'
+    """
+    totals = {}
+    for results in all_results:
+        for m in results["models"]:
+            totals[m["key"]] = totals.get(m["key"], 0.0) + (m.get("fit_time_s") or 0.0)
+    ranked = sorted(totals.items(), key=lambda kv: -kv[1])
+    cells = [f"{key} {t:.1f} s ({100 * t / wall_time_s:.0f} %{' of the wall time' if i == 0 else ''})"
+             for i, (key, t) in enumerate(ranked) if t > 0]
+    return "Fit times: " + ", ".join(cells) + "."
+
+
 def write_report(all_results, path, *, wall_time_s):
     """Write ``report.md`` joining the results of several benchmarks."""
     out = ["# sindybench: the study's three benchmarks, ours vs published", ""]
-    out.append(f"Total wall time {wall_time_s:.0f} s ({wall_time_s / 60:.1f} min).")
+    out.append(f"Total wall time {wall_time_s:.0f} s ({wall_time_s / 60:.1f} min). "
+               + _fit_time_shares(all_results, wall_time_s))
     for results in all_results:
         out += ["", results_markdown(results, heading_level=2).rstrip()]
     Path(path).write_text("\n".join(out) + "\n")

@@ -84,7 +84,7 @@ BENCHMARK = Benchmark(
                   description="the same with the true m = 2, c = 10, k = 5e4"),
         ModelSpec("arx", "ARX", arx_model(), arx_space(max_na=8, max_nb=8), n_trials=50, n_trials_quick=5,
                   description="linear ARX, orders chosen on the validation block"),
-        ModelSpec("nnarx", "NN-ARX", nnarx_model(), nnarx_space(max_na=4, max_nb=4), n_trials=10,
+        ModelSpec("nnarx", "NN-ARX", nnarx_model(dtype="float32"), nnarx_space(max_na=4, max_nb=4), n_trials=10,
                   n_trials_quick=2, max_train=10000, max_train_quick=3000,
                   description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead (first 10000 training samples), "
                               "simulated free run"),

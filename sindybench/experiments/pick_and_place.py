@@ -75,7 +75,7 @@ BENCHMARK = Benchmark(
                   description="the friction model refined by the simulation error of the estimation record"),
         ModelSpec("arx", "ARX", arx_model(), arx_space(), n_trials=50, n_trials_quick=6,
                   description="linear ARX, orders chosen on the validation block"),
-        ModelSpec("nnarx", "NN-ARX", nnarx_model(), nnarx_space(), n_trials=20, n_trials_quick=3,
+        ModelSpec("nnarx", "NN-ARX", nnarx_model(dtype="float32"), nnarx_space(), n_trials=20, n_trials_quick=3,
                   description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead, simulated free run"),
     ),
 )

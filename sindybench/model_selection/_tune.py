@@ -16,7 +16,7 @@ from ..metrics import make_simulation_scorer
 from ._sampler import make_sampler
 from ._space import check_search_space, sample_params
 from ._split import HoldoutSplit
-from ._storage import count_claimed, count_done, fail_dead_workers, make_storage, worker_id
+from ._storage import count_claimed, fail_dead_workers, make_storage, worker_id
 
 __all__ = ["AllTrialsFailedError", "tune"]
 

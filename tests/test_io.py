@@ -403,7 +403,7 @@ def test_failed_write_keeps_the_old_file(tmp_path, fitted, monkeypatch):
     def broken_replace(src, dst):
         raise OSError("disk full")
 
-    monkeypatch.setattr(sio.os, "replace", broken_replace)
+    monkeypatch.setattr(sio._files.os, "replace", broken_replace)
     other = SINDy(library=PolynomialLibrary(degree=1), dt=DT).fit(u, y)
     with pytest.raises(OSError, match="disk full"):
         other.to_json(path)
@@ -425,7 +425,7 @@ def _restore_gain(model, fitted):
 
 
 def test_other_estimators_plug_in(tmp_path, monkeypatch):
-    monkeypatch.setattr(sio, "_REGISTRY", dict(sio._REGISTRY))
+    monkeypatch.setitem(sio._registry._REGISTRY, "_Gain", None)  # removed again after the test
     sio.register_model(_Gain, to_dict=lambda m: {"gain": m.gain_}, from_dict=_restore_gain)
     model = _Gain(k=2.0).fit(None, np.array([1.0, 2.0]))
     sio.save_model(model, tmp_path / "g.json")

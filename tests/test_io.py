@@ -394,6 +394,13 @@ def test_unfitted_model_is_refused(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_saved_file_has_the_permissions_of_an_ordinary_file(tmp_path, fitted):
+    model, _, _ = fitted
+    model.to_json(tmp_path / "m.json")
+    (tmp_path / "plain.txt").write_text("x")
+    assert (tmp_path / "m.json").stat().st_mode == (tmp_path / "plain.txt").stat().st_mode
+
+
 def test_failed_write_keeps_the_old_file(tmp_path, fitted, monkeypatch):
     model, u, y = fitted
     path = tmp_path / "m.json"

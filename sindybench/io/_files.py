@@ -140,8 +140,19 @@ def save_model(model, path):
     write_text_atomic(json.dumps(model_to_dict(model), allow_nan=False), path)
 
 
+def _file_mode():
+    """Permissions of a new file as ``open`` would create it (0o666 less the umask)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 def write_text_atomic(text, path):
-    """Write ``text`` to ``path`` through a temporary file in the same folder (no partial file)."""
+    """Write ``text`` to ``path`` through a temporary file in the same folder (no partial file).
+
+    The file gets the permissions ``open(path, "w")`` would give it (the
+    temporary file's are owner-only).
+    """
     path = Path(path)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
@@ -149,6 +160,7 @@ def write_text_atomic(text, path):
             f.write(text)
             f.flush()
             os.fsync(f.fileno())
+        os.chmod(tmp, _file_mode())
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -11,6 +11,7 @@ MODULES = (
     ("sindybench.simulate", "Simulation"),
     ("sindybench.refine", "Fitting by simulation error"),
     ("sindybench.metrics", "Metrics and scorers"),
+    ("sindybench.plotting", "Plotting"),
     ("sindybench.model_selection", "Model selection"),
     ("sindybench.baselines", "Baselines"),
     ("sindybench.io", "Saving and loading models"),

@@ -10,6 +10,13 @@ The case-study pages include ``_generated/<benchmark>.rst``, which
 ``docs/_generated/<benchmark>/`` (``results.json`` and PNG figures). When a
 benchmark has not been run, the snippet says how to produce it, so the build
 never refers to a missing image.
+
+The example notebooks (``examples/*.py``, Jupytext text notebooks) are rendered
+by myst-nb from ``notebooks/``, which ``_notebooks.py`` fills: with the outputs
+of an earlier run when ``_generated/notebooks/`` holds them (the test suite's),
+else myst-nb executes them here (set ``SINDYBENCH_QUICK=1`` for small budgets
+and ``SINDYBENCH_DATA`` to the benchmark records). The plotting API's figures
+are drawn by matplotlib's plot directive.
 """
 
 import sys
@@ -22,6 +29,7 @@ sys.path.insert(0, str(HERE))
 
 from _apiref import write_api_reference  # noqa: E402  (docs helpers beside this file)
 from _casestudy import write_case_study_snippets  # noqa: E402
+from _notebooks import write_notebooks  # noqa: E402
 
 project = "sindybench"
 author = "sindybench developers"
@@ -34,6 +42,8 @@ extensions = [
     "sphinx.ext.autosummary",
     "sphinx.ext.mathjax",
     "numpydoc",
+    "myst_nb",
+    "matplotlib.sphinxext.plot_directive",
 ]
 
 autosummary_generate = True
@@ -43,13 +53,29 @@ numpydoc_class_members_toctree = False
 nitpicky = False
 
 templates_path = ["_templates"]
-exclude_patterns = ["_build", "_generated", "Thumbs.db", ".DS_Store"]
+exclude_patterns = ["_build", "_generated", "jupyter_execute", "Thumbs.db", ".DS_Store"]
 html_theme = "alabaster"
 html_static_path = ["_static"]
 html_theme_options = {"description": "SINDy with control for hidden states and hard nonlinearities"}
 
 write_case_study_snippets(HERE / "_generated", ("pick-and-place", "bouc-wen", "cascaded-tanks"))
 write_api_reference(HERE / "api.rst")  # generated: lists every public name
+write_notebooks(HERE / "notebooks", HERE / "_generated" / "notebooks", HERE.parent / "examples")
+
+# myst-nb: executed outputs are reused (see _notebooks.py); a failing cell fails the build
+nb_execution_mode = "auto"
+nb_execution_raise_on_error = True
+nb_execution_timeout = 1800
+nb_merge_streams = True
+# a fitted model's equations: the LaTeX rendering rather than the HTML (which holds the diagram too)
+nb_mime_priority_overrides = [("html", "text/latex", 25)]
+myst_enable_extensions = ["dollarmath"]
+
+# matplotlib's plot directive (figures of sindybench.plotting)
+plot_include_source = True
+plot_html_show_source_link = False
+plot_html_show_formats = False
+plot_formats = [("png", 90)]
 
 
 def _skip_sklearn_routing(app, what, name, obj, skip, options):

@@ -7,7 +7,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
-from ._equations import format_equation
+from ._equations import EquationRow, EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
 from ._stls import STLS
@@ -44,7 +44,7 @@ def _check_names(names, n, prefix, name):
     return list(names)
 
 
-class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
+class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
     """Continuous-time SINDy with control: ``y' = Theta([y, u]) coef``.
 
     ``fit`` differentiates the measured states ``y``, evaluates the library on
@@ -372,11 +372,12 @@ class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
         return make_simulation_scorer("r2")(self, X, y)
 
     # ----------------------------------------------------------------- display
-    def equations(self, precision=3):
-        """Readable model equations, one line per state.
+    def equations(self, precision=3, *, latex=False):
+        r"""Readable model equations, one line per state.
 
         Lines look like ``y0' = -4.822 y0 + 0.740 y0 u0 + 1.742 u0^2``; a
-        constant term shows as its number, an all-zero row as ``0``.
+        constant term shows as its number, an all-zero row as ``0``. In a
+        notebook a fitted model displays them typeset (``_repr_latex_``).
 
         Parameters
         ----------
@@ -384,6 +385,9 @@ class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
             Decimals of the coefficients; coefficients that would show fewer
             than two significant digits, or ``|c| >= 1e6``, use ``precision``
             significant digits (``%.3g``) instead.
+        latex : bool, default=False
+            LaTeX lines instead (``\dot{y}_0 = -2.00 \, y_0``), the terms
+            written from the library's symbolic terms (``\sqrt{x_1}``, ``|v| z``).
 
         Returns
         -------
@@ -397,12 +401,16 @@ class SINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
         >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01)
         >>> model.fit(None, y).equations(precision=2)
         ["y0' = -2.00 y0", "y1' = 1.00 - 1.00 y1"]
+        >>> model.equations(precision=2, latex=True)[0]
+        '\\dot{y}_0 = -2.00 \\, y_0'
         """
+        return format_equations(self._equation_rows(), precision=precision, latex=latex)
+
+    def _equation_rows(self):
         check_is_fitted(self)
-        return [
-            format_equation(name, row, self.feature_names_, precision=precision)
-            for name, row in zip(self.output_names_, self.coef_)
-        ]
+        names = self.output_names_ + self.input_names_
+        return [EquationRow(name, row, self.feature_names_, self.terms_, names)
+                for name, row in zip(self.output_names_, self.coef_)]
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -133,6 +133,8 @@ def test_bad_settings_and_data(rng):
     for bad in (0, 2.0, True):
         with pytest.raises(ValueError, match=f"n_estimators must be an integer >= 1; got {bad!r}"):
             NNARX(n_estimators=bad).fit(u, y)
+    with pytest.raises(ValueError, match=r"dtype must be one of \['float32', 'float64'\]; got 'float16'"):
+        NNARX(dtype="float16").fit(u, y)
     with pytest.raises(ValueError, match="got 3 samples; ARX.na=2, nb=2, nk=2. needs at least 4"):
         ARX(na=2, nb=2, nk=2).fit(u[:3], y[:3])
     with pytest.raises(ValueError, match="Expected 2D array"):
@@ -153,6 +155,26 @@ def test_nnarx_beats_arx_on_a_nonlinear_system(rng):
     # seeded: the same network twice, another seed another one
     np.testing.assert_array_equal(again.predict(u_test, y_init=y_test), nn.predict(u_test, y_init=y_test))
     assert not np.array_equal(other.predict(u_test, y_init=y_test), nn.predict(u_test, y_init=y_test))
+
+
+@pytest.mark.parametrize("dtype", ["float32", "float64"])
+def test_nnarx_does_not_depend_on_the_blas_thread_count(dtype, rng):
+    """Trained with one BLAS thread whatever the caller allows: 1 or 2 threads give the same network.
+
+    (Matrices this large are split between OpenBLAS threads, and a split changes the
+    rounding, which L-BFGS amplifies over its iterations.)
+    """
+    from threadpoolctl import threadpool_limits
+
+    u, y = _nonlinear_system(rng, n=6000)
+    u_test, y_test = _nonlinear_system(np.random.default_rng(3), n=300)
+    fits = []
+    for threads in (1, 2):
+        with threadpool_limits(limits=threads, user_api="blas"), warnings.catch_warnings():
+            warnings.simplefilter("ignore", ConvergenceWarning)
+            fits.append(NNARX(na=2, nb=2, hidden_layer_sizes=(32,), max_iter=60, dtype=dtype, random_state=0).fit(u, y))
+    np.testing.assert_array_equal(fits[0].mlp_.coefs_[0], fits[1].mlp_.coefs_[0])
+    assert r2(y_test, fits[0].predict(u_test, y_init=y_test)) > 0.99
 
 
 @pytest.mark.parametrize("residual, n_estimators", [(False, 1), (True, 1), (True, 3)])

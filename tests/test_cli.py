@@ -10,9 +10,12 @@ import dataclasses
 import json
 import math
 import os
+import re
 import shutil
+import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -32,6 +35,7 @@ from sindybench.experiments import (
 )
 from sindybench.experiments._common import arx_model, arx_space, refinement, sindy_model, stls_space
 from sindybench.experiments._runner import run_benchmark
+from test_examples import NOTEBOOKS  # the notebooks, the figures and typeset models each must show
 from sindybench.metrics import r2
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -146,19 +150,19 @@ def test_bad_storage_is_reported_before_training(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_figure_keeps_the_frame_on_the_measurement():
-    from sindybench.experiments._report import plot_test
+def test_report_figure_draws_every_model_with_the_public_plotting():
+    from sindybench.experiments._report import _test_figure
 
     t = np.arange(200) * 0.1
     test = Bunch(u=np.sin(t)[:, None], y=np.cos(t)[:, None], dt=0.1)
     results = {"title": "Toy", "dt": 0.1, "output_label": "y", "input_label": "u", "models": [
-        {"key": key, "label": key, "scores": {"test": {"r2": 0.5}}} for key in ("good", "wild")]}
-    close = test.y + 0.1
-    fig = plot_test(results, "test", test, {"good": close, "wild": close})
-    assert fig.axes[0].get_ylim()[1] < 1.5  # no model leaves the frame: matplotlib's own limits
-    fig = plot_test(results, "test", test, {"good": close, "wild": 1e3 * t[:, None]})
-    assert fig.axes[0].get_ylim() == pytest.approx((-2.0, 2.0), abs=1e-3)
-    assert fig.axes[0].get_legend().get_texts()[2].get_text() == "wild (R^2 0.50), leaves the frame"
+        {"key": key, "label": key.upper(), "scores": {"test": {"r2": 0.5}}} for key in ("good", "wild", "lost")]}
+    fig = _test_figure(results, "test", test, {"good": test.y + 0.1, "wild": 1e3 * t[:, None], "lost": None})
+    ax, ax_u = fig.axes[:2]
+    assert [line.get_label() for line in ax.get_lines()] == [
+        "measured", "GOOD (R^2 0.98)", "WILD (R^2 -259910631.28), leaves the frame"]
+    np.testing.assert_array_equal(ax_u.get_lines()[0].get_ydata(), test.u[:, 0])
+    assert ax.get_title() == "Toy: open-loop simulation, test set 'test'"
 
 
 def test_published_figures_name_existing_models():
@@ -335,13 +339,99 @@ def test_quick_run_report(quick_run):
     assert "Total wall time" in text
 
 
-def test_docs_build_with_generated_figures(quick_run, tmp_path):
-    sphinx = pytest.importorskip("sphinx.cmd.build", reason="the docs extra (sphinx, numpydoc) is not installed")
+def test_docs_build_with_generated_figures(quick_run, notebooks, tmp_path):
+    """The docs build (warnings as errors) with the run's figures, the notebooks' outputs and the API figures."""
+    sphinx = pytest.importorskip("sphinx.cmd.build", reason="the docs extra (sphinx, numpydoc, myst-nb) is not installed")
     pytest.importorskip("numpydoc")
-    shutil.copytree(ROOT / "docs", tmp_path / "docs", ignore=shutil.ignore_patterns("_build", "_generated", "generated"))
+    pytest.importorskip("myst_nb")
+    shutil.copytree(ROOT / "docs", tmp_path / "docs",
+                    ignore=shutil.ignore_patterns("_build", "_generated", "generated", "notebooks", "jupyter_execute"))
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
     shutil.copytree(quick_run, tmp_path / "docs" / "_generated")
+    executed = tmp_path / "docs" / "_generated" / "notebooks"
+    executed.mkdir()
+    for name in NOTEBOOKS:  # executed once, by the notebook tests' runner: the build only renders them
+        notebooks.run(name)
+        shutil.copy(notebooks.folder / f"{name}.ipynb", executed)
     status = sphinx.build_main(["-W", "-q", "-b", "html", str(tmp_path / "docs"), str(tmp_path / "html")])
     assert status == 0
-    page = (tmp_path / "html" / "case_studies" / "bouc_wen.html").read_text()
-    assert "hysteresis_sine.png" in page and "Hidden SINDy" in page
+    html = tmp_path / "html"
+    page = (html / "case_studies" / "bouc_wen.html").read_text()
+    assert "hysteresis_sine.png" in page and "Hidden SINDy" in page and "notebooks/bouc_wen.html" in page
+    for name, (_, n_figures, latex) in NOTEBOOKS.items():
+        page = (html / "notebooks" / f"{name}.html").read_text()
+        assert page.count("<img") >= n_figures, name  # the figures the notebook test counted
+        assert ("\\begin{aligned}" in page) == latex, name  # fitted models typeset as math
+        assert "Traceback" not in page
+    api = (html / "api.html").read_text()
+    images = re.findall(r'src="(_images/api-\d+\.png)"', api)  # the plotting module's figures
+    assert len(images) == 5 and all((html / src).is_file() for src in images)
+
+
+# --------------------------------------------------------------------------- workers sharing a PostgreSQL study
+def _cli_worker(out, storage, data_home, trials):
+    return subprocess.Popen(
+        [sys.executable, "-m", "sindybench.cli", "run", "cascaded-tanks", "--quick", "--trials", str(trials),
+         "--storage", storage, "--out", str(out), "--data-home", str(data_home), "--no-download", "-q"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env={**os.environ, "MPLBACKEND": "Agg"},
+    )
+
+
+def _finished(trials):
+    return {t.number: (t.params, t.value) for t in trials if t.state.name in ("COMPLETE", "PRUNED")}
+
+
+def test_cli_workers_share_a_postgresql_study_and_survive_a_kill(postgres_url, data_home, tmp_path):
+    """Two ``sindybench run --storage postgresql+psycopg://...`` share the searches; one is SIGKILLed.
+
+    The killed run is started again (same command) while the other still runs. The
+    trial in flight at the kill stays RUNNING until a worker on this host sees that
+    its process is gone (the survivor after its next trial, or the rerun when it
+    starts) and marks it FAIL, which gives its place in the budget back. Every search
+    ends with exactly ``--trials`` finished trials and no trial finished before the
+    kill is lost; the killed run wrote nothing.
+    """
+    import optuna
+
+    from sindybench.model_selection._storage import make_storage
+
+    trials, first = 8, "cascaded-tanks.sindy_poly.seed0"
+    searched = [m.key for m in get_benchmark("cascaded-tanks").models if m.search_space is not None]
+    storage = make_storage(postgres_url)
+    victim, survivor = (_cli_worker(tmp_path / name, postgres_url, data_home, trials) for name in "ab")
+    deadline = time.monotonic() + 60
+    while True:  # kill the victim in the middle of the first search, after a few trials finished
+        assert time.monotonic() < deadline and victim.poll() is None, "the run ended before it could be killed"
+        try:
+            done = _finished(optuna.load_study(study_name=first, storage=storage).get_trials(deepcopy=False))
+        except KeyError:  # the study does not exist yet
+            done = {}
+        if len(done) >= 3:
+            break
+        time.sleep(0.02)
+    os.kill(victim.pid, signal.SIGKILL)
+    victim.wait()
+    before = _finished(optuna.load_study(study_name=first, storage=storage).get_trials(deepcopy=False))
+    assert not (tmp_path / "a").exists()  # a killed run leaves no output folder
+
+    rerun = _cli_worker(tmp_path / "a", postgres_url, data_home, trials)
+    for proc in (survivor, rerun):
+        _, err = proc.communicate(timeout=120)
+        assert proc.returncode == 0, err
+    names = set(optuna.get_all_study_names(storage=storage))
+    assert names == {f"cascaded-tanks.{key}.seed0" for key in searched}
+    for name in names:
+        study_trials = optuna.load_study(study_name=name, storage=storage).get_trials(deepcopy=False)
+        assert len(_finished(study_trials)) == trials, name
+        assert not [t for t in study_trials if t.state.name in ("RUNNING", "WAITING")], name
+        # a FAIL trial is the one the kill interrupted, or one that stood down because the budget was full
+        failed = [t for t in study_trials if t.state.name == "FAIL"]
+        assert len([t for t in failed if t.user_attrs.get("worker", "").endswith(f":{victim.pid}")]) <= 1
+        assert all(t.user_attrs.get("worker", "").endswith(f":{victim.pid}")
+                   or "budget" in t.user_attrs.get("fail_reason", "") for t in failed), name
+    after = _finished(optuna.load_study(study_name=first, storage=storage).get_trials(deepcopy=False))
+    assert {n: after[n] for n in before} == before
+    for out in (tmp_path / "a", tmp_path / "b"):
+        results = json.loads((out / "cascaded-tanks" / "results.json").read_text())
+        assert results["storage"] == postgres_url  # no password in this URL: shown as given
+        assert all(m["status"] == "ok" for m in results["models"])

@@ -9,7 +9,7 @@ import sindybench.refine._core as core
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
-from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT, evaluate_terms, evaluate_terms_jacobian
+from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT, STEP, evaluate_terms, evaluate_terms_jacobian
 from sindybench.refine import (
     OutputErrorRefinement,
     Physical,
@@ -28,18 +28,20 @@ def lin(col):
 
 
 # A 3-state model that uses every factor operation: an oscillator (x0, x1) with cubic, |x1| x0,
-# |x0|^2.5 and sign(x1) x1^2 terms, driven by u and by a positive lag state x2 with a
+# |x0|^2.5, sign(x1) x1^2 and [u>=0.2] x1 terms, driven by u and by a positive lag state x2 with a
 # non-integer power x2^1.5 and a clipped square root of x0 (clip active on both sides).
+# (SIGN and STEP jump: they act on the state through products that are continuous, or on the
+# input, so that finite differences of the trajectory exist.)
 TERMS = [lin(X1), lin(X0), ((X0, POW, 3.0, 0.0),), ((X1, ABS_POW, 1.0, 0.0), (X0, POW, 1.0, 0.0)), lin(U),
          ((X0, ABS_POW, 2.5, 0.0),), ((X1, SIGN, 0.0, 0.0), (X1, POW, 2.0, 0.0)), lin(X2),
-         ((X2, POW, 1.5, 0.0),), ((X0, SQRT, 0.05, 0.3),), ()]
+         ((X2, POW, 1.5, 0.0),), ((X0, SQRT, 0.05, 0.3),), (), ((U, STEP, 0.2, np.inf), (X1, POW, 1.0, 0.0))]
 X2_BOUNDS = ([-np.inf, -np.inf, 0.0], [np.inf, np.inf, 0.7])
 
 
 def every_op_coef(cubic=-1.0):
     coef = np.zeros((len(TERMS), 3))
     coef[0, 0] = 1.0
-    coef[1:8, 1] = [-4.0, cubic, -0.3, 1.0, -0.2, -0.05, 0.3]
+    coef[[1, 2, 3, 4, 5, 6, 7, 11], 1] = [-4.0, cubic, -0.3, 1.0, -0.2, -0.05, 0.3, -0.3]
     coef[[8, 9, 10, 4], 2] = [-0.8, 0.4, 0.45, 0.3]
     return coef
 
@@ -57,7 +59,7 @@ def unit_directions(coef):
     return free, D
 
 
-def fd_sensitivities(coef, x0, u, free, settings, eps=1e-6):
+def fd_sensitivities(coef, x0, u, free, settings, eps=1e-6, terms=TERMS):
     """Central differences of simulate() for every free coefficient, then every x0 entry."""
     cols = []
     for j, i in free:
@@ -65,9 +67,9 @@ def fd_sensitivities(coef, x0, u, free, settings, eps=1e-6):
         hi, lo = coef.copy(), coef.copy()
         hi[j, i] += step
         lo[j, i] -= step
-        cols.append((simulate(TermsRHS(hi, TERMS, 3), x0, u, DT, **settings)
-                     - simulate(TermsRHS(lo, TERMS, 3), x0, u, DT, **settings)) / (2 * step))
-    rhs = TermsRHS(coef, TERMS, 3)
+        cols.append((simulate(TermsRHS(hi, terms, 3), x0, u, DT, **settings)
+                     - simulate(TermsRHS(lo, terms, 3), x0, u, DT, **settings)) / (2 * step))
+    rhs = TermsRHS(coef, terms, 3)
     for k in range(x0.size):
         hi, lo = x0.copy(), x0.copy()
         hi[k] += eps
@@ -101,6 +103,20 @@ def test_sensitivity_states_equal_simulate_and_match_finite_differences(settings
     assert np.all(np.abs(S).max(axis=(0, 1)) > 1e-3)  # every parameter moves the trajectory
 
 
+def test_sensitivity_along_a_dense_direction(u_sines, rng):
+    """A physical parameter moves several coefficients at once: d x / d p along dC/dp = D."""
+    coef = every_op_coef(cubic=0.0)
+    D = rng.uniform(-1.0, 1.0, coef.shape) * (coef != 0)
+    D[10, 1] = 0.5  # and an entry whose coefficient is zero (the constant of x1')
+    x0 = np.array([0.5, 0.1, 0.6])
+    _, S, _ = simulate_sensitivity(TermsRHS(coef, TERMS, 3), x0, u_sines, DT, directions=D[None], bounds=X2_BOUNDS)
+    eps = 1e-6
+    fd = (simulate(TermsRHS(coef + eps * D, TERMS, 3), x0, u_sines, DT, bounds=X2_BOUNDS)
+          - simulate(TermsRHS(coef - eps * D, TERMS, 3), x0, u_sines, DT, bounds=X2_BOUNDS)) / (2 * eps)
+    assert np.abs(S[:, :, 0]).max() > 1e-2
+    assert np.abs(fd - S[:, :, 0]).max() < 1e-6 * np.abs(S[:, :, 0]).max()
+
+
 def test_sensitivity_is_zero_while_clipped_at_a_bound(u_sines):
     coef = every_op_coef(cubic=0.0)
     x0 = np.array([0.5, 0.1, 0.6])
@@ -111,6 +127,22 @@ def test_sensitivity_is_zero_while_clipped_at_a_bound(u_sines):
     assert 50 < held.sum() < 350  # the bound is hit, left and hit again
     assert np.all(S[held, 2] == 0.0)
     assert np.abs(S[~held, 2]).max() > 1e-2
+
+
+def test_overflow_indicator_of_a_bounded_state(u_sines):
+    """[x2>=0.7] on a state held at its bound 0.7 (an overflowing tank): exact states and sensitivities."""
+    terms = TERMS + [((X2, STEP, 0.7, np.inf),)]
+    coef = np.vstack([every_op_coef(cubic=0.0), [[0.0, -0.5, 0.0]]])  # x1' gets -0.5 while x2 overflows
+    x0 = np.array([0.5, 0.1, 0.6])
+    free, D = unit_directions(coef)
+    rhs = TermsRHS(coef, terms, 3)
+    x, S, _ = simulate_sensitivity(rhs, x0, u_sines, DT, directions=D, free_x0=[0, 1, 2], bounds=X2_BOUNDS)
+    assert np.array_equal(x, simulate(rhs, x0, u_sines, DT, bounds=X2_BOUNDS))
+    without = simulate(TermsRHS(coef[:-1], TERMS, 3), x0, u_sines, DT, bounds=X2_BOUNDS)
+    assert np.abs(x[:, 1] - without[:, 1]).max() > 0.1  # the indicator acts
+    J = fd_sensitivities(coef, x0, u_sines, free, {"bounds": X2_BOUNDS}, terms=terms)
+    assert (np.abs(J - S).max(axis=(0, 1)) / np.abs(S).max(axis=(0, 1))).max() < 1e-6
+    assert np.abs(S[:, :, -4]).max() > 1e-2  # the indicator's coefficient is a live parameter
 
 
 @pytest.mark.parametrize("op", [POW, ABS_POW])
@@ -132,6 +164,30 @@ def test_zero_coefficient_direction_leaves_the_state_unchanged(u_sines):
     assert x_ref[:, 0].min() < 0
     x, _, _ = simulate_sensitivity(rhs, [0.5, 0.1], u_sines, DT, directions=D, on_divergence="nan")
     assert np.array_equal(x, x_ref)
+
+
+# x |x|^0.5 (a Bouc-Wen-type law with nu = 1.5) is C^1 with derivative 1.5 |x|^0.5, 0 at x = 0
+C1_TERMS = [((0, ABS_POW, 0.5, 0.0), (0, POW, 1.0, 0.0)), lin(1)]
+C1_COEF = np.array([[-1.0], [1.0]])  # x' = -x |x|^0.5 + u, from rest
+
+
+def test_terms_jacobian_of_a_c1_product_at_zero():
+    J = evaluate_terms_jacobian(C1_TERMS[:1], np.array([[0.0], [0.04]]))
+    np.testing.assert_allclose(J[:, 0, 0], [0.0, 1.5 * 0.2])
+
+
+def test_sensitivity_of_a_c1_product_through_zero(u_sines):
+    rhs = TermsRHS(C1_COEF, C1_TERMS, 1)
+    x, S, _ = simulate_sensitivity(rhs, [0.0], u_sines, DT, directions=np.eye(2).reshape(2, 2, 1), free_x0=[0],
+                                   on_divergence="nan")
+    assert np.all(np.isfinite(x))
+    assert np.all(np.isfinite(S))
+
+
+def test_refine_a_c1_product_from_rest(u_sines):
+    y = simulate(TermsRHS(C1_COEF, C1_TERMS, 1), [0.0], u_sines, DT)
+    res = refine_simulation_error(C1_TERMS, C1_COEF * 0.9, u_sines, y, DT, x0=[0.0], free_x0=[])
+    np.testing.assert_allclose(res.coef, C1_COEF, rtol=1e-6)
 
 
 def test_sensitivity_output_index_and_divergence(u_sines):
@@ -156,6 +212,7 @@ def test_evaluate_terms_jacobian_matches_finite_differences(rng):
                          rng.uniform(-1, 1, 200)])
     Z = Z[np.abs(Z[:, 0] - 0.05) > 1e-3]
     Z = Z[np.abs(Z[:, 0] - 0.3) > 1e-3]  # away from the clip kinks of sqrt
+    Z = Z[np.abs(Z[:, 3] - 0.2) > 1e-3]  # and from the jump of [u>=0.2]
     J = evaluate_terms_jacobian(TERMS, Z)
     assert J.shape == (Z.shape[0], len(TERMS), 4)
     eps = 1e-6
@@ -168,6 +225,7 @@ def test_evaluate_terms_jacobian_matches_finite_differences(rng):
     clipped = (Z[:, 0] < 0.05) | (Z[:, 0] > 0.3)
     assert clipped.any() and np.all(J[clipped, 9, 0] == 0.0)
     assert np.all(J[:, 6, 1] == 2 * np.abs(Z[:, 1]))  # d(sign(v) v^2)/dv = 2 |v|
+    assert np.all(J[:, 11, 1] == (Z[:, 3] >= 0.2)) and np.all(J[:, 11, 3] == 0.0)  # [u>=0.2] v
 
 
 # ---------------------------------------------------------------- refinement
@@ -198,6 +256,15 @@ def test_refine_recovers_coefficients_and_initial_state(duffing, n_segments):
     np.testing.assert_allclose(res.x0, TRUE_X0, rtol=1e-6, atol=1e-8)
     assert res.cost < 1e-14 < res.initial_cost
     assert res.pruned == [] and res.coef[0, 0] == 1.0
+
+
+def test_multiple_shooting_cost_is_the_open_loop_cost(duffing):
+    u, y = duffing
+    start = TRUE_COEF * np.array([[1.0, 0.8], [1.0, 1.15], [1.0, 0.9], [1.0, 0.7]])
+    res = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, n_segments=6, max_nfev=3)
+    x = simulate(TermsRHS(res.coef, DUFFING, 2), res.x0, u, DT)[:, :1]
+    open_loop = 0.5 * np.mean(((x - y) / np.std(y)) ** 2)  # the definition initial_cost follows
+    assert res.cost == pytest.approx(open_loop, rel=1e-6)  # measured: 5.6e-6 reported, 4.3e-5 open loop
 
 
 def test_refine_physical_parameters_through_a_nonlinear_map(duffing):
@@ -257,12 +324,14 @@ def test_refine_python_rhs_uses_finite_differences(duffing):
     assert res.cost < 1e-12 < res.initial_cost
 
 
-def test_refine_refuses_a_diverging_start(duffing):
+@pytest.mark.parametrize("n_segments, match", [(1, "cannot refine: the starting model's simulation diverges"),
+                                               (3, "cannot start multiple shooting: the starting model diverges")])
+def test_refine_refuses_a_diverging_start(duffing, n_segments, match):
     u, y = duffing
     bad = TRUE_COEF.copy()
     bad[3, 1] = 2.0  # +2 y^3: finite-time blow-up
-    with pytest.raises(SimulationError, match="starting model's simulation diverges"):
-        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3)
+    with pytest.raises(SimulationError, match=match):
+        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3, n_segments=n_segments)
 
 
 def test_diverging_trial_steps_never_reach_the_optimizer(duffing, monkeypatch):
@@ -310,10 +379,10 @@ def test_estimate_initial_state_recovers_x0(duffing):
         ({"output_index": (2,)}, "output_index=.2,. does not match"),
         ({"n_segments": 0}, "n_segments must be an integer"),
         ({"n_segments": 1000}, "n_segments must be an integer in"),
-        ({"prune": -0.1}, "prune"),
+        ({"prune": -0.1}, "prune must be a finite number >= 0; got -0.1"),
         ({"max_nfev": 0}, "max_nfev must be an integer"),
         ({"terms": None}, "terms is None; give make_rhs"),
-        ({"y": np.zeros((10, 1))}, "y"),
+        ({"y": np.zeros((10, 1))}, "y has 10 samples; expected 600"),
     ],
 )
 def test_refine_bad_input(duffing, kwargs, match):
@@ -325,6 +394,12 @@ def test_refine_bad_input(duffing, kwargs, match):
                                 **args)
 
 
+def test_refine_free_x0_out_of_range(duffing):
+    u, y = duffing
+    with pytest.raises(ValueError, match="free_x0"):
+        refine_simulation_error(DUFFING, TRUE_COEF, u, y, DT, x0=TRUE_X0, free_x0=[2])
+
+
 @pytest.mark.parametrize(
     "kwargs, match",
     [
@@ -332,7 +407,7 @@ def test_refine_bad_input(duffing, kwargs, match):
         ({"directions": np.full((1, 4, 2), np.nan)}, "directions contains NaN"),
         ({"free_x0": [2]}, r"free_x0 = \[2\] has a state index outside \[0, 1\]"),
         ({"output_index": [-1]}, "output_index = .-1. has a state index outside"),
-        ({"method": "rk45"}, "method"),
+        ({"method": "rk45"}, "method must be one of .'rk4', 'euler'.; got 'rk45'"),
         ({"x0": [0.0]}, r"x0 has shape \(1,\)"),
     ],
 )
@@ -342,7 +417,11 @@ def test_sensitivity_bad_input(duffing, kwargs, match):
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
         simulate_sensitivity(TermsRHS(TRUE_COEF, DUFFING, 2), args.pop("x0"), u, DT, **args)
-    with pytest.raises(ValueError, match="rhs must be a TermsRHS"):
+
+
+def test_sensitivity_refuses_a_python_rhs(duffing):
+    u, _ = duffing
+    with pytest.raises(ValueError, match="rhs must be a TermsRHS for exact sensitivities; got function"):
         simulate_sensitivity(lambda x, uu: -x, [1.0], u, DT)
 
 
@@ -354,10 +433,10 @@ def test_sensitivity_bad_input(duffing, kwargs, match):
         ({"max_samples": 50.0}, "max_samples must be an integer >= 10 or None"),
         ({"max_nfev": 0}, "max_nfev must be an integer"),
         ({"n_segments": 0}, "n_segments must be an integer"),
-        ({"continuity_weight": 0.0}, "continuity_weight"),
-        ({"prune": -1.0}, "prune"),
-        ({"physical": "yes"}, "physical"),
-        ({"initial_state": 1}, "initial_state"),
+        ({"continuity_weight": 0.0}, "continuity_weight must be a finite number > 0"),
+        ({"prune": -1.0}, "prune must be a finite number >= 0"),
+        ({"physical": "yes"}, "physical must be True or False; got 'yes'"),
+        ({"initial_state": 1}, "initial_state must be True or False; got 1"),
     ],
 )
 def test_output_error_refinement_bad_params(duffing, params, match):
@@ -370,7 +449,7 @@ def test_hidden_state_sindy_bad_refine_and_initial_state(duffing):
     u, y = duffing
     with pytest.raises(ValueError, match="refine must be an OutputErrorRefinement or None; got object"):
         HiddenStateSINDy(refine=object(), dt=DT).fit(u, y)
-    with pytest.raises(ValueError, match="initial_state"):
+    with pytest.raises(ValueError, match="initial_state must be one of .'strategy', 'fit', 'periodic'.; got 'bogus'"):
         HiddenStateSINDy(initial_state="bogus", dt=DT).fit(u, y)
 
 
@@ -392,9 +471,7 @@ def msd(rng):
 
 def test_refine_in_hidden_state_sindy_improves_the_fit(msd):
     u, y = msd
-    plain = msd_model()
-    plain.refine = None
-    plain.fit(u, y)
+    plain = msd_model().set_params(refine=None).fit(u, y)
     model = msd_model(max_nfev=20).fit(u, y)
     assert model.refinement_["jacobian"] == "sensitivity"
     assert model.refinement_["cost"] < model.refinement_["initial_cost"]
@@ -404,7 +481,18 @@ def test_refine_in_hidden_state_sindy_improves_the_fit(msd):
     plain_learned = plain.coef_[0][[names.index(n) for n in ("y0", "y0'", "u0")]]
     err, plain_err = np.abs(learned / truth - 1).max(), np.abs(plain_learned / truth - 1).max()
     assert err < 1e-3 < plain_err
-    assert "0.5" in model.equations(precision=3)[1]
+    assert model.equations(precision=3)[1] == "y0'' = -4.000 y0 - 0.500 y0' + 2.000 u0"  # the refined model's
+    assert plain.equations(precision=3)[1] != model.equations(precision=3)[1]
+
+
+def test_refine_in_hidden_state_sindy_prunes_and_prints_the_short_model(msd):
+    u, y = msd
+    dense = msd_model().set_params(refine=None, optimizer__threshold=0.0).fit(u, y)
+    assert dense.equations(precision=3)[1].startswith("y0'' = 0.00")  # least squares keeps a spurious constant
+    model = msd_model(max_nfev=20, prune=0.05).set_params(optimizer__threshold=0.0).fit(u, y)
+    assert model.refinement_["pruned"] == [[0, 1]]  # the constant of the y0'' row
+    assert model.coef_[0, 0] == 0.0
+    assert model.equations(precision=3)[1] == "y0'' = -4.000 y0 - 0.500 y0' + 2.000 u0"
 
 
 def test_refine_params_are_nested_clonable_and_searchable(msd):

@@ -183,6 +183,10 @@ def test_tanks_hidden_lag_constants_refined(rng):
     np.testing.assert_allclose(refined.coef_[0], [-system.k4, system.k3], rtol=TOL)  # [sqrt(y0), sqrt(x1)]
     assert refined.x0_[1] == pytest.approx(3.0, rel=TOL)
     assert refined.score(u, y) > 0.9999
+    held = tanks_model(system, (1.4, 1.2), OutputErrorRefinement(max_nfev=5, physical=False)).fit(u, y)
+    assert held.params_["k1"] == plain.params_["k1"] and held.params_["k2"] == plain.params_["k2"]
+    assert held.refinement_["physical"] == {}
+    assert held.refinement_["cost"] > 100 * refined.refinement_["cost"]
 
 
 def test_tanks_multiple_shooting_escapes_where_single_shooting_stops(rng):

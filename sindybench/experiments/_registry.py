@@ -5,6 +5,8 @@ import logging
 import time
 from pathlib import Path
 
+from threadpoolctl import threadpool_limits
+
 from ._report import staged_output_dir, write_results
 from ._report import write_report as _write_report
 from ._runner import load_data, run_benchmark, test_sets
@@ -72,7 +74,9 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
     data = {b.name: load_data(b, data_home=data_home, download_if_missing=download_if_missing) for b in benchmarks}
     start = time.perf_counter()
     all_results = []
-    with staged_output_dir(out) as tmp:
+    # one BLAS thread: the study's products are small, so threads only add overhead (many times over on a
+    # busy machine), and a thread count would change the rounding of the results
+    with staged_output_dir(out) as tmp, threadpool_limits(limits=1, user_api="blas"):
         for benchmark in benchmarks:
             logger.info("== %s ==", benchmark.title)
             results, fitted, simulations = run_benchmark(

@@ -17,12 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
+from ..plotting import plot_hysteresis, plot_simulation
+
 __all__ = [
     "comparison_rows",
     "fit_from_r2",
     "format_number",
-    "plot_hysteresis",
-    "plot_test",
     "results_markdown",
     "staged_output_dir",
     "write_report",
@@ -30,8 +30,6 @@ __all__ = [
 ]
 
 logger = logging.getLogger(__name__)
-
-_MAX_POINTS = 6000
 _COLUMNS = ("model", "RMSE", "RMSE (study)", "R^2", "R^2 (study)", "fit %", "fit % (study)")
 
 
@@ -205,68 +203,35 @@ def _save_model(estimator, path):
     return True
 
 
-def _figure(nrows=1, ncols=1, *, figsize, **subplot_kw):
+def _figure(nrows, *, figsize, **subplot_kw):
+    """A figure outside pyplot (no global state; the report saves and forgets it)."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=figsize, layout="constrained")
-    axes = fig.subplots(nrows, ncols, squeeze=False, **subplot_kw)
-    return fig, axes
+    return fig, fig.subplots(nrows, 1, squeeze=False, **subplot_kw)[:, 0]
 
 
-def _stride(n):
-    return max(1, int(np.ceil(n / _MAX_POINTS)))
+def _simulations(results, simulations):
+    return {m["label"]: simulations[m["key"]] for m in results["models"] if simulations.get(m["key"]) is not None}
 
 
-def plot_test(results, test_name, test, simulations):
-    """Figure: the measured output and each model's simulation on one test set."""
-    y = np.asarray(test["y"], float).reshape(len(test["y"]), -1)[:, 0]
-    u = np.asarray(test["u"], float).reshape(len(y), -1)[:, 0]
-    dt = float(test.get("dt", results["dt"]))
-    t = np.arange(len(y)) * dt
-    k = _stride(len(y))
-    fig, axes = _figure(2, 1, figsize=(11, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
-    ax, ax_u = axes[0, 0], axes[1, 0]
-    ax.plot(t[::k], y[::k], color="black", lw=1.6, label="measured")
-    # a simulation far outside the measured range would flatten every other curve: keep the frame on the data
-    span = float(np.ptp(y)) or 1.0
-    low, high = float(y.min()) - 0.5 * span, float(y.max()) + 0.5 * span
-    off_scale = False
-    for m in results["models"]:
-        y_pred = simulations.get(m["key"])
-        if y_pred is None:
-            continue
-        y_pred = np.asarray(y_pred).reshape(len(y), -1)[:, 0]
-        label = f"{m['label']} (R^2 {m['scores'][test_name]['r2']:.2f})"
-        if y_pred.min() < low or y_pred.max() > high:
-            off_scale = True
-            label += ", leaves the frame"
-        ax.plot(t[::k], y_pred[::k], lw=1.0, label=label)
-    if off_scale:
-        ax.set_ylim(low, high)
-    ax.set_ylabel(results["output_label"])
-    ax.set_title(f"{results['title']}: open-loop simulation, test set '{test_name}'")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
-    ax_u.plot(t[::k], u[::k], color="gray", lw=0.8)
-    ax_u.set_ylabel(textwrap.fill(results["input_label"], 18))  # the input axes are short
-    ax_u.set_xlabel("time [s]")
+def _test_figure(results, test_name, test, simulations):
+    """Figure: the measured output and each model's simulation on one test set (input below)."""
+    fig, axes = _figure(2, figsize=(11, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
+    plot_simulation(test["u"], test["y"], _simulations(results, simulations), dt=float(test.get("dt", results["dt"])),
+                    output_label=results["output_label"],
+                    input_label=textwrap.fill(results["input_label"], 18),  # the input axes are short
+                    ax=axes)
+    axes[0].set_title(f"{results['title']}: open-loop simulation, test set '{test_name}'")
     return fig
 
 
-def plot_hysteresis(results, test_name, test, simulations):
-    """Figure: force-displacement loops (input vs output) on one test set."""
-    y = np.asarray(test["y"], float).reshape(len(test["y"]), -1)[:, 0]
-    u = np.asarray(test["u"], float).reshape(len(y), -1)[:, 0]
-    fig, axes = _figure(figsize=(9, 5))
-    ax = axes[0, 0]
-    ax.plot(y, u, color="black", lw=1.8, label="true system")
-    for m in results["models"]:
-        y_pred = simulations.get(m["key"])
-        if y_pred is not None:
-            ax.plot(np.asarray(y_pred).reshape(len(y), -1)[:, 0], u, lw=1.0, label=m["label"])
-    ax.set_xlabel(results["output_label"])
-    ax.set_ylabel(results["input_label"])
-    ax.set_title(f"{results['title']}: hysteresis loops, test set '{test_name}'")
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+def _hysteresis_figure(results, test_name, test, simulations):
+    """Figure: force-displacement loops (input against output) on one test set."""
+    fig, axes = _figure(1, figsize=(9, 5))
+    plot_hysteresis(test["u"], test["y"], _simulations(results, simulations), output_label=results["output_label"],
+                    input_label=results["input_label"], ax=axes[0])
+    axes[0].set_title(f"{results['title']}: hysteresis loops, test set '{test_name}'")
     return fig
 
 
@@ -304,11 +269,11 @@ def write_results(results, fitted, simulations, tests, out_dir, *, hysteresis_te
                 files["models"][entry["key"]] = name
     for test_name, test in tests.items():
         name = f"test_{test_name}.png"
-        plot_test(results, test_name, test, simulations[test_name]).savefig(out_dir / name, dpi=110)
+        _test_figure(results, test_name, test, simulations[test_name]).savefig(out_dir / name, dpi=110)
         files["figures"][test_name] = name
     if hysteresis_test is not None and hysteresis_test in tests:
         name = f"hysteresis_{hysteresis_test}.png"
-        fig = plot_hysteresis(results, hysteresis_test, tests[hysteresis_test], simulations[hysteresis_test])
+        fig = _hysteresis_figure(results, hysteresis_test, tests[hysteresis_test], simulations[hysteresis_test])
         fig.savefig(out_dir / name, dpi=110)
         files["figures"]["hysteresis"] = name
     results = dict(results, files=files)

@@ -151,6 +151,8 @@ def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, s
     """
     start = time.perf_counter()
     estimator = spec.make(random_state=seed, quick=quick, dt=dt, n_val=n_val, n_samples=len(y))
+    if "show_progress_bar" in estimator.get_params(deep=False):  # an inner search (HiddenStateSINDy)
+        estimator.set_params(show_progress_bar=show_progress_bar)
     info = {"n_trials": 0, "best_params": {}, "best_value": None}
     with warnings.catch_warnings():
         # small budgets stop iterative fits early on purpose (NN-ARX): say it once in the report, not per fit
@@ -261,6 +263,8 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
     simulations : dict
         ``{test name: {model key: y_pred or None}}``.
     """
+    from ..model_selection._storage import describe_storage
+
     start = time.perf_counter()
     if data is None:
         data = load_data(benchmark, data_home=data_home, download_if_missing=download_if_missing)
@@ -280,7 +284,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         "seed": seed,
         "quick": bool(quick),
         "n_jobs": n_jobs,
-        "storage": None if storage is None else str(storage),
+        "storage": describe_storage(storage),  # never a database password in results.json
         "n_train": n_train,
         "n_validation": n_val,
         "dt": dt,

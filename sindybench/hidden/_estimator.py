@@ -9,7 +9,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
-from .._equations import format_equation
+from .._equations import EquationRow, EquationsDisplayMixin, format_equations
 from .._params import SharedDefaultsMixin
 from .._stls import STLS
 from .._validation import (
@@ -139,7 +139,7 @@ class _PythonRHS:
         return dx
 
 
-class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
+class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
     """SINDy with control for partly hidden states, with a physics-guided hidden-state strategy.
 
     The ``hidden`` strategy turns measured outputs into a full state (observed +
@@ -205,6 +205,10 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
     refit : bool, default=True
         Refit the best candidate on all the training data (else keep the fit
         without the validation block).
+    show_progress_bar : bool, default=True
+        Show a progress bar of the inner search (``tqdm.auto``) when there is
+        somewhere to draw it, a notebook or a terminal, never in a log file;
+        the environment variable ``SINDYBENCH_PROGRESS=0`` turns bars off.
     n_substeps : int, default=1
         Integration steps per sample in simulations.
     input_hold : {"zoh", "linear"}, default="zoh"
@@ -246,7 +250,8 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
     rhs_ : TermsRHS or callable
         Right-hand side of the full state.
     states_ : ndarray of shape (n_samples, n_states)
-        State trajectory reconstructed on the training data.
+        State trajectory reconstructed on the training data (with ``refine``,
+        the refined model's simulation of it from ``x0_``).
     hidden_states_ : ndarray of shape (n_samples, n_hidden)
         The reconstructed hidden (not measured) states on the training data.
     x0_ : ndarray of shape (n_states,)
@@ -293,6 +298,7 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         random_state=None,
         search_params=None,
         refit=True,
+        show_progress_bar=True,
         n_substeps=1,
         input_hold="zoh",
         max_abs=1e6,
@@ -311,6 +317,7 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         self.random_state = random_state
         self.search_params = search_params
         self.refit = refit
+        self.show_progress_bar = show_progress_bar
         self.n_substeps = n_substeps
         self.input_hold = input_hold
         self.max_abs = max_abs
@@ -332,6 +339,7 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         check_option(self.validation, "validation", _VALIDATIONS)
         check_option(self.input_hold, "input_hold", _HOLDS)
         check_bool(self.refit, "refit")
+        check_bool(self.show_progress_bar, "show_progress_bar")
         check_positive(self.max_abs, "max_abs", allow_inf=True)
         check_option(self.initial_state, "initial_state", _INITIAL_STATES)
         if self.refine is not None and not hasattr(self.refine, "run"):
@@ -411,7 +419,7 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
             with np.errstate(all="ignore"):
                 self.best_params_, self.search_results_ = minimize(
                     objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=_PENALTY,
-                    n_local=self.local_trials,
+                    n_local=self.local_trials, show_progress_bar=self.show_progress_bar,
                 )
             if min(s for _, s in self.search_results_) >= _PENALTY:
                 raise ValueError(
@@ -425,8 +433,11 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         if self.refine is not None:
             cand, x0 = self._refine(hidden, cand, X[:n_rows], y1[:n_rows], dt)
         self._set_fitted(hidden, cand, self.best_params_, dt, X, y1)
-        if x0 is not None:
+        if x0 is not None:  # the refined model's own trajectory replaces the reconstruction
             self.x0_ = x0
+            self.states_ = self._simulate(cand, x0, X, dt, "nan")
+            self.hidden_states_ = self.states_[:, [i for i in range(cand.structure.n_states)
+                                                   if i not in cand.structure.output_index]]
         self._y_1d = np.asarray(y).ndim == 1
         return self
 
@@ -649,36 +660,44 @@ class HiddenStateSINDy(SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseE
         X, y = check_inputs_outputs(X, y)
         return make_simulation_scorer("r2")(self, X, y)
 
-    def equations(self, precision=3):
+    def equations(self, precision=3, *, latex=False):
         """Readable model equations, one line per state (fixed rows included).
 
         Formatted as :meth:`sindybench.SINDy.equations`; a row fixed by a
-        Python function shows as ``(fixed: <strategy>)``.
+        Python function shows as ``(fixed: <strategy>)``. In a notebook a
+        fitted model displays them typeset (``_repr_latex_``).
 
         Parameters
         ----------
         precision : int, default=3
             Decimals of the coefficients.
+        latex : bool, default=False
+            LaTeX lines instead (``\\dot{z} = ... \\, |v| z``).
 
         Returns
         -------
         list of str
         """
+        return format_equations(self._equation_rows(), precision=precision, latex=latex)
+
+    def _equation_rows(self):
         check_is_fitted(self)
         names = self.state_names_ + [f"u{i}" for i in range(self.n_features_in_)]
         s = self.structure_
-        lines = []
         lib_names = list(self.library_.get_feature_names_out(names))
+        lib_terms = getattr(self.library_, "terms_", None)
         fixed_names = [term_name(t, names) for t in s.fixed_terms]
+        rows = []
         for i in range(s.n_states):
             if i in s.learned:
-                line = format_equation(names[i], self.coef_[s.learned.index(i)], lib_names, precision=precision)
+                rows.append(EquationRow(names[i], self.coef_[s.learned.index(i)], lib_names, lib_terms, names))
             elif s.fixed_rhs is not None:
-                line = f"{names[i]}' = (fixed: {self.hidden_.__class__.__name__})"
+                rows.append(EquationRow(names[i], None, [], None, names, learned=False,
+                                        fixed=type(self.hidden_).__name__))
             else:
-                line = format_equation(names[i], s.fixed_coef[:, i], fixed_names, precision=precision)
-            lines.append(line)
-        return lines
+                rows.append(EquationRow(names[i], s.fixed_coef[:, i], fixed_names, list(s.fixed_terms), names,
+                                        learned=False))
+        return rows
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

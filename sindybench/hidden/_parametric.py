@@ -133,6 +133,8 @@ class ParametricHiddenState(HiddenStrategy):
         if x0 is None:
             raise ValueError("x0_bounds is None; expected (low, high) for each hidden state.")
         arr = np.asarray(x0, dtype=object)
+        if arr.ndim == 0:
+            raise ValueError(f"x0_bounds = {x0!r}; expected (low, high) or one (low, high) per hidden state.")
         pairs = [x0] if arr.ndim == 1 else list(x0)
         return [_check_range(p, "x0_bounds")[:2] + (False,) for p in pairs]
 

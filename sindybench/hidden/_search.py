@@ -13,6 +13,8 @@ import numpy as np
 from scipy.optimize import minimize as scipy_minimize
 from sklearn.utils import check_random_state
 
+from .._progress import progress_bar
+
 __all__ = ["check_space", "minimize"]
 
 logger = logging.getLogger(__name__)
@@ -148,7 +150,8 @@ def _refine(evaluate, space, history, *, n_evals, n_starts, step):
             pass
 
 
-def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_local=0, n_starts=3, step=0.05):
+def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_local=0, n_starts=3, step=0.05,
+             show_progress_bar=False):
     """Minimize ``objective(values)`` over ``space`` with Optuna's TPE sampler, then refine locally.
 
     ``objective`` returns a float; NaN, inf or an exception listed by the
@@ -158,7 +161,9 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
     ``n_local`` refine the ``n_starts`` best distinct trials by bounded
     Nelder-Mead on the float dimensions (in the unit cube, log dimensions on
     a log scale; initial simplex of edge ``step``), which finds the bottom
-    of narrow valleys that TPE samples only coarsely.
+    of narrow valleys that TPE samples only coarsely. ``show_progress_bar``
+    draws a transient ``tqdm.auto`` bar with the best score so far, in a
+    notebook or a terminal only (see :mod:`sindybench._progress`).
 
     Returns
     -------
@@ -183,12 +188,15 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
     seed = int(check_random_state(random_state).randint(np.iinfo(np.int32).max))
     sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=max(10, n_tpe // 3))
     history = []
+    bar = progress_bar(n_trials, desc="inner search", show=show_progress_bar, leave=False)
 
     def evaluate(values):
         score = float(objective(values))
         if not np.isfinite(score) or score > penalty:
             score = penalty
         history.append((values, score))
+        bar.set_postfix_str(f"best {min(s for _, s in history):.4g}", refresh=False)
+        bar.update()
         return score
 
     verbosity = optuna.logging.get_verbosity()
@@ -199,10 +207,11 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
             study = optuna.create_study(direction="minimize", sampler=sampler)
             study.optimize(lambda trial: evaluate({k: _suggest(trial, k, v) for k, v in space.items()}),
                            n_trials=n_tpe)
+        if n_local:
+            _refine(evaluate, space, list(history), n_evals=n_local, n_starts=n_starts, step=step)
     finally:
         optuna.logging.set_verbosity(verbosity)
-    if n_local:
-        _refine(evaluate, space, list(history), n_evals=n_local, n_starts=n_starts, step=step)
+        bar.close()
     best_values, best_score = min(history, key=lambda item: item[1])
     logger.info("inner search: best score %.4g after %d evaluations: %s", best_score, len(history), best_values)
     return dict(best_values), history

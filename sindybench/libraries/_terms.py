@@ -25,11 +25,17 @@ the top of its bounded range) or a saturated actuator.
 Each operation has its derivative with respect to its column
 (:func:`evaluate_terms_jacobian`): ``a z^(a-1)``, ``a |z|^(a-1) sign(z)``,
 ``1 / (2 sqrt(z))`` strictly inside ``(a, b)`` and 0 where the clip is active,
-and 0 for ``sign`` and ``STEP``. The compiled sensitivity kernel
+and 0 for ``sign`` and ``STEP``. At ``z = 0`` the derivative of ``|z|^a`` is taken as 0
+(``sign(0) = 0``, also for ``a < 1``), so that a product such as ``z |z|^0.5``, whose
+derivative is 0 there, gets 0 by the product rule rather than ``0 * inf``. The compiled sensitivity kernel
 (:mod:`sindybench.refine`) uses the same rules.
 
-An empty term ``()`` is the constant 1.
+An empty term ``()`` is the constant 1. :func:`term_name` writes a term as
+text, :func:`term_latex` as LaTeX (``\\sqrt{x_1}``, ``|v| z``) and
+:func:`term_sympy` as a SymPy expression, all from the same factors.
 """
+
+import re
 
 import numpy as np
 
@@ -42,7 +48,10 @@ __all__ = [
     "check_terms",
     "evaluate_terms",
     "evaluate_terms_jacobian",
+    "symbol_latex",
+    "term_latex",
     "term_name",
+    "term_sympy",
     "terms_from_json",
     "terms_to_arrays",
     "terms_to_json",
@@ -89,6 +98,122 @@ def term_name(term, names):
     if not term:
         return "1"
     return " ".join(_factor_name(f, names) for f in term)
+
+
+_GREEK = {"alpha", "beta", "gamma", "delta", "epsilon", "zeta", "eta", "theta", "kappa", "lambda", "mu", "nu",
+          "xi", "pi", "rho", "sigma", "tau", "phi", "chi", "psi", "omega"}
+_DOTS = {1: r"\dot", 2: r"\ddot", 3: r"\dddot"}
+
+
+def symbol_latex(name, *, dot=False):
+    r"""LaTeX of a variable name: ``y0`` -> ``y_0``, ``x12`` -> ``x_{12}``, ``y0'`` -> ``y_0'``.
+
+    A trailing number becomes a subscript, trailing primes are derivatives,
+    Greek letter names become letters and other names upright text.
+
+    Parameters
+    ----------
+    name : str
+    dot : bool, default=False
+        The time derivative of the variable (``\dot{y}_0``; primes and the dot
+        add up, ``y0'`` gives ``\ddot{y}_0``).
+
+    Examples
+    --------
+    >>> symbol_latex("x1"), symbol_latex("z", dot=True), symbol_latex("y0'", dot=True), symbol_latex("pos_a")
+    ('x_1', '\\dot{z}', '\\ddot{y}_0', '\\mathrm{pos\\_a}')
+    """
+    base = name.rstrip("'")
+    order = len(name) - len(base) + bool(dot)
+    m = re.fullmatch(r"([A-Za-z]+?)_?(\d+)", base)
+    base, sub = (m.group(1), m.group(2)) if m else (base, "")
+    if base in _GREEK:
+        base = "\\" + base
+    elif not (len(base) == 1 and base.isalpha()):
+        base = r"\mathrm{" + re.sub(r"([_&%$#{}])", r"\\\1", base) + "}"
+    if order in _DOTS:
+        base, primes = f"{_DOTS[order]}{{{base}}}", ""
+    else:
+        primes = "'" * order
+    if sub:
+        base += f"_{sub}" if len(sub) == 1 else f"_{{{sub}}}"
+    return base + primes
+
+
+def _factor_latex(factor, symbols):
+    col, op, a, b = factor
+    z = symbols[col]
+    power = "" if a == 1 else f"^{{{a:g}}}"
+    if op == POW:
+        return f"{{{z}}}{power}" if power and "'" in z else z + power  # y_0'^2 would be a double superscript
+    if op == ABS_POW:
+        return f"|{z}|{power}"
+    if op == SQRT:
+        return rf"\sqrt{{{z}}}"
+    if op == SIGN:
+        return rf"\operatorname{{sign}}({z})"
+    if op == STEP:
+        if np.isinf(b):
+            return rf"[{z} \geq {a:g}]"
+        if np.isinf(a):
+            return rf"[{z} \leq {b:g}]"
+        return rf"[{a:g} \leq {z} \leq {b:g}]"
+    raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
+
+
+def term_latex(term, names):
+    r"""LaTeX of a term, the names converted by :func:`symbol_latex`.
+
+    Examples
+    --------
+    >>> term_latex(((0, SQRT, 0.0, float("inf")),), ["x1"])
+    '\\sqrt{x_1}'
+    >>> term_latex(((1, ABS_POW, 1, 0), (2, POW, 1, 0)), ["y", "v", "z"])
+    '|v| z'
+    >>> term_latex(((0, POW, 2, 0),), ["y0"]), term_latex((), ["y"])
+    ('y_0^{2}', '1')
+    >>> term_latex(((0, STEP, 10.0, float("inf")), (1, POW, 1, 0)), ["x1", "u0"])
+    '[x_1 \\geq 10] u_0'
+    """
+    if not term:
+        return "1"
+    symbols = [symbol_latex(n) for n in names]
+    return " ".join(_factor_latex(f, symbols) for f in term)
+
+
+def term_sympy(term, symbols):
+    """The term as a SymPy expression of ``symbols`` (one per column of ``Z``; sympy imported by the caller).
+
+    ``SQRT`` factors drop their clip: ``sqrt(z)``; a ``STEP`` factor is the
+    ``Piecewise`` indicator of its interval.
+
+    Examples
+    --------
+    >>> import sympy
+    >>> y, v = sympy.symbols("y v")
+    >>> term_sympy(((0, POW, 2, 0), (1, ABS_POW, 1, 0)), [y, v])
+    y**2*Abs(v)
+    """
+    import sympy
+
+    expr = sympy.Integer(1)
+    for col, op, a, b in term:
+        z = symbols[col]
+        power = sympy.Integer(int(a)) if float(a).is_integer() else sympy.Float(a)
+        if op == POW:
+            expr *= z**power
+        elif op == ABS_POW:
+            expr *= sympy.Abs(z) ** power
+        elif op == SQRT:
+            expr *= sympy.sqrt(z)
+        elif op == SIGN:
+            expr *= sympy.sign(z)
+        elif op == STEP:
+            inside = sympy.And(*([z >= a] if np.isfinite(a) else []) + ([z <= b] if np.isfinite(b) else []))
+            expr *= sympy.Piecewise((1, inside), (0, True))
+        else:
+            raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
+    return expr
 
 
 def _eval_factor(factor, Z):
@@ -138,8 +263,11 @@ def _factor_derivative(factor, Z):
     z = Z[:, col]
     if op == POW:
         return np.ones_like(z) if a == 1 else (a * z ** (a - 1) if a != 0 else np.zeros_like(z))
-    if op == ABS_POW:
-        return np.sign(z) if a == 1 else (a * np.abs(z) ** (a - 1) * np.sign(z) if a != 0 else np.zeros_like(z))
+    if op == ABS_POW:  # at z = 0 the derivative is taken as 0 (sign(0) = 0, also for a < 1)
+        if a == 0:
+            return np.zeros_like(z)
+        nonzero = z != 0
+        return np.where(nonzero, a * np.abs(np.where(nonzero, z, 1.0)) ** (a - 1) * np.sign(z), 0.0)
     if op == SQRT:
         inside = (z > a) & (z < b)
         return np.where(inside, 0.5 / np.sqrt(np.where(inside, z, 1.0)), 0.0)

@@ -6,7 +6,9 @@ the budget, and which RUNNING trials were left behind by a dead worker.
 
 import logging
 import os
+import random
 import socket
+import time
 import warnings
 
 import optuna
@@ -14,7 +16,7 @@ from optuna.storages import BaseStorage, InMemoryStorage, JournalStorage, RDBSto
 from optuna.storages.journal import JournalFileBackend, JournalFileOpenLock
 from optuna.trial import TrialState
 
-__all__ = ["check_storage", "count_done", "fail_dead_workers", "make_storage", "worker_id"]
+__all__ = ["check_storage", "count_claimed", "describe_storage", "count_done", "fail_dead_workers", "make_storage", "worker_id"]
 
 logger = logging.getLogger(__name__)
 
@@ -29,6 +31,18 @@ _SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
 
 
 def _rdb(url):
+    try:
+        return _open_rdb(url)
+    except ImportError as exc:  # SQLAlchemy imports the URL's driver when it makes the engine
+        scheme = url.split("://", 1)[0]
+        raise ImportError(
+            f"storage {scheme}://...: the database driver is not installed ({exc.__cause__ or exc}). For PostgreSQL: "
+            "pip install 'sindybench[postgres]' (psycopg 3, URL 'postgresql+psycopg://user@host/db'); "
+            "for MySQL: pip install pymysql (URL 'mysql+pymysql://user@host/db')."
+        ) from exc
+
+
+def _open_rdb(url):
     engine_kwargs, path = None, None
     if url.startswith("sqlite:///"):
         # several local workers write to one file: wait for the lock instead of failing
@@ -37,7 +51,7 @@ def _rdb(url):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         if not path:
-            return RDBStorage(url, heartbeat_interval=HEARTBEAT_INTERVAL, grace_period=GRACE_PERIOD)
+            return _create_server_rdb(url)
         # two workers creating the tables of a new SQLite file at once collide: take turns
         lock = JournalFileOpenLock(path)
         lock.acquire()  # blocks; a lock older than 30 s (a killed worker) is broken
@@ -47,6 +61,27 @@ def _rdb(url):
             )
         finally:
             lock.release()
+
+
+def _create_server_rdb(url, attempts=8):
+    """``RDBStorage`` on a database server, whose tables several workers may be creating at once.
+
+    Workers started together on a new database all create Optuna's tables; the
+    server lets one win and the others fail on a duplicate name (an
+    ``IntegrityError`` or ``ProgrammingError``). A loser tries again after a short
+    pause, when the tables exist.
+    """
+    from sqlalchemy.exc import IntegrityError, ProgrammingError  # SQLAlchemy comes with optuna
+
+    for attempt in range(attempts):
+        try:
+            return RDBStorage(url, heartbeat_interval=HEARTBEAT_INTERVAL, grace_period=GRACE_PERIOD)
+        except (IntegrityError, ProgrammingError) as exc:
+            if attempt == attempts - 1:
+                raise
+            logger.debug("creating the tables of %s collided with another worker (%s); retrying", url, exc)
+            time.sleep(0.1 * 2**attempt * (1 + random.random()))
+    raise AssertionError("unreachable")  # pragma: no cover
 
 
 def _parse(storage):
@@ -119,6 +154,28 @@ def _parse_checked(storage):
     return kind, target
 
 
+def describe_storage(storage):
+    """A text naming ``storage`` for logs and result files, with any password in a URL masked.
+
+    Examples
+    --------
+    >>> describe_storage("postgresql+psycopg://optuna:secret@db.example.org/studies")
+    'postgresql+psycopg://optuna:***@db.example.org/studies'
+    >>> describe_storage("study.log"), describe_storage(None)
+    ('study.log', None)
+    """
+    if storage is None:
+        return None
+    if isinstance(storage, BaseStorage):
+        return type(storage).__name__
+    text = os.fspath(storage)
+    scheme, sep, rest = text.partition("://")
+    credentials, at, location = rest.rpartition("@")
+    if not (sep and at and ":" in credentials):
+        return text
+    return f"{scheme}://{credentials.split(':', 1)[0]}:***@{location}"
+
+
 def make_storage(storage):
     """Turn ``storage`` into an Optuna storage.
 
@@ -181,6 +238,21 @@ def count_done(study):
     spent again.
     """
     return len(study.get_trials(deepcopy=False, states=(TrialState.COMPLETE, TrialState.PRUNED)))
+
+
+def count_claimed(study, *, before=None):
+    """Trials that hold a place in the budget: finished (see :func:`count_done`) or RUNNING.
+
+    With ``before``, only trials numbered below it. Trial numbers are given in
+    the order trials start, so a trial that finds ``n_trials`` places claimed
+    below its own number is one too many: the workers sharing the study then
+    end with exactly ``n_trials`` finished trials. A RUNNING trial of a dead
+    worker holds its place until it is marked FAIL (:func:`fail_dead_workers`,
+    or the heartbeat of a database storage).
+    """
+    states = (TrialState.COMPLETE, TrialState.PRUNED, TrialState.RUNNING)
+    trials = study.get_trials(deepcopy=False, states=states)
+    return len(trials) if before is None else sum(t.number < before for t in trials)
 
 
 def fail_dead_workers(study):

@@ -10,12 +10,13 @@ from sklearn.base import clone
 from sklearn.model_selection import TimeSeriesSplit
 
 from .._json import jsonable
+from .._progress import show_progress
 from .._validation import check_bool, check_integer
 from ..metrics import make_simulation_scorer
 from ._sampler import make_sampler
 from ._space import check_search_space, sample_params
 from ._split import HoldoutSplit
-from ._storage import count_done, fail_dead_workers, make_storage, worker_id
+from ._storage import count_claimed, count_done, fail_dead_workers, make_storage, worker_id
 
 __all__ = ["AllTrialsFailedError", "tune"]
 
@@ -74,11 +75,21 @@ def _fail(trial, reason):
     raise optuna.TrialPruned(reason)
 
 
-def _objective(estimator, search_space, X, y, splits, scorer, sign):
+class _BudgetFilled(Exception):
+    """Raised by a trial that started when other workers already held every place of the budget."""
+
+
+def _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials):
     worker = worker_id()
 
     def objective(trial):
         trial.set_user_attr("worker", worker)
+        if count_claimed(trial.study, before=trial.number) >= n_trials:
+            # two workers started their last trials at once: the later one stands down (it ends FAIL,
+            # which never counts), so the study ends with exactly n_trials finished trials
+            trial.study.stop()
+            trial.set_user_attr("fail_reason", "not run: the budget was filled by other workers")
+            raise _BudgetFilled(f"the {n_trials} places of the budget are taken")
         params = sample_params(search_space, trial)
         trial.set_user_attr("params", {k: jsonable(v) for k, v in params.items()})
         scores = []
@@ -149,7 +160,7 @@ def tune(
     study_name=None,
     n_jobs=1,
     random_state=None,
-    show_progress_bar=False,
+    show_progress_bar=True,
     refit=True,
 ):
     """Choose hyperparameters by Bayesian optimisation of the simulation error.
@@ -189,9 +200,10 @@ def tune(
         Budget of the *study*, not of this call: trials that finished
         (COMPLETE, or PRUNED for a failed evaluation) count, and a call on a
         study that already holds some runs only the missing ones. Workers
-        sharing a study share the budget; each may finish the trial it is
-        running when the budget is reached, so the study can end with up to
-        ``n_workers - 1`` extra trials.
+        sharing a study share the budget exactly: a trial that another
+        worker is running holds its place, and the study ends with
+        ``n_trials`` finished trials (a trial left RUNNING by a killed worker
+        gives its place back once it is marked FAIL, see Notes).
     timeout : float, optional
         Stop starting new trials after this many seconds.
     storage : None, str, path-like or optuna storage, default=None
@@ -209,7 +221,10 @@ def tune(
         Seeds TPE. Trial ``n`` draws from a generator seeded by
         ``(random_state, n)``, so concurrent or restarted workers do not
         repeat each other's points.
-    show_progress_bar : bool, default=False
+    show_progress_bar : bool, default=True
+        Optuna's ``tqdm.auto`` bar, drawn only where there is somewhere to
+        draw it, a notebook or a terminal, never into a log file or a pipe;
+        the environment variable ``SINDYBENCH_PROGRESS=0`` turns bars off.
     refit : bool, default=True
         Fit the best estimator on all of ``X, y``. ``False`` returns it
         unfitted, for a caller that fits it on other data (the study fits the
@@ -238,8 +253,9 @@ def tune(
     TPE ranks pruned trials below all completed ones, so it learns to stay away
     from regions where models diverge, while it ignores FAIL trials. FAIL is
     left to trials that were interrupted (worker killed, Ctrl-C, stale
-    heartbeat); they do not count toward ``n_trials``. On start, RUNNING
-    trials of dead workers on this machine are marked FAIL.
+    heartbeat); they do not count toward ``n_trials``. On start and after
+    each trial, RUNNING trials of dead workers on this machine are marked
+    FAIL; a database storage's heartbeat does it for other machines.
 
     Examples
     --------
@@ -258,6 +274,7 @@ def tune(
     """
     scorer, direction, sign = _check_args(n_trials, timeout, n_jobs, random_state, scoring)
     check_bool(refit, "refit")
+    show_progress_bar = show_progress(show_progress_bar)
     check_search_space(search_space, estimator)
     X = None if X is None else np.asarray(X)
     y = np.asarray(y)
@@ -268,18 +285,20 @@ def tune(
     fail_dead_workers(study)
 
     def stop_at_budget(study, trial):
-        if count_done(study) >= n_trials:
+        # trials that other workers are running hold their places: start no trial that could exceed the budget
+        fail_dead_workers(study)
+        if count_claimed(study) >= n_trials:
             study.stop()
 
-    remaining = n_trials - count_done(study)
+    remaining = n_trials - count_claimed(study)
     if remaining > 0:
         logger.info("study %r: running up to %d of %d trials", study.study_name, remaining, n_trials)
         study.optimize(
-            _objective(estimator, search_space, X, y, splits, scorer, sign),
+            _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials),
             n_trials=remaining,
             timeout=timeout,
             n_jobs=n_jobs,
-            catch=(),
+            catch=(_BudgetFilled,),
             callbacks=[stop_at_budget],
             show_progress_bar=show_progress_bar,
         )

@@ -81,8 +81,10 @@ class RefinementResult(NamedTuple):
     x0 : ndarray of shape (n_states,)
         Refined initial state.
     initial_cost, cost : float
-        Half the mean squared scaled output error before and after (scaled by
-        the output's standard deviation).
+        Half the mean squared scaled output error of an open-loop simulation
+        of the whole record before and after (scaled by the output's standard
+        deviation; with multiple shooting too, ``cost`` is that of the
+        returned model run from its initial state).
     nfev, njev : int
         Model simulations and Jacobian evaluations.
     status : int
@@ -345,6 +347,8 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     if free.shape != coef.shape:
         raise ValueError(f"free has shape {free.shape}; expected {coef.shape} (the shape of coef).")
     free_x0 = np.arange(n_states) if free_x0 is None else np.asarray(free_x0, dtype=np.int64).reshape(-1)
+    if free_x0.size and (free_x0.min() < 0 or free_x0.max() >= n_states or np.unique(free_x0).size < free_x0.size):
+        raise ValueError(f"free_x0 = {free_x0.tolist()}; expected distinct state indices in [0, {n_states - 1}].")
     n_segments = check_integer(n_segments, "n_segments", high=max(1, u.shape[0] // 10))
     check_positive(continuity_weight, "continuity_weight")
     prune = check_positive(prune, "prune", strict=False)
@@ -392,7 +396,11 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
             free[j, i] = False
             pruned.append((int(j), int(i)))
         logger.debug("pruned %d terms; refining again", int(small.sum()))
-    final = problem.residuals(p)[: problem.n_res]
+    # the open-loop error of the returned model (with multiple shooting, not the segmented cost)
+    with np.errstate(all="ignore"):
+        x = simulate(problem.rhs(p), x0, u, dt, on_divergence="nan", **settings)
+    final = ((x[:, list(output_index)] - y) / problem.y_scale).ravel() / np.sqrt(problem.n_res)
+    final = np.where(np.isfinite(final), final, _DIVERGED / np.sqrt(problem.n_res))
     names = () if physical is None else physical.names
     phys = dict(zip(names, (float(v) for v in (physical.values if physical is not None else ()))))
     return RefinementResult(coef=coef_all, physical=phys, x0=x0, initial_cost=initial_cost,

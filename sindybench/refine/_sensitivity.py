@@ -28,12 +28,11 @@ def _factor(v, o, a, b):
         if a == 0.0:
             return _power(v, a), 0.0
         return _power(v, a), a * _power(v, a - 1.0)
-    if o == 1:  # ABS_POW
-        s = 1.0 if v > 0.0 else (-1.0 if v < 0.0 else 0.0)
+    if o == 1:  # ABS_POW; at 0 the derivative is taken as 0 (sign(0) = 0, also for a < 1)
         w = abs(v)
-        if a == 0.0:
+        if a == 0.0 or v == 0.0:
             return _power(w, a), 0.0
-        return _power(w, a), a * _power(w, a - 1.0) * s
+        return _power(w, a), a * _power(w, a - 1.0) * (1.0 if v > 0.0 else -1.0)
     if o == 2:  # SQRT of clip(v, a, b)
         if v <= a:
             return np.sqrt(a), 0.0
@@ -51,31 +50,29 @@ def _factor(v, o, a, b):
     return 0.0 * v, 0.0  # sign(0) = 0, sign(nan) = nan
 
 
-@njit(cache=True)
-def _eval(z, n, ptr, col, op, a, b, coef, theta, jac, K, dK, dz, ppar, pterm, pstate, pw, s, lo, hi):
+@njit(cache=True, inline="always")
+def _eval(z, n, ptr, col, op, a, b, coef, theta, fv, fd, jac, K, dK, dz, ppar, pterm, pstate, pw, s, lo, hi):
     """K[s] = f(z), dK[s] = df/dz dz + df/dp at stage ``s`` (dK rows zeroed where K is)."""
     n_terms = ptr.shape[0] - 1
     n_par = dK.shape[2]
     for i in range(n):
         for c in range(n):
             jac[i, c] = 0.0
+    for f in range(col.shape[0]):  # every factor once: value and derivative
+        fv[f], fd[f] = _factor(z[col[f]], op[f], a[f], b[f])
     for j in range(n_terms):
         value = 1.0
         for f in range(ptr[j], ptr[j + 1]):
-            v, _ = _factor(z[col[f]], op[f], a[f], b[f])
-            value *= v
+            value *= fv[f]
         theta[j] = value
         for f in range(ptr[j], ptr[j + 1]):
             c = col[f]
-            if c >= n:
+            if c >= n or fd[f] == 0.0:
                 continue
-            _, d = _factor(z[c], op[f], a[f], b[f])
-            if d == 0.0:
-                continue
+            d = fd[f]
             for g in range(ptr[j], ptr[j + 1]):
                 if g != f:
-                    v, _ = _factor(z[col[g]], op[g], a[g], b[g])
-                    d *= v
+                    d *= fv[g]
             for i in range(n):
                 if coef[j, i] != 0.0:
                     jac[i, c] += coef[j, i] * d
@@ -116,6 +113,8 @@ def _run_sensitivity(x0, S0, u, h, n_sub, offsets, weights, linear, lo, hi, max_
     z = np.empty(n + u.shape[1])
     dz = np.zeros((n, q))
     theta = np.empty(ptr.shape[0] - 1)
+    fv = np.empty(col.shape[0])
+    fd = np.empty(col.shape[0])
     jac = np.zeros((n, n))
     K = np.zeros((n_st, n))
     dK = np.zeros((n_st, n, q))
@@ -140,17 +139,20 @@ def _run_sensitivity(x0, S0, u, h, n_sub, offsets, weights, linear, lo, hi, max_
                         clipped = True
                         zi = hi[i]
                     z[i] = zi
-                    for p in range(q):
-                        if clipped:
+                    if clipped:
+                        for p in range(q):
                             dz[i, p] = 0.0
-                        elif c != 0.0:
+                    elif c != 0.0:
+                        for p in range(q):
                             dz[i, p] = S[i, p] + c * hs * dK[s - 1, i, p]
-                        else:
+                    else:
+                        for p in range(q):
                             dz[i, p] = S[i, p]
                 frac = (j + c) / n_sub
                 for i in range(u.shape[1]):
                     z[n + i] = u[k, i] + frac * (u[k1, i] - u[k, i])
-                _eval(z, n, ptr, col, op, a, b, coef, theta, jac, K, dK, dz, ppar, pterm, pstate, pw, s, lo, hi)
+                _eval(z, n, ptr, col, op, a, b, coef, theta, fv, fd, jac, K, dK, dz, ppar, pterm, pstate, pw, s, lo,
+                      hi)
             bad = False
             for i in range(n):
                 incr = 0.0
@@ -164,10 +166,11 @@ def _run_sensitivity(x0, S0, u, h, n_sub, offsets, weights, linear, lo, hi, max_
                 elif x[i] >= hi[i]:
                     x[i] = hi[i]
                     at_bound = True
-                for p in range(q):
-                    if at_bound:
+                if at_bound:
+                    for p in range(q):
                         S[i, p] = 0.0
-                    else:
+                else:
+                    for p in range(q):
                         incr = 0.0
                         for s in range(n_st):
                             incr += weights[s] * dK[s, i, p]

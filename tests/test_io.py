@@ -195,6 +195,9 @@ def test_floats_round_trip_exactly():
                   np.inf, -np.inf, np.nan])
     back = sio.decode_array(json.loads(json.dumps(sio.encode_array(a), allow_nan=False)), "x")
     assert back.dtype == a.dtype and np.array_equal(back.view(np.int64), a.view(np.int64))
+    a32 = np.array([0.1, 1 / 3, -0.0, 1e-45, 3.4028235e38, np.inf], dtype=np.float32)
+    back = sio.decode_array(json.loads(json.dumps(sio.encode_array(a32), allow_nan=False)), "x")
+    assert back.dtype == np.float32 and np.array_equal(back.view(np.int32), a32.view(np.int32))
 
 
 # ---------------------------------------------------------------- refusal of bad files

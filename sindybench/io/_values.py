@@ -20,7 +20,7 @@ __all__ = [
 ]
 
 _TAGS = ("array", "dict", "estimator", "float", "function", "tuple")
-_DTYPES = {"float64": float, "int64": np.int64, "bool": bool}
+_DTYPES = {"float64": np.float64, "float32": np.float32, "int64": np.int64, "bool": bool}
 _SPECIAL = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
 
 
@@ -48,14 +48,16 @@ def encode_array(a):
     {'dtype': 'float64', 'shape': [1, 2], 'data': [1.5, 'inf']}
     >>> decode_array(encode_array(np.array([0.1, -0.0])), "x").tolist()
     [0.1, -0.0]
+    >>> decode_array(encode_array(np.array([0.1], dtype=np.float32)), "x").dtype
+    dtype('float32')
     """
     a = np.asarray(a)
     if a.dtype == bool:
         dtype, data = "bool", [bool(v) for v in a.ravel()]
     elif np.issubdtype(a.dtype, np.integer):
         dtype, data = "int64", [int(v) for v in a.ravel()]
-    elif np.issubdtype(a.dtype, np.floating):
-        dtype = "float64"
+    elif np.issubdtype(a.dtype, np.floating):  # float32 values are exact float64 numbers too
+        dtype = "float32" if a.dtype == np.float32 else "float64"
         data = [v if math.isfinite(v) else repr(v) for v in a.astype(float).ravel().tolist()]
     else:
         raise ValueError(f"cannot store an array of dtype {a.dtype}; expected float, int or bool.")
@@ -84,7 +86,7 @@ def decode_array(value, field, shape=None):
         raise ValueError(f"{field}.shape: expected a list of integers >= 0; got {dims!r}.")
     if not isinstance(data, list) or len(data) != math.prod(dims):
         raise ValueError(f"{field}.data: expected a list of {math.prod(dims)} values (shape {dims}); got {_kind(data)}.")
-    if dtype == "float64":
+    if dtype in ("float64", "float32"):
         ok = all((isinstance(v, (int, float)) and not isinstance(v, bool)) or v in _SPECIAL for v in data)
         values = [_SPECIAL.get(v, v) if isinstance(v, str) else v for v in data] if ok else None
     elif dtype == "int64":

@@ -38,7 +38,7 @@ from sindybench.model_selection import HoldoutSplit, LogUniform, tune
 from sindybench.plotting import plot_coefficients, plot_hidden_states, plot_search_history, plot_simulation
 
 QUICK = os.environ.get("SINDYBENCH_QUICK", "") not in ("", "0")
-optuna.logging.set_verbosity(optuna.logging.WARNING)  # the search history below says it better than a log line per trial
+optuna.logging.set_verbosity(optuna.logging.WARNING)  # the search history below tells it better than a log
 
 data = load_pick_and_place()
 train, val, test = data.train, data.validation, data.test

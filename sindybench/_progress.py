@@ -55,4 +55,6 @@ def progress_bar(total, *, desc, show=True, leave=True):
     """A ``tqdm.auto`` bar of ``total`` steps, disabled unless :func:`show_progress` says so."""
     from tqdm.auto import tqdm
 
-    return tqdm(total=total, desc=desc, leave=leave, disable=not show_progress(show), dynamic_ncols=True)
+    # every step redraws (a search trial takes milliseconds at least): a bar of fast trials shows its count
+    return tqdm(total=total, desc=desc, leave=leave, disable=not show_progress(show), dynamic_ncols=True,
+                mininterval=0)

@@ -95,7 +95,7 @@ def build_parser():
                      help="folder with the benchmark records (default: $SINDYBENCH_DATA or the data home)")
     run.add_argument("--no-download", action="store_true", help="never try to download a missing record")
     run.add_argument("--no-progress", action="store_true",
-                     help="no progress bars (drawn only when stderr is a terminal; SINDYBENCH_PROGRESS=0 also turns them off)")
+                     help="no progress bars (drawn only when stderr is a terminal; SINDYBENCH_PROGRESS=0 too)")
     run.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors on stderr")
     sim = sub.add_parser(
         "simulate",

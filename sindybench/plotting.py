@@ -87,6 +87,7 @@ import numbers
 import numpy as np
 
 from ._validation import check_integer, check_signal
+from .hidden._estimator import _PENALTY as _SEARCH_PENALTY  # the inner search's score of a failed candidate
 from .metrics import r2
 
 __all__ = [
@@ -99,7 +100,6 @@ __all__ = [
 ]
 
 MAX_POINTS = 6000  # samples drawn per curve at most (longer records are strided)
-_SEARCH_PENALTY = 1e3  # HiddenStateSINDy's score of a failed candidate (see hidden/_estimator.py)
 
 
 # ----------------------------------------------------------------- helpers
@@ -172,7 +172,7 @@ def _prediction(label, model, X, y, n_init):
         raise ValueError(
             f"model {label!r} is neither a fitted estimator nor an array of simulated outputs ({exc})."
         ) from None
-    pred = pred.reshape(len(pred), -1) if pred.ndim == 1 else pred
+    pred = pred[:, None] if pred.ndim == 1 else pred
     if pred.ndim != 2 or pred.shape != y.shape:
         raise ValueError(f"the simulation of model {label!r} has shape {pred.shape}; expected {y.shape} (as y).")
     return pred
@@ -401,6 +401,17 @@ def plot_hidden_states(model, X=None, y=None, *, n_init=1, states=None, max_poin
     Returns
     -------
     list of Axes
+
+    Examples
+    --------
+    >>> from sindybench import HiddenStateSINDy
+    >>> from sindybench.hidden import DerivativeHiddenState
+    >>> t = np.arange(0, 10, 0.01)
+    >>> model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), dt=0.01)
+    >>> model = model.fit(np.sin(t)[:, None], np.cos(t)[:, None])
+    >>> (ax,) = plot_hidden_states(model)
+    >>> ax.get_ylabel(), np.array_equal(ax.get_lines()[0].get_ydata(), model.hidden_states_[:, 0])
+    ("y0'", True)
     """
     if isinstance(states, str):
         states = [states]
@@ -496,6 +507,17 @@ def plot_coefficients(models, *, learned_only=True, annotate=True, precision=2, 
     Returns
     -------
     Axes
+
+    Examples
+    --------
+    >>> from sindybench import SINDy
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> t = np.arange(0, 3, 0.01)
+    >>> y = np.column_stack([np.exp(-2 * t), 1 + np.exp(-t)])
+    >>> model = SINDy(library=PolynomialLibrary(degree=1), dt=0.01).fit(None, y)
+    >>> ax = plot_coefficients({"A": model})
+    >>> [label.get_text() for label in ax.get_yticklabels()]
+    ["A: y0'", "A: y1'"]
     """
     from matplotlib.colors import SymLogNorm
 

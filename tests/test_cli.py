@@ -341,7 +341,7 @@ def test_quick_run_report(quick_run):
 
 def test_docs_build_with_generated_figures(quick_run, notebooks, tmp_path):
     """The docs build (warnings as errors) with the run's figures, the notebooks' outputs and the API figures."""
-    sphinx = pytest.importorskip("sphinx.cmd.build", reason="the docs extra (sphinx, numpydoc, myst-nb) is not installed")
+    sphinx = pytest.importorskip("sphinx.cmd.build", reason="the docs extra (sphinx, numpydoc, myst-nb) is missing")
     pytest.importorskip("numpydoc")
     pytest.importorskip("myst_nb")
     shutil.copytree(ROOT / "docs", tmp_path / "docs",

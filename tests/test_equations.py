@@ -139,7 +139,8 @@ def test_hidden_latex_equations(oscillator_model):
 
 
 def test_notebook_display_of_fitted_and_unfitted_models(oscillator_model):
-    from IPython.core.formatters import DisplayFormatter
+    formatters = pytest.importorskip("IPython.core.formatters", reason="IPython comes with the test extra (ipykernel)")
+    DisplayFormatter = formatters.DisplayFormatter
 
     formatter = DisplayFormatter()
     unfitted = HiddenStateSINDy(dt=0.01)

@@ -131,6 +131,7 @@ def test_long_records_are_strided(oscillator):
     [
         ({"models": {"m": np.zeros((10, 1))}}, r"simulation of model 'm' has shape \(10, 1\); expected \(1500, 1\)"),
         ({"models": {"m": "abc"}}, "neither a fitted estimator nor an array"),
+        ({"models": {"m": 3.0}}, r"simulation of model 'm' has shape \(\); expected \(1500, 1\)"),
         ({"output": 1}, r"output=1 but there are 1 column\(s\)"),
         ({"dt": -1.0}, "dt must be a number > 0"),
         ({"ax": "axes"}, "ax must be one matplotlib Axes"),

@@ -436,8 +436,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         if x0 is not None:  # the refined model's own trajectory replaces the reconstruction
             self.x0_ = x0
             self.states_ = self._simulate(cand, x0, X, dt, "nan")
-            self.hidden_states_ = self.states_[:, [i for i in range(cand.structure.n_states)
-                                                   if i not in cand.structure.output_index]]
+            self._rebuild_model()
         self._y_1d = np.asarray(y).ndim == 1
         return self
 

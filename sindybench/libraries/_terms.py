@@ -77,12 +77,17 @@ def _factor_name(factor, names):
     if op == SIGN:
         return f"sign({z})"
     if op == STEP:
-        if np.isinf(b):
-            return f"[{z}>={a:g}]"
-        if np.isinf(a):
-            return f"[{z}<={b:g}]"
-        return f"[{a:g}<={z}<={b:g}]"
+        return _interval(z, a, b, ">=", "<=")
     raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
+
+
+def _interval(z, a, b, ge, le):
+    """``[z>=a]``, ``[z<=b]`` or ``[a<=z<=b]`` with the given comparison signs."""
+    if np.isinf(b):
+        return f"[{z}{ge}{a:g}]"
+    if np.isinf(a):
+        return f"[{z}{le}{b:g}]"
+    return f"[{a:g}{le}{z}{le}{b:g}]"
 
 
 def term_name(term, names):
@@ -153,11 +158,7 @@ def _factor_latex(factor, symbols):
     if op == SIGN:
         return rf"\operatorname{{sign}}({z})"
     if op == STEP:
-        if np.isinf(b):
-            return rf"[{z} \geq {a:g}]"
-        if np.isinf(a):
-            return rf"[{z} \leq {b:g}]"
-        return rf"[{a:g} \leq {z} \leq {b:g}]"
+        return _interval(z, a, b, r" \geq ", r" \leq ")
     raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
 
 

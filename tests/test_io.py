@@ -195,6 +195,9 @@ def test_floats_round_trip_exactly():
                   np.inf, -np.inf, np.nan])
     back = sio.decode_array(json.loads(json.dumps(sio.encode_array(a), allow_nan=False)), "x")
     assert back.dtype == a.dtype and np.array_equal(back.view(np.int64), a.view(np.int64))
+    a32 = np.array([0.1, 1 / 3, -0.0, 1e-45, 3.4028235e38, np.inf], dtype=np.float32)
+    back = sio.decode_array(json.loads(json.dumps(sio.encode_array(a32), allow_nan=False)), "x")
+    assert back.dtype == np.float32 and np.array_equal(back.view(np.int32), a32.view(np.int32))
 
 
 # ---------------------------------------------------------------- refusal of bad files
@@ -394,6 +397,13 @@ def test_unfitted_model_is_refused(tmp_path):
     assert list(tmp_path.iterdir()) == []
 
 
+def test_saved_file_has_the_permissions_of_an_ordinary_file(tmp_path, fitted):
+    model, _, _ = fitted
+    model.to_json(tmp_path / "m.json")
+    (tmp_path / "plain.txt").write_text("x")
+    assert (tmp_path / "m.json").stat().st_mode == (tmp_path / "plain.txt").stat().st_mode
+
+
 def test_failed_write_keeps_the_old_file(tmp_path, fitted, monkeypatch):
     model, u, y = fitted
     path = tmp_path / "m.json"
@@ -403,7 +413,7 @@ def test_failed_write_keeps_the_old_file(tmp_path, fitted, monkeypatch):
     def broken_replace(src, dst):
         raise OSError("disk full")
 
-    monkeypatch.setattr(sio.os, "replace", broken_replace)
+    monkeypatch.setattr(sio._files.os, "replace", broken_replace)
     other = SINDy(library=PolynomialLibrary(degree=1), dt=DT).fit(u, y)
     with pytest.raises(OSError, match="disk full"):
         other.to_json(path)
@@ -425,7 +435,7 @@ def _restore_gain(model, fitted):
 
 
 def test_other_estimators_plug_in(tmp_path, monkeypatch):
-    monkeypatch.setattr(sio, "_REGISTRY", dict(sio._REGISTRY))
+    monkeypatch.setitem(sio._registry._REGISTRY, "_Gain", None)  # removed again after the test
     sio.register_model(_Gain, to_dict=lambda m: {"gain": m.gain_}, from_dict=_restore_gain)
     model = _Gain(k=2.0).fit(None, np.array([1.0, 2.0]))
     sio.save_model(model, tmp_path / "g.json")

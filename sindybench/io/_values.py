@@ -1,140 +1,29 @@
-"""Save and load fitted estimators as plain JSON (never pickle).
-
-A model file is one JSON object (the *envelope*)::
-
-    {"format": "sindybench-model", "format_version": 2, "sindybench_version": "0.1.0",
-     "class": "HiddenStateSINDy", "params": {...}, "fitted": {...}}
-
-``params`` holds the estimator's constructor parameters (``get_params(deep=False)``),
-encoded generically (see :func:`encode_value`), so a loaded model clones,
-refits and searches like the saved one. ``fitted`` holds the fitted state that
-each class lists explicitly (coefficients, symbolic terms, state trajectory,
-network weights ...). Arrays keep their dtype and shape, and floats are
-written with Python's shortest round-trip representation, so a loaded model
-simulates bit for bit like the saved one. The full schema is in the
-documentation (``docs/persistence.rst``).
-
-This module holds only the format: versions, the envelope and its checks, the
-atomic write, and a registry that classes join with :func:`register_model`
-from their own modules. It imports no estimator: an estimator module imports
-it, never the other way round. A class name in a file is looked up in the
-registry only; nothing is imported because a file names it, except a
-module-level function stored by its import path (a
-``ParametricHiddenState``'s ``rhs``), and only when the caller passes
-``allow_import=True``.
-"""
+"""Model-file values: parameters, arrays and the checked reading of stored fields."""
 
 import importlib
-import json
 import math
-import os
-import tempfile
 import types
-from pathlib import Path
-from typing import Callable, NamedTuple
 
 import numpy as np
-from sklearn.utils.validation import check_is_fitted
+
+from ._registry import _REGISTRY, _lookup, _registered
 
 __all__ = [
     "Fields",
     "check_params",
-    "SaveLoadMixin",
     "decode_array",
     "decode_value",
     "encode_array",
     "encode_value",
     "fitted_from_dict",
     "fitted_to_dict",
-    "load_model",
-    "model_from_dict",
-    "model_to_dict",
-    "register_model",
-    "save_model",
-    "write_text_atomic",
 ]
 
-FORMAT = "sindybench-model"
-FORMAT_VERSION = 2
 _TAGS = ("array", "dict", "estimator", "float", "function", "tuple")
-_DTYPES = {"float64": float, "int64": np.int64, "bool": bool}
+_DTYPES = {"float64": np.float64, "float32": np.float32, "int64": np.int64, "bool": bool}
 _SPECIAL = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
 
 
-class _Entry(NamedTuple):
-    cls: type
-    to_dict: Callable
-    from_dict: Callable
-
-
-_REGISTRY = {}
-
-
-def register_model(cls, *, to_dict=None, from_dict=None):
-    """Let instances of ``cls`` be stored in model files.
-
-    Every class whose instances appear in a file (as the saved model or inside
-    its parameters: optimizer, library, differentiation, strategy) must be
-    registered; a file can only name registered classes. Files name a class
-    by ``cls.__name__``.
-
-    Parameters
-    ----------
-    cls : type
-        A scikit-learn style estimator: ``__init__`` stores its arguments and
-        ``get_params(deep=False)`` returns them.
-    to_dict : callable, optional
-        ``to_dict(model) -> dict``: the fitted state of a fitted ``model`` as
-        JSON-able data (use :func:`encode_array` and :func:`encode_value`);
-        raise ``ValueError`` when it cannot be stored. Without ``to_dict`` and
-        ``from_dict`` the class can be a parameter of a saved model, but not be
-        saved on its own.
-    from_dict : callable, optional
-        ``from_dict(model, fitted)``: set the fitted attributes of ``model``
-        (constructed from the stored parameters) from ``fitted``, a
-        :class:`Fields` view of the stored dict.
-
-    Returns
-    -------
-    cls
-
-    Examples
-    --------
-    >>> from sklearn.base import BaseEstimator
-    >>> class Gain(BaseEstimator):
-    ...     def __init__(self, *, k=1.0):
-    ...         self.k = k
-    ...     def fit(self, X, y):
-    ...         self.gain_ = self.k * float(np.mean(y))
-    ...         return self
-    >>> def gain_from_dict(model, fitted):
-    ...     model.gain_ = fitted.float("gain")
-    >>> _ = register_model(Gain, to_dict=lambda m: {"gain": m.gain_}, from_dict=gain_from_dict)
-    >>> data = model_to_dict(Gain(k=2.0).fit(None, [1.0, 2.0]))
-    >>> data["class"], data["params"], data["fitted"]
-    ('Gain', {'k': 2.0}, {'gain': 3.0})
-    >>> model_from_dict(data).gain_
-    3.0
-    >>> _ = _REGISTRY.pop("Gain")  # unregister the example class again
-    """
-    if (to_dict is None) != (from_dict is None):
-        raise ValueError("register_model needs both to_dict and from_dict, or neither.")
-    name = cls.__name__
-    old = _REGISTRY.get(name)
-    if old is not None and (old.cls.__module__, old.cls.__qualname__) != (cls.__module__, cls.__qualname__):
-        raise ValueError(
-            f"another class named {name!r} is registered ({old.cls.__module__}.{old.cls.__qualname__}); "
-            "expected one class per name."
-        )
-    _REGISTRY[name] = _Entry(cls, to_dict, from_dict)
-    return cls
-
-
-def _registered(models_only=False):
-    return sorted(n for n, e in _REGISTRY.items() if not models_only or e.to_dict is not None)
-
-
-# ------------------------------------------------------------------ values
 def _kind(value):
     """Short description of a decoded JSON value, for messages."""
     if value is None:
@@ -159,14 +48,16 @@ def encode_array(a):
     {'dtype': 'float64', 'shape': [1, 2], 'data': [1.5, 'inf']}
     >>> decode_array(encode_array(np.array([0.1, -0.0])), "x").tolist()
     [0.1, -0.0]
+    >>> decode_array(encode_array(np.array([0.1], dtype=np.float32)), "x").dtype
+    dtype('float32')
     """
     a = np.asarray(a)
     if a.dtype == bool:
         dtype, data = "bool", [bool(v) for v in a.ravel()]
     elif np.issubdtype(a.dtype, np.integer):
         dtype, data = "int64", [int(v) for v in a.ravel()]
-    elif np.issubdtype(a.dtype, np.floating):
-        dtype = "float64"
+    elif np.issubdtype(a.dtype, np.floating):  # float32 values are exact float64 numbers too
+        dtype = "float32" if a.dtype == np.float32 else "float64"
         data = [v if math.isfinite(v) else repr(v) for v in a.astype(float).ravel().tolist()]
     else:
         raise ValueError(f"cannot store an array of dtype {a.dtype}; expected float, int or bool.")
@@ -195,7 +86,7 @@ def decode_array(value, field, shape=None):
         raise ValueError(f"{field}.shape: expected a list of integers >= 0; got {dims!r}.")
     if not isinstance(data, list) or len(data) != math.prod(dims):
         raise ValueError(f"{field}.data: expected a list of {math.prod(dims)} values (shape {dims}); got {_kind(data)}.")
-    if dtype == "float64":
+    if dtype in ("float64", "float32"):
         ok = all((isinstance(v, (int, float)) and not isinstance(v, bool)) or v in _SPECIAL for v in data)
         values = [_SPECIAL.get(v, v) if isinstance(v, str) else v for v in data] if ok else None
     elif dtype == "int64":
@@ -363,12 +254,6 @@ def decode_value(value, field="value", *, allow_import=False):
             )
         return _import_function(inner, field)
     return _decode_estimator(Fields(inner, f"{field}.estimator"), allow_import=allow_import)
-
-
-def _lookup(name, field, *, model=False):
-    if not isinstance(name, str) or name not in _REGISTRY or (model and _REGISTRY[name].to_dict is None):
-        raise ValueError(f"{field}: unknown class {name!r}; expected one of {_registered(model)}.")
-    return _REGISTRY[name]
 
 
 def _construct(cls, params, field, allow_import):
@@ -546,201 +431,3 @@ def fitted_from_dict(fields):
     if entry.from_dict is not None:
         entry.from_dict(model, fields.fields("fitted"))
     return model
-
-
-# ---------------------------------------------------------------- public API
-def model_to_dict(model):
-    """The JSON-able dict :func:`save_model` writes.
-
-    Parameters
-    ----------
-    model : fitted estimator of a class registered with ``to_dict``
-        (:class:`~sindybench.SINDy`, :class:`~sindybench.HiddenStateSINDy`,
-        :class:`~sindybench.STLS`, :class:`~sindybench.baselines.ARX`,
-        :class:`~sindybench.baselines.NNARX`)
-
-    Returns
-    -------
-    dict
-        ``format``, ``format_version``, ``sindybench_version``, ``class``,
-        ``params`` and ``fitted``.
-
-    Raises
-    ------
-    ValueError
-        For an unregistered class, or a model that cannot be stored as plain
-        data (e.g. custom library functions, a lambda).
-    sklearn.exceptions.NotFittedError
-        For an unfitted model.
-
-    Examples
-    --------
-    >>> from sindybench import SINDy, STLS
-    >>> from sindybench.libraries import PolynomialLibrary
-    >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
-    >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01).fit(None, y)
-    >>> data = model_to_dict(model)
-    >>> data["class"], data["params"]["optimizer"], data["fitted"]["library"]["terms"]
-    ('SINDy', {'estimator': {'class': 'STLS', 'params': {..., 'threshold': 0.1, ...}}}, [[], [[0, 0, 1.0, 0.0]]])
-    >>> model_from_dict(data).equations()
-    ["y0' = -1.000 y0"]
-    """
-    from . import __version__
-
-    name = type(model).__name__
-    entry = _REGISTRY.get(name)
-    if entry is None or entry.to_dict is None or type(model) is not entry.cls:
-        raise ValueError(f"cannot save a {name}; expected one of {_registered(True)}.")
-    check_is_fitted(model)
-    params = _encode_params(model, "params")
-    return {
-        "format": FORMAT,
-        "format_version": FORMAT_VERSION,
-        "sindybench_version": __version__,
-        "class": name,
-        "params": params,
-        "fitted": entry.to_dict(model),
-    }
-
-
-def model_from_dict(data, *, allow_import=False):
-    """Rebuild a fitted model from the dict of :func:`model_to_dict`.
-
-    Parameters
-    ----------
-    data : dict
-        As written by :func:`model_to_dict` (or read back from a model file).
-    allow_import : bool, default=False
-        Import the module-level functions the file names (see :func:`load_model`).
-
-    Returns
-    -------
-    fitted estimator
-
-    Raises
-    ------
-    ValueError
-        Naming the first field that is missing, null, of the wrong type or
-        shape, or an unknown class.
-
-    Examples
-    --------
-    >>> model_from_dict({"format": "sindybench-model", "format_version": 3})
-    Traceback (most recent call last):
-    ...
-    ValueError: format_version: model file version 3 is not supported; expected 2.
-    """
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise ValueError(f"format: not a sindybench model; expected a JSON object with format = {FORMAT!r}.")
-    version = data.get("format_version")
-    if version != FORMAT_VERSION:
-        raise ValueError(f"format_version: model file version {version!r} is not supported; expected {FORMAT_VERSION}.")
-    envelope = Fields(data, "", allow_import=allow_import)  # top-level fields are named bare: "fitted.coef"
-    entry = _lookup(data.get("class"), "class", model=True)
-    model = _construct(entry.cls, envelope.get("params", "an object"), "params", allow_import)
-    try:
-        entry.from_dict(model, envelope.fields("fitted"))
-    except (KeyError, TypeError, IndexError, AttributeError) as exc:  # a hook without a check of its own
-        raise ValueError(f"fitted: the {entry.cls.__name__} data is malformed: {exc!r}.") from exc
-    return model
-
-
-def save_model(model, path):
-    """Write ``model`` to ``path`` as JSON, atomically.
-
-    The text is built completely before anything is written, then written to a
-    temporary file in the same folder and moved over ``path``: an error never
-    leaves a partial or truncated file behind.
-
-    Parameters
-    ----------
-    model : fitted estimator of a registered class (see :func:`model_to_dict`)
-    path : str or path-like
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> from sindybench import SINDy, STLS
-    >>> from sindybench.libraries import PolynomialLibrary
-    >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
-    >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01).fit(None, y)
-    >>> path = pathlib.Path(tempfile.mkdtemp()) / "model.json"
-    >>> save_model(model, path)
-    >>> load_model(path).equations()
-    ["y0' = -1.000 y0"]
-    """
-    write_text_atomic(json.dumps(model_to_dict(model), allow_nan=False), path)
-
-
-def write_text_atomic(text, path):
-    """Write ``text`` to ``path`` through a temporary file in the same folder (no partial file)."""
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as f:
-            f.write(text)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def load_model(path, *, allow_import=False):
-    """Load a model saved by :func:`save_model` (or ``model.to_json``).
-
-    Parameters
-    ----------
-    path : str or path-like
-    allow_import : bool, default=False
-        A :class:`~sindybench.hidden.ParametricHiddenState` stores its ``rhs``
-        as the import path of a module-level function. Loading such a file
-        imports that module and takes the function from it, which runs the
-        module's code: only with ``allow_import=True``. Without it the file is
-        refused with a message naming the function. No other code is run.
-
-    Returns
-    -------
-    fitted estimator
-        Simulates and predicts exactly like the saved one; ``get_params()``
-        returns the saved hyperparameters (it clones, refits and searches).
-
-    Raises
-    ------
-    ValueError
-        For a file that is not valid JSON or not a valid model file; the
-        message names the field and what was expected.
-
-    Examples
-    --------
-    >>> import tempfile, pathlib
-    >>> from sindybench import SINDy
-    >>> from sindybench.libraries import PolynomialLibrary
-    >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
-    >>> model = SINDy(library=PolynomialLibrary(degree=1), dt=0.01).fit(None, y)
-    >>> with tempfile.TemporaryDirectory() as folder:
-    ...     model.to_json(pathlib.Path(folder) / "model.json")
-    ...     loaded = load_model(pathlib.Path(folder) / "model.json")
-    >>> loaded.equations() == model.equations(), bool(np.array_equal(loaded.coef_, model.coef_))
-    (True, True)
-    """
-    with open(path, encoding="utf-8") as f:
-        try:
-            data = json.load(f)
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-            raise ValueError(f"{path} is not valid JSON: {exc}") from exc
-    return model_from_dict(data, allow_import=allow_import)
-
-
-class SaveLoadMixin:
-    """Adds ``to_json(path)`` to an estimator registered with :func:`register_model`."""
-
-    def to_json(self, path):
-        """Save the fitted model as plain JSON (atomically); load it with :func:`sindybench.load_model`.
-
-        Parameters
-        ----------
-        path : str or path-like
-        """
-        save_model(self, path)

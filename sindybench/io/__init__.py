@@ -1,0 +1,65 @@
+"""Save and load fitted estimators as plain JSON (never pickle).
+
+A model file is one JSON object (the *envelope*)::
+
+    {"format": "sindybench-model", "format_version": 2, "sindybench_version": "0.1.0",
+     "class": "HiddenStateSINDy", "params": {...}, "fitted": {...}}
+
+``params`` holds the estimator's constructor parameters (``get_params(deep=False)``),
+encoded generically (see :func:`encode_value`), so a loaded model clones,
+refits and searches like the saved one. ``fitted`` holds the fitted state that
+each class lists explicitly (coefficients, symbolic terms, state trajectory,
+network weights ...). Arrays keep their dtype and shape, and floats are
+written with Python's shortest round-trip representation, so a loaded model
+simulates bit for bit like the saved one. The full schema is in the
+documentation (``docs/persistence.rst``).
+
+This package holds only the format: versions, the envelope and its checks, the
+atomic write, and a registry that classes join with :func:`register_model`
+from their own modules. It imports no estimator: an estimator module imports
+it, never the other way round. A class name in a file is looked up in the
+registry only; nothing is imported because a file names it, except a
+module-level function stored by its import path (a
+``ParametricHiddenState``'s ``rhs``), and only when the caller passes
+``allow_import=True``.
+"""
+
+from ._files import (
+    FORMAT_VERSION,
+    SaveLoadMixin,
+    load_model,
+    model_from_dict,
+    model_to_dict,
+    save_model,
+    write_text_atomic,
+)
+from ._registry import register_model
+from ._values import (
+    Fields,
+    check_params,
+    decode_array,
+    decode_value,
+    encode_array,
+    encode_value,
+    fitted_from_dict,
+    fitted_to_dict,
+)
+
+__all__ = [
+    "FORMAT_VERSION",
+    "Fields",
+    "SaveLoadMixin",
+    "check_params",
+    "decode_array",
+    "decode_value",
+    "encode_array",
+    "encode_value",
+    "fitted_from_dict",
+    "fitted_to_dict",
+    "load_model",
+    "model_from_dict",
+    "model_to_dict",
+    "register_model",
+    "save_model",
+    "write_text_atomic",
+]

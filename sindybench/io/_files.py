@@ -1,0 +1,226 @@
+"""Model files: the envelope, its version and checks, the atomic write."""
+
+import json
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np  # noqa: F401  (used by the doctests)
+from sklearn.utils.validation import check_is_fitted
+
+from ._registry import _REGISTRY, _lookup, _registered
+from ._values import Fields, _construct, _encode_params
+
+__all__ = ["SaveLoadMixin", "load_model", "model_from_dict", "model_to_dict", "save_model", "write_text_atomic"]
+
+FORMAT = "sindybench-model"
+FORMAT_VERSION = 2
+
+
+def model_to_dict(model):
+    """The JSON-able dict :func:`save_model` writes.
+
+    Parameters
+    ----------
+    model : fitted estimator of a class registered with ``to_dict``
+        (:class:`~sindybench.SINDy`, :class:`~sindybench.HiddenStateSINDy`,
+        :class:`~sindybench.STLS`, :class:`~sindybench.baselines.ARX`,
+        :class:`~sindybench.baselines.NNARX`)
+
+    Returns
+    -------
+    dict
+        ``format``, ``format_version``, ``sindybench_version``, ``class``,
+        ``params`` and ``fitted``.
+
+    Raises
+    ------
+    ValueError
+        For an unregistered class, or a model that cannot be stored as plain
+        data (e.g. custom library functions, a lambda).
+    sklearn.exceptions.NotFittedError
+        For an unfitted model.
+
+    Examples
+    --------
+    >>> from sindybench import SINDy, STLS
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
+    >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01).fit(None, y)
+    >>> data = model_to_dict(model)
+    >>> data["class"], data["params"]["optimizer"], data["fitted"]["library"]["terms"]
+    ('SINDy', {'estimator': {'class': 'STLS', 'params': {..., 'threshold': 0.1, ...}}}, [[], [[0, 0, 1.0, 0.0]]])
+    >>> model_from_dict(data).equations()
+    ["y0' = -1.000 y0"]
+    """
+    from .. import __version__
+
+    name = type(model).__name__
+    entry = _REGISTRY.get(name)
+    if entry is None or entry.to_dict is None or type(model) is not entry.cls:
+        raise ValueError(f"cannot save a {name}; expected one of {_registered(True)}.")
+    check_is_fitted(model)
+    params = _encode_params(model, "params")
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "sindybench_version": __version__,
+        "class": name,
+        "params": params,
+        "fitted": entry.to_dict(model),
+    }
+
+
+def model_from_dict(data, *, allow_import=False):
+    """Rebuild a fitted model from the dict of :func:`model_to_dict`.
+
+    Parameters
+    ----------
+    data : dict
+        As written by :func:`model_to_dict` (or read back from a model file).
+    allow_import : bool, default=False
+        Import the module-level functions the file names (see :func:`load_model`).
+
+    Returns
+    -------
+    fitted estimator
+
+    Raises
+    ------
+    ValueError
+        Naming the first field that is missing, null, of the wrong type or
+        shape, or an unknown class.
+
+    Examples
+    --------
+    >>> model_from_dict({"format": "sindybench-model", "format_version": 3})
+    Traceback (most recent call last):
+    ...
+    ValueError: format_version: model file version 3 is not supported; expected 2.
+    """
+    if not isinstance(data, dict) or data.get("format") != FORMAT:
+        raise ValueError(f"format: not a sindybench model; expected a JSON object with format = {FORMAT!r}.")
+    version = data.get("format_version")
+    if version != FORMAT_VERSION:
+        raise ValueError(f"format_version: model file version {version!r} is not supported; expected {FORMAT_VERSION}.")
+    envelope = Fields(data, "", allow_import=allow_import)  # top-level fields are named bare: "fitted.coef"
+    entry = _lookup(data.get("class"), "class", model=True)
+    model = _construct(entry.cls, envelope.get("params", "an object"), "params", allow_import)
+    try:
+        entry.from_dict(model, envelope.fields("fitted"))
+    except (KeyError, TypeError, IndexError, AttributeError) as exc:  # a hook without a check of its own
+        raise ValueError(f"fitted: the {entry.cls.__name__} data is malformed: {exc!r}.") from exc
+    return model
+
+
+def save_model(model, path):
+    """Write ``model`` to ``path`` as JSON, atomically.
+
+    The text is built completely before anything is written, then written to a
+    temporary file in the same folder and moved over ``path``: an error never
+    leaves a partial or truncated file behind.
+
+    Parameters
+    ----------
+    model : fitted estimator of a registered class (see :func:`model_to_dict`)
+    path : str or path-like
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from sindybench import SINDy, STLS
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
+    >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01).fit(None, y)
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "model.json"
+    >>> save_model(model, path)
+    >>> load_model(path).equations()
+    ["y0' = -1.000 y0"]
+    """
+    write_text_atomic(json.dumps(model_to_dict(model), allow_nan=False), path)
+
+
+def _file_mode():
+    """Permissions of a new file as ``open`` would create it (0o666 less the umask)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
+def write_text_atomic(text, path):
+    """Write ``text`` to ``path`` through a temporary file in the same folder (no partial file).
+
+    The file gets the permissions ``open(path, "w")`` would give it (the
+    temporary file's are owner-only).
+    """
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, _file_mode())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def load_model(path, *, allow_import=False):
+    """Load a model saved by :func:`save_model` (or ``model.to_json``).
+
+    Parameters
+    ----------
+    path : str or path-like
+    allow_import : bool, default=False
+        A :class:`~sindybench.hidden.ParametricHiddenState` stores its ``rhs``
+        as the import path of a module-level function. Loading such a file
+        imports that module and takes the function from it, which runs the
+        module's code: only with ``allow_import=True``. Without it the file is
+        refused with a message naming the function. No other code is run.
+
+    Returns
+    -------
+    fitted estimator
+        Simulates and predicts exactly like the saved one; ``get_params()``
+        returns the saved hyperparameters (it clones, refits and searches).
+
+    Raises
+    ------
+    ValueError
+        For a file that is not valid JSON or not a valid model file; the
+        message names the field and what was expected.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> from sindybench import SINDy
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> y = np.exp(-np.arange(0, 5, 0.01))[:, None]
+    >>> model = SINDy(library=PolynomialLibrary(degree=1), dt=0.01).fit(None, y)
+    >>> with tempfile.TemporaryDirectory() as folder:
+    ...     model.to_json(pathlib.Path(folder) / "model.json")
+    ...     loaded = load_model(pathlib.Path(folder) / "model.json")
+    >>> loaded.equations() == model.equations(), bool(np.array_equal(loaded.coef_, model.coef_))
+    (True, True)
+    """
+    with open(path, encoding="utf-8") as f:
+        try:
+            data = json.load(f)
+        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            raise ValueError(f"{path} is not valid JSON: {exc}") from exc
+    return model_from_dict(data, allow_import=allow_import)
+
+
+class SaveLoadMixin:
+    """Adds ``to_json(path)`` to an estimator registered with :func:`register_model`."""
+
+    def to_json(self, path):
+        """Save the fitted model as plain JSON (atomically); load it with :func:`sindybench.load_model`.
+
+        Parameters
+        ----------
+        path : str or path-like
+        """
+        save_model(self, path)

@@ -122,9 +122,9 @@ def test_killed_worker_resumes_without_losing_finished_trials(kind, worker, tmp_
         assert time.monotonic() < deadline and victim.poll() is None, "the worker ended before it could be killed"
         trials = _trials(storage)
         complete = [t for t in trials if t.state == TrialState.COMPLETE]
-        if len(complete) >= 4 and any(
-            t.state == TrialState.RUNNING and "params" in t.user_attrs and t.user_attrs["worker"] == victim_id
-            for t in trials
+        mine = [t for t in trials if t.user_attrs.get("worker") == victim_id]
+        if len(complete) >= 4 and any(t.state == TrialState.COMPLETE for t in mine) and any(
+            t.state == TrialState.RUNNING and "params" in t.user_attrs for t in mine
         ):
             break
         time.sleep(0.05)

@@ -6,4 +6,9 @@ from ._settings import OutputErrorRefinement
 
 __all__ = [
     "OutputErrorRefinement",
-    "Physical", "RefinementResult", "estimate_initial_state", "refine_simulation_error", "simulate_sensitivity"]
+    "Physical",
+    "RefinementResult",
+    "estimate_initial_state",
+    "refine_simulation_error",
+    "simulate_sensitivity",
+]

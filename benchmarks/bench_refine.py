@@ -84,7 +84,7 @@ def residual_problem(captured, n_samples, free=None):
     n = coef.shape[1]
     lo, hi = check_bounds(settings.get("bounds"), n)
     sim = {"settings": settings, "make_rhs": kw.get("make_rhs")}
-    problem = _build(terms, coef, kw["free"] if free is None else free, kw["physical"],
+    problem, _ = _build(terms, coef, kw["free"] if free is None else free, kw["physical"],
                      np.asarray(kw["x0"], dtype=float), np.arange(n), u[:n_samples], y[:n_samples], dt,
                      kw["output_index"], sim, 1, 1.0, lo, hi)
     return problem, problem.bounds(lo, hi)

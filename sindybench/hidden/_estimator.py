@@ -431,7 +431,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         cand.derivative.pin(None)
         x0, self.refinement_ = None, None
         if self.refine is not None:
-            cand, x0 = self._refine(hidden, cand, X[:n_rows], y1[:n_rows], dt)
+            cand, x0, self.refinement_ = self._refine(hidden, cand, X[:n_rows], y1[:n_rows], dt)
         self._set_fitted(hidden, cand, self.best_params_, dt, X, y1)
         if x0 is not None:  # the refined model's own trajectory replaces the reconstruction
             self.x0_ = x0
@@ -492,26 +492,24 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         return simulate(cand.rhs, x0, X, dt, on_divergence=on_divergence, **self._settings(cand.structure))
 
     def _refine(self, hidden, cand, X, y, dt):
-        """The candidate refined by simulation error, and its refined first state.
+        """The candidate refined by simulation error, its refined first state and the refinement record.
 
         A model whose simulation of the training record diverges cannot be
-        refined: it is kept as fitted by equation error, with a warning.
+        refined: it is kept as fitted by equation error (first state None),
+        with a warning.
         """
         try:
-            params, coef, x0, result = refine_candidate(cand, hidden, X, y, dt, self.refine, build_rhs=_build_rhs,
-                                                        python_rhs=_PythonRHS,
+            params, coef, x0, result = refine_candidate(cand, hidden, X, y, dt, self.refine, python_rhs=_PythonRHS,
                                                         settings=self._settings(cand.structure))
         except SimulationError as exc:
             warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=3)
-            self.refinement_ = {"status": -1, "message": f"skipped: {exc}"}
-            return cand, None
+            return cand, None, {"status": -1, "message": f"skipped: {exc}"}
         structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
         cand = cand._replace(params=params, structure=structure, coef=coef,
                              rhs=_build_rhs(structure, cand.library, coef))
-        self.refinement_ = result.summary()
         logger.info("refinement: cost %.3g -> %.3g in %d simulations (%s)", result.initial_cost, result.cost,
                     result.nfev, result.message)
-        return cand, x0
+        return cand, x0, result.summary()
 
     def _model_view(self, cand, dt):
         return ModelView(rhs=cand.rhs, simulate=lambda x0, u: self._simulate(cand, x0, u, dt, "nan"))

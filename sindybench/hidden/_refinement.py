@@ -50,11 +50,11 @@ class _PythonModel:
         return self.build(s, self.library, C[:n_lib, self.learned], C[n_lib:])
 
 
-def refine_candidate(cand, hidden, X, y, dt, refinement, *, build_rhs, python_rhs, settings):
+def refine_candidate(cand, hidden, X, y, dt, refinement, *, python_rhs, settings):
     """Refine ``cand`` on ``(X, y)``; return ``(params, coef, x0, result)``.
 
-    ``build_rhs(structure, library, coef)`` assembles the estimator's model,
-    ``python_rhs(structure, library, coef, fixed_coef)`` its Python-path form.
+    ``python_rhs(structure, library, coef, fixed_coef)`` builds the
+    estimator's model on the Python path.
     """
     s = cand.structure
     learned = list(s.learned)

@@ -187,7 +187,7 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
     n_tpe = n_trials - n_local
     seed = int(check_random_state(random_state).randint(np.iinfo(np.int32).max))
     sampler = optuna.samplers.TPESampler(seed=seed, n_startup_trials=max(10, n_tpe // 3))
-    history = []
+    history, best = [], [penalty]
     bar = progress_bar(n_trials, desc="inner search", show=show_progress_bar, leave=False)
 
     def evaluate(values):
@@ -195,7 +195,8 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
         if not np.isfinite(score) or score > penalty:
             score = penalty
         history.append((values, score))
-        bar.set_postfix_str(f"best {min(s for _, s in history):.4g}", refresh=False)
+        best[0] = min(best[0], score)  # the running best, not a scan of the history at every trial
+        bar.set_postfix_str(f"best {best[0]:.4g}", refresh=False)
         bar.update()
         return score
 

@@ -118,8 +118,7 @@ class RefinementResult(NamedTuple):
 class _Problem:
     """Parameter vector ``p = (physical, free coefficients, free x0 of each segment)`` and its residuals."""
 
-    def __init__(self, terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, segments,
-                 continuity_weight, x_segments, state_scale):
+    def __init__(self, terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, segments):
         self.terms, self.coef, self.physical = terms, coef, physical
         self.free = np.argwhere(free)  # (n_free, 2) of (term, state)
         self.x0, self.free_x0 = x0, np.asarray(free_x0, dtype=np.int64)
@@ -129,11 +128,11 @@ class _Problem:
         self.n_phys = 0 if physical is None else len(physical.names)
         self.n_model = self.n_phys + len(self.free)
         self.segments = segments
-        self.weight = continuity_weight / state_scale
         spread = np.std(y, axis=0)
         self.y_scale = np.where(spread > 0, spread, 1.0)
         self.n_res = y.size
-        self.x_segments = x_segments
+        # multiple shooting: the later segments' free initial states and the continuity weights (see _build)
+        self.x_segments, self.weight = [], np.ones(self.n_states)
         self.compiled = terms is not None and (physical is None or physical.make_rhs is None)
 
     # ------------------------------------------------------------- vectors
@@ -163,8 +162,8 @@ class _Problem:
     def directions(self, p):
         """dC/dp for the model parameters (physical by central differences of the algebraic map)."""
         D = np.zeros((self.n_model,) + self.coef.shape)
+        v = np.asarray(p[: self.n_phys], dtype=float)
         for k in range(self.n_phys):
-            v = np.asarray(p[: self.n_phys], dtype=float)
             step = 1e-6 * max(abs(v[k]), 1e-3)
             hi, lo = v.copy(), v.copy()
             hi[k] += step
@@ -191,6 +190,18 @@ class _Problem:
         return self.physical.make_rhs(C, p[: self.n_phys]) if self.physical is not None else self.sim["make_rhs"](C)
 
     # ----------------------------------------------------------- residuals
+    def open_loop(self, p):
+        """The whole record simulated from the first segment's start (NaN after a divergence)."""
+        with np.errstate(all="ignore"):
+            return simulate(self.rhs(p), self.starts(p)[0], self.u, self.dt, on_divergence="nan",
+                            **self.sim["settings"])
+
+    def output_cost(self, x):
+        """Half the mean squared scaled output error of the trajectory ``x`` (diverged samples penalized)."""
+        r = ((x[:, self.oidx] - self.y) / self.y_scale).ravel() / np.sqrt(self.n_res)
+        r = np.where(np.isfinite(r), r, _DIVERGED / np.sqrt(self.n_res))
+        return 0.5 * float(r @ r)
+
     def _segment_residuals(self, x, seg, x_next):
         a, b = seg
         r = ((x[: b - a, self.oidx] - self.y[a:b]) / self.y_scale).ravel()
@@ -357,18 +368,13 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     settings = dict(n_substeps=n_substeps, method=method, input_hold=input_hold, bounds=bounds, max_abs=max_abs)
     sim = {"settings": settings, "make_rhs": make_rhs}
 
-    pruned, nfev, njev = [], 0, 0
-    initial_cost = None
+    pruned, nfev, njev, initial_cost = [], 0, 0, None
     while True:
-        problem = _build(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, n_segments,
-                         continuity_weight, lo, hi)
-        p0 = problem.pack()
-        r0 = problem.residuals(p0)
-        if np.any(r0[: problem.n_res] == _DIVERGED / np.sqrt(problem.n_res)):
-            raise SimulationError("cannot refine: the starting model's simulation diverges on the record; "
-                                  "expected a model that simulates the training data.", step=-1)
+        problem, x = _build(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, n_segments,
+                            continuity_weight, lo, hi)
         if initial_cost is None:
-            initial_cost = 0.5 * float(r0[: problem.n_res] @ r0[: problem.n_res])
+            initial_cost = problem.output_cost(x)
+        p0 = problem.pack()
         if p0.size == 0:
             raise ValueError("nothing to refine: no free coefficient, physical parameter or initial state.")
         lower, upper = problem.bounds(lo, hi)
@@ -383,10 +389,11 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         if physical is not None:
             physical = physical._replace(values=p[: problem.n_phys])
         coef = coef_all - (physical.coef(physical.values) if physical is not None else 0.0)
+        # the returned model run open loop: the trajectory pruning looks at, and its cost (with multiple
+        # shooting too, not the segmented cost)
+        x = problem.open_loop(p)
         if prune <= 0 or terms is None or not problem.free.size:
             break
-        with np.errstate(all="ignore"):
-            x = simulate(problem.rhs(p), x0, u, dt, on_divergence="nan", **settings)
         rows = np.all(np.isfinite(x), axis=1)
         small = _contributions(terms, coef_all, x, u, problem.free, rows) < prune
         if not small.any():
@@ -396,42 +403,34 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
             free[j, i] = False
             pruned.append((int(j), int(i)))
         logger.debug("pruned %d terms; refining again", int(small.sum()))
-    # the open-loop error of the returned model (with multiple shooting, not the segmented cost)
-    with np.errstate(all="ignore"):
-        x = simulate(problem.rhs(p), x0, u, dt, on_divergence="nan", **settings)
-    final = ((x[:, list(output_index)] - y) / problem.y_scale).ravel() / np.sqrt(problem.n_res)
-    final = np.where(np.isfinite(final), final, _DIVERGED / np.sqrt(problem.n_res))
     names = () if physical is None else physical.names
     phys = dict(zip(names, (float(v) for v in (physical.values if physical is not None else ()))))
     return RefinementResult(coef=coef_all, physical=phys, x0=x0, initial_cost=initial_cost,
-                            cost=0.5 * float(final @ final), nfev=nfev, njev=njev, status=int(fit.status),
+                            cost=problem.output_cost(x), nfev=nfev, njev=njev, status=int(fit.status),
                             message=str(fit.message), jacobian="sensitivity" if problem.compiled else "2-point",
                             pruned=pruned)
 
 
 def _build(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, n_segments, continuity_weight,
            lo, hi):
-    segments = _segments(u.shape[0], n_segments)
-    C = coef + (physical.coef(np.asarray(physical.values, dtype=float)) if physical is not None else 0.0)
-    if terms is not None and (physical is None or physical.make_rhs is None):
-        rhs = TermsRHS(C, terms, coef.shape[1])
-    elif physical is not None and physical.make_rhs is not None:
-        rhs = physical.make_rhs(C, np.asarray(physical.values, dtype=float))
-    else:
-        rhs = sim["make_rhs"](C)
-    with np.errstate(all="ignore"):
-        x = simulate(rhs, x0, u, dt, on_divergence="nan", **sim["settings"])
+    """The problem of one refinement round and the starting model's open-loop trajectory.
+
+    That one simulation checks the start, scales the continuity residuals by
+    the states' spread and starts the later segments of multiple shooting.
+    """
+    problem = _Problem(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim,
+                       _segments(u.shape[0], n_segments))
+    x = problem.open_loop(problem.pack())
     finite = np.all(np.isfinite(x), axis=1)
-    spread = np.std(x[finite], axis=0) if finite.any() else np.ones(coef.shape[1])
-    state_scale = np.where(spread > 0, spread, 1.0)
-    x_segments = []
-    if n_segments > 1:
-        if not finite.all():
-            raise SimulationError("cannot start multiple shooting: the starting model diverges on the record.",
-                                  step=int(np.argmin(finite)))
-        x_segments = [np.clip(x[a], lo, hi) for a, _ in segments[1:]]
-    return _Problem(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, segments,
-                    continuity_weight, x_segments, state_scale)
+    if not finite.all():
+        what = ("cannot start multiple shooting: the starting model diverges on the record." if n_segments > 1 else
+                "cannot refine: the starting model's simulation diverges on the record; "
+                "expected a model that simulates the training data.")
+        raise SimulationError(what, step=int(np.argmin(finite)))
+    spread = np.std(x, axis=0)
+    problem.weight = continuity_weight / np.where(spread > 0, spread, 1.0)
+    problem.x_segments = [np.clip(x[a], lo, hi) for a, _ in problem.segments[1:]]
+    return problem, x
 
 
 def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None, n_substeps=1, method="rk4",

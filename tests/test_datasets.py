@@ -1,6 +1,7 @@
-"""Tests of sindybench.datasets: the three benchmark records against their raw files."""
+"""Tests of sindybench.datasets: the benchmark records against their raw files."""
 
 import csv
+import os
 import shutil
 from types import SimpleNamespace
 
@@ -15,6 +16,7 @@ from sindybench.datasets import (
     get_data_home,
     load_bouc_wen,
     load_cascaded_tanks,
+    load_emps,
     load_pick_and_place,
 )
 
@@ -119,6 +121,72 @@ def test_pick_and_place_against_raw_file(data_home):
         assert split.u[0, 0] == pytest.approx(u[first]) and split.y[-1, 0] == pytest.approx(y[last])
 
 
+# --- EMPS -------------------------------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def emps_home(data_home):
+    """The data home when it holds the EMPS records (skips without them, fails on CI)."""
+    if not (data_home / "emps" / "DATA_EMPS.mat").is_file():
+        msg = f"EMPS records not found in {data_home / 'emps'}"
+        if os.environ.get("CI"):
+            pytest.fail(msg)
+        pytest.skip(msg)
+    return data_home
+
+
+def test_emps_against_raw_files(emps_home):
+    data = load_emps(data_home=emps_home, download_if_missing=False)
+    est = loadmat(emps_home / "emps" / "DATA_EMPS.mat")
+    tst = loadmat(emps_home / "emps" / "DATA_EMPS_PULSES.mat")
+    dt = 1e-3
+    assert data.dt == dt and data.n_init == 20
+    np.testing.assert_allclose(np.diff(est["t"][:, 0]), dt, atol=1e-7)  # the records' own clock agrees
+    _check_split(data.estimation, 24841, dt, 0.0)
+    _check_split(data.train, 18631, dt, 0.0)
+    _check_split(data.validation, 6210, dt, 18631 * dt)
+    _check_split(data.test, 24841, dt, 0.0)
+    # the validation block is the end of the estimation record: together they are the whole of it
+    np.testing.assert_array_equal(np.vstack([data.train.u, data.validation.u]), est["vir"])
+    np.testing.assert_array_equal(np.vstack([data.train.y, data.validation.y]), est["qm"])
+    np.testing.assert_array_equal(data.test.u, tst["vir"])
+    np.testing.assert_array_equal(data.test.y, tst["qm"])
+    np.testing.assert_array_equal(data.test.pulses, tst["pulses_N"][:, 0])
+    np.testing.assert_array_equal(data.validation.qg, est["qg"][18631:, 0])
+    assert (data.test.n_init, data.test.score_from) == (20, 20)
+    assert data.controller.kp == pytest.approx(160.18) and data.controller.gtau == pytest.approx(35.15, abs=1e-2)
+    # the position stays within the 0.25 m stroke of the joint
+    assert 0.24 < data.test.y.max() < 0.25 and abs(data.test.y.min()) < 1e-4
+
+
+def test_emps_records_follow_the_pd_law_up_to_the_test_pulses(emps_home):
+    """vir = kv (kp (qg - qm) - qm') on the estimation record; on the test record plus the pulses."""
+    data = load_emps(data_home=emps_home)
+    kp, kv = data.controller.kp, data.controller.kv
+    for split, extra in ((data.estimation, 0.0), (data.test, data.test.pulses)):
+        qm = split.y[:, 0]
+        law = kv * (kp * (split.qg - qm) - np.gradient(qm, split.dt))
+        assert np.median(np.abs(split.u[:, 0] - law - extra)) < 0.1  # V, against a median |vir| of 1.2 V
+    # the pulses are in vir: without them the test record leaves the law by about their height (5)
+    qm = data.test.y[:, 0]
+    law = kv * (kp * (data.test.qg - qm) - np.gradient(qm, data.dt))
+    assert np.median(np.abs(data.test.u[:, 0] - law)) > 4.0
+
+
+def test_emps_matches_nonlinear_benchmarks_protocol(emps_home):
+    """nonlinear_benchmarks.EMPS() reads the same files: same input, output, split and init window."""
+    nlb = pytest.importorskip("nonlinear_benchmarks")
+    data = load_emps(data_home=emps_home)
+    # the package's loader downloads into its own folder: point it at ours instead (no network)
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(nlb.benchmarks, "cashed_download", lambda url, name, **kwargs: str(emps_home / "emps"))
+        train_val, test = nlb.EMPS()
+    np.testing.assert_array_equal(train_val.u, data.estimation.u[:, 0])
+    np.testing.assert_array_equal(test.y, data.test.y[:, 0])
+    assert test.state_initialization_window_length == data.test.n_init == data.test.score_from
+    assert test.sampling_time == pytest.approx(data.dt, rel=1e-4)
+
+
 # --- data home and missing files --------------------------------------------------------------------
 
 
@@ -137,6 +205,7 @@ def test_get_data_home_honours_environment(tmp_path, monkeypatch):
         (load_cascaded_tanks, "cascaded_tanks/dataBenchmark.mat"),
         (load_bouc_wen, "bouc_wen/train_data.csv"),
         (load_pick_and_place, "pick_and_place/headdata_1v6.mat"),
+        (load_emps, "emps/DATA_EMPS.mat"),
     ],
 )
 def test_missing_file_names_file_and_folder(loader, filename, tmp_path):

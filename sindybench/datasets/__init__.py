@@ -3,6 +3,7 @@
 from ._base import DownloadError, RemoteFile, extract_zip, fetch_file, fetch_files, get_data_home, sha256sum
 from ._bouc_wen import load_bouc_wen
 from ._cascaded_tanks import load_cascaded_tanks
+from ._emps import load_emps
 from ._interop import as_input_output
 from ._pick_and_place import load_pick_and_place
 
@@ -16,6 +17,7 @@ __all__ = [
     "get_data_home",
     "load_bouc_wen",
     "load_cascaded_tanks",
+    "load_emps",
     "load_pick_and_place",
     "sha256sum",
 ]

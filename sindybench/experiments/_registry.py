@@ -20,6 +20,7 @@ BENCHMARKS = {
     "pick-and-place": "sindybench.experiments.pick_and_place",
     "bouc-wen": "sindybench.experiments.bouc_wen",
     "cascaded-tanks": "sindybench.experiments.cascaded_tanks",
+    "emps": "sindybench.experiments.emps",
 }
 
 
@@ -33,7 +34,7 @@ def get_benchmark(name):
     >>> get_benchmark("tanks")
     Traceback (most recent call last):
     ...
-    ValueError: unknown benchmark 'tanks'; expected one of ['bouc-wen', 'cascaded-tanks', 'pick-and-place'].
+    ValueError: unknown benchmark 'tanks'; expected one of ['bouc-wen', 'cascaded-tanks', 'emps', 'pick-and-place'].
     """
     if name not in BENCHMARKS:
         raise ValueError(f"unknown benchmark {name!r}; expected one of {sorted(BENCHMARKS)}.")

@@ -156,9 +156,12 @@ def results_markdown(results, *, heading_level=1):
     )
     for name, info in results["test_sets"].items():
         out += ["", f"{h}# Test set `{name}` ({info['n_samples']} samples)", ""]
+        first = info.get("score_from", 0)
+        scored = (f"is scored on the {info['n_samples'] - first} samples after the first {first}" if first
+                  else f"is scored on all {info['n_samples']} samples, the start included")
         out.append(
             f"Protocol: every model starts from the first {info['n_init']} measured samples of the test record "
-            f"(`y_init`) and is scored on all {info['n_samples']} samples, the start included; the "
+            f"(`y_init`) and {scored}; the "
             "\"+ simulation-error refinement\" rows fit their initial state (hidden states included) to those "
             f"{info['n_init']} samples by least squares."
         )

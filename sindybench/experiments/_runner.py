@@ -192,8 +192,16 @@ def _search_and_fit(spec, estimator, X, y, info, *, n_val, n_trials, n_init, see
     return estimator.fit(X, y)
 
 
+def _score_from(test):
+    value = test.get("score_from") if hasattr(test, "get") else None
+    return 0 if value is None else int(value)
+
+
 def evaluate(estimator, test, n_init):
     """Simulate a fitted model on one test set and score it.
+
+    The scores cover the samples from ``test["score_from"]`` on (all of
+    them when the test set does not say).
 
     Returns
     -------
@@ -205,6 +213,7 @@ def evaluate(estimator, test, n_init):
     """
     u = np.asarray(test["u"], float)
     y = np.asarray(test["y"], float).reshape(len(u), -1)
+    first = _score_from(test)  # a protocol may score only the samples after those that set the state
     try:
         y_pred = np.asarray(estimator.predict(u.reshape(len(u), -1), y_init=y[:n_init]), float)
         y_pred = y_pred.reshape(y.shape)
@@ -214,9 +223,9 @@ def evaluate(estimator, test, n_init):
     if not np.all(np.isfinite(y_pred)):
         return None, {"rmse": None, "r2": None, "fit_index": None, "status": "diverged (non-finite simulation)"}
     return y_pred, {
-        "rmse": rmse(y, y_pred),
-        "r2": r2(y, y_pred),
-        "fit_index": fit_index(y, y_pred),
+        "rmse": rmse(y[first:], y_pred[first:]),
+        "r2": r2(y[first:], y_pred[first:]),
+        "fit_index": fit_index(y[first:], y_pred[first:]),
         "status": "ok",
     }
 
@@ -288,8 +297,8 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         "n_train": n_train,
         "n_validation": n_val,
         "dt": dt,
-        "test_sets": {name: {"n_samples": int(len(t["y"])), "n_init": _n_init(benchmark, data, t)}
-                      for name, t in tests.items()},
+        "test_sets": {name: {"n_samples": int(len(t["y"])), "n_init": _n_init(benchmark, data, t),
+                             "score_from": _score_from(t)} for name, t in tests.items()},
         "output_label": benchmark.output_label,
         "input_label": benchmark.input_label,
         "models": [],

@@ -94,6 +94,25 @@ def test_runner_writes_every_output(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left
 
 
+def test_a_protocol_scores_only_the_samples_after_those_that_set_the_state():
+    """A test set with ``score_from`` (EMPS: 20) is scored from that sample on; without it, on all samples."""
+    from sindybench.experiments import evaluate
+    from sindybench.metrics import rmse
+
+    y = np.arange(8.0)[:, None]
+
+    class Shifted:  # a stand-in model whose simulation is 10 off on the first 3 samples, 1 off after them
+        def predict(self, X, y_init):
+            return y + np.r_[np.full(3, 10.0), np.ones(5)][:, None]
+
+    test = Bunch(u=np.zeros((8, 1)), y=y, dt=1.0)
+    _, all_samples = evaluate(Shifted(), test, 3)
+    assert all_samples["rmse"] == pytest.approx(rmse(y, Shifted().predict(None, None)))
+    _, after = evaluate(Shifted(), Bunch(**test, score_from=3), 3)
+    assert after["rmse"] == pytest.approx(1.0) and after["status"] == "ok"
+    assert after["r2"] == pytest.approx(r2(y[3:], y[3:] + 1))
+
+
 def test_refinement_row_refines_the_fitted_model():
     toy = _synthetic()
     rows = (ModelSpec("sindy_poly_refined", "SINDy + refinement", refinement(), refines="sindy_poly"),)
@@ -305,7 +324,7 @@ def _numbers(obj):
         yield obj
 
 
-@pytest.mark.parametrize("name", ["pick-and-place", "bouc-wen", "cascaded-tanks"])
+@pytest.mark.parametrize("name", ["pick-and-place", "bouc-wen", "cascaded-tanks", "emps"])
 def test_quick_run_outputs(quick_run, name):
     import matplotlib.image
 
@@ -334,7 +353,7 @@ def test_quick_run_outputs(quick_run, name):
 
 def test_quick_run_report(quick_run):
     text = (quick_run / "report.md").read_text()
-    for title in ("Pick-and-place machine", "Bouc-Wen oscillator", "Cascaded tanks"):
+    for title in ("Pick-and-place machine", "Bouc-Wen oscillator", "Cascaded tanks", "Electro-Mechanical Positioning"):
         assert title in text
     assert "Total wall time" in text
     # the fit time of each model family and its share of the wall time, the NN-ARX baselines among them

@@ -256,6 +256,26 @@ def test_as_input_output_accepts_split_bunch(data_home):
     assert b.dt == 4.0
 
 
+def test_cascaded_tanks_protocol_of_nonlinear_benchmarks(data_home, tmp_path):
+    """The installed nonlinear_benchmarks sets the initial window that the cascaded-tanks benchmark scores after."""
+    nlb = pytest.importorskip("nonlinear_benchmarks")
+    from sindybench.experiments import cascaded_tanks
+
+    folder = tmp_path / "CascadedTanksFiles"
+    folder.mkdir()
+    shutil.copy(data_home / "cascaded_tanks" / "dataBenchmark.mat", folder)
+    with pytest.MonkeyPatch.context() as mp:  # read our copy instead of downloading
+        mp.setattr(nlb.benchmarks, "cashed_download", lambda urls, name, **kwargs: str(tmp_path))
+        _, test = nlb.Cascaded_Tanks()
+    window = test.state_initialization_window_length
+    assert window == cascaded_tanks.NONLINEAR_BENCHMARKS_N_INIT, (
+        f"nonlinear_benchmarks now starts its cascaded-tanks test from {window} samples; update the benchmark")
+    ours = cascaded_tanks.BENCHMARK.load(data_home=data_home).test
+    np.testing.assert_array_equal(ours.test_nonlinear_benchmarks.y[:, 0], test.y)
+    assert ours.test_nonlinear_benchmarks.n_init == ours.test_nonlinear_benchmarks.score_from == window
+    assert "score_from" not in ours.test and ours.test.y.shape == (1024, 1)
+
+
 def test_as_input_output_with_nonlinear_benchmarks():
     nlb = pytest.importorskip("nonlinear_benchmarks")
     rec = nlb.Input_output_data(u=np.arange(5.0), y=np.arange(5.0) ** 2, sampling_time=0.1)

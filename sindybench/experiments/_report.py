@@ -159,8 +159,9 @@ def results_markdown(results, *, heading_level=1):
         first = info.get("score_from", 0)
         scored = (f"is scored on the {info['n_samples'] - first} samples after the first {first}" if first
                   else f"is scored on all {info['n_samples']} samples, the start included")
+        named = f" ({info['protocol']})" if info.get("protocol") else ""
         out.append(
-            f"Protocol: every model starts from the first {info['n_init']} measured samples of the test record "
+            f"Protocol{named}: every model starts from the first {info['n_init']} measured samples of the test record "
             f"(`y_init`) and {scored}; the "
             "\"+ simulation-error refinement\" rows fit their initial state (hidden states included) to those "
             f"{info['n_init']} samples by least squares."

@@ -192,6 +192,13 @@ def _search_and_fit(spec, estimator, X, y, info, *, n_val, n_trials, n_init, see
     return estimator.fit(X, y)
 
 
+def _test_info(benchmark, data, test):
+    info = {"n_samples": int(len(test["y"])), "n_init": _n_init(benchmark, data, test), "score_from": _score_from(test)}
+    if test.get("protocol"):
+        info["protocol"] = str(test["protocol"])
+    return info
+
+
 def _score_from(test):
     value = test.get("score_from") if hasattr(test, "get") else None
     return 0 if value is None else int(value)
@@ -297,8 +304,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         "n_train": n_train,
         "n_validation": n_val,
         "dt": dt,
-        "test_sets": {name: {"n_samples": int(len(t["y"])), "n_init": _n_init(benchmark, data, t),
-                             "score_from": _score_from(t)} for name, t in tests.items()},
+        "test_sets": {name: _test_info(benchmark, data, t) for name, t in tests.items()},
         "output_label": benchmark.output_label,
         "input_label": benchmark.input_label,
         "models": [],

@@ -32,7 +32,7 @@ from . import __version__
 
 __all__ = ["build_parser", "main"]
 
-BENCHMARK_NAMES = ("pick-and-place", "bouc-wen", "cascaded-tanks", "emps")
+BENCHMARK_NAMES = ("pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps")
 logger = logging.getLogger("sindybench.cli")
 
 

@@ -113,6 +113,21 @@ def test_a_protocol_scores_only_the_samples_after_those_that_set_the_state():
     assert after["r2"] == pytest.approx(r2(y[3:], y[3:] + 1))
 
 
+def test_pick_and_place_neural_state_space_protocol(data_home):
+    """Forgione et al. (2022): raw record scaled by its own mean and std, every 10th sample, split at raw 50,000."""
+    from scipy.io import loadmat
+
+    data = get_benchmark("pick-and-place-nss").load(data_home=data_home)
+    raw = loadmat(data_home / "pick_and_place" / "headdata_1v6.mat")
+    u, y = raw["u"][:, 0], raw["y"][:, 0]
+    assert (len(data.train.y), len(data.validation.y), len(data.test.y)) == (4000, 1000, 1001)
+    assert data.dt == pytest.approx(2.5e-3) and data.test.n_init == data.test.score_from == 20
+    np.testing.assert_allclose(data.train.u[:, 0], ((u - u.mean()) / u.std())[:40000:10])
+    np.testing.assert_allclose(data.validation.y[:, 0], ((y - y.mean()) / y.std())[40000:50000:10])
+    np.testing.assert_allclose(data.test.y[:, 0], ((y - y.mean()) / y.std())[50000::10])
+    assert data.test.t[0] == pytest.approx(12.5)  # the test part starts at 12.5 s
+
+
 def test_refinement_row_refines_the_fitted_model():
     toy = _synthetic()
     rows = (ModelSpec("sindy_poly_refined", "SINDy + refinement", refinement(), refines="sindy_poly"),)
@@ -324,7 +339,7 @@ def _numbers(obj):
         yield obj
 
 
-@pytest.mark.parametrize("name", ["pick-and-place", "bouc-wen", "cascaded-tanks", "emps"])
+@pytest.mark.parametrize("name", ["pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps"])
 def test_quick_run_outputs(quick_run, name):
     import matplotlib.image
 
@@ -353,7 +368,8 @@ def test_quick_run_outputs(quick_run, name):
 
 def test_quick_run_report(quick_run):
     text = (quick_run / "report.md").read_text()
-    for title in ("Pick-and-place machine", "Bouc-Wen oscillator", "Cascaded tanks", "Electro-Mechanical Positioning"):
+    for title in ("Pick-and-place machine", "neural state-space protocol", "Bouc-Wen oscillator", "Cascaded tanks",
+                  "Electro-Mechanical Positioning", "test_nonlinear_benchmarks"):
         assert title in text
     assert "Total wall time" in text
     # the fit time of each model family and its share of the wall time, the NN-ARX baselines among them

@@ -18,6 +18,7 @@ logger = logging.getLogger(__name__)
 # CLI name -> module defining ``BENCHMARK`` (imported lazily: each pulls in its estimators)
 BENCHMARKS = {
     "pick-and-place": "sindybench.experiments.pick_and_place",
+    "pick-and-place-nss": "sindybench.experiments.pick_and_place_nss",
     "bouc-wen": "sindybench.experiments.bouc_wen",
     "cascaded-tanks": "sindybench.experiments.cascaded_tanks",
     "emps": "sindybench.experiments.emps",
@@ -34,7 +35,7 @@ def get_benchmark(name):
     >>> get_benchmark("tanks")
     Traceback (most recent call last):
     ...
-    ValueError: unknown benchmark 'tanks'; expected one of ['bouc-wen', 'cascaded-tanks', 'emps', 'pick-and-place'].
+    ValueError: unknown benchmark 'tanks'; expected one of ['bouc-wen', 'cascaded-tanks', 'emps', 'pick-and-place', 'pick-and-place-nss'].
     """
     if name not in BENCHMARKS:
         raise ValueError(f"unknown benchmark {name!r}; expected one of {sorted(BENCHMARKS)}.")

@@ -58,7 +58,7 @@ html_theme = "alabaster"
 html_static_path = ["_static"]
 html_theme_options = {"description": "SINDy with control for hidden states and hard nonlinearities"}
 
-write_case_study_snippets(HERE / "_generated", ("pick-and-place", "bouc-wen", "cascaded-tanks", "emps"))
+write_case_study_snippets(HERE / "_generated", ("pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps"))
 write_api_reference(HERE / "api.rst")  # generated: lists every public name
 write_notebooks(HERE / "notebooks", HERE / "_generated" / "notebooks", HERE.parent / "examples")
 

@@ -31,6 +31,7 @@ from sindybench.experiments import (
     ModelSpec,
     fit_from_r2,
     get_benchmark,
+    results_markdown,
     run_benchmarks,
 )
 from sindybench.experiments._common import arx_model, arx_space, refinement, sindy_model, stls_space
@@ -143,6 +144,10 @@ def test_refinement_row_refines_the_fitted_model():
     assert record["jacobian"] == "sensitivity" and record["cost"] <= record["initial_cost"]
     assert fitted["sindy_poly"].refine is None and fitted["sindy_poly_refined"].refine is not None
     assert refined["scores"]["test"]["rmse"] <= 1.01 * base["scores"]["test"]["rmse"]
+    # the report gives the refined row's time with the search it reuses
+    assert refined["fit_time_with_search_s"] == pytest.approx(refined["fit_time_s"] + base["fit_time_s"])
+    assert base["fit_time_s"] > 0 and "fit_time_with_search_s" not in base
+    assert "s with the search of `sindy_poly`)" in results_markdown({**results, "wall_time_s": 1.0})
 
 
 def test_refinement_row_without_its_model_fails_cleanly():

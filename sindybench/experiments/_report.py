@@ -176,6 +176,8 @@ def results_markdown(results, *, heading_level=1):
         if m.get("n_train", results["n_train"]) < results["n_train"]:
             trials += f", {m['n_train']} training samples"
         fit_time = f", fit in {m['fit_time_s']:.1f} s" if m.get("fit_time_s") is not None else ""
+        if m.get("fit_time_with_search_s") is not None:
+            fit_time += f" ({m['fit_time_with_search_s']:.1f} s with the search of `{m['refines']}`)"
         out.append(f"- **{m['label']}** (`{m['key']}`, {trials}{fit_time}): {m['description']}")
         if m["best_params"]:
             params = ", ".join(f"{k}={_short(v)}" for k, v in m["best_params"].items())

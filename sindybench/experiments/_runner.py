@@ -325,6 +325,8 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
                 if base is None:
                     raise ValueError(f"the model it refines, {spec.refines!r}, was not fitted in this run.")
                 estimator, info = refine_model(spec, base, X[keep], y[keep], dt=dt, seed=seed, quick=quick)
+                searched = next(m["fit_time_s"] for m in results["models"] if m["key"] == spec.refines)
+                info.update(refines=spec.refines, fit_time_with_search_s=info["fit_time_s"] + searched)
             else:
                 estimator, info = fit_model(
                     spec, X[keep], y[keep], n_val=n_val, dt=dt, n_trials=budget, n_init=n_init, seed=seed,

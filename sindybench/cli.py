@@ -19,6 +19,7 @@ Examples
 import argparse
 import csv
 import io
+import json
 import logging
 import math
 import sys
@@ -43,6 +44,13 @@ def _non_negative_int(text):
         raise argparse.ArgumentTypeError(f"expected an integer >= 0; got {text!r}") from None
     if value < 0:
         raise argparse.ArgumentTypeError(f"expected an integer >= 0; got {value}")
+    return value
+
+
+def _seed(text):
+    value = _non_negative_int(text)
+    if value >= 2**32:
+        raise argparse.ArgumentTypeError(f"expected an integer in [0, 2**32 - 1] (a numpy seed); got {value}")
     return value
 
 
@@ -84,7 +92,7 @@ def build_parser():
     run.add_argument("benchmark", choices=(*BENCHMARK_NAMES, "all"), help="benchmark to run")
     run.add_argument("--trials", type=_non_negative_int, default=None, metavar="N",
                      help="search trials per model (default: each model's own budget)")
-    run.add_argument("--seed", type=_non_negative_int, default=0, metavar="S", help="random seed (default: 0)")
+    run.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed, 0 to 2**32 - 1 (default: 0)")
     run.add_argument("--storage", type=_storage, default=None, metavar="URL",
                      help="Optuna storage URL, e.g. sqlite:///study.db, to resume or share searches")
     run.add_argument("--n-jobs", type=_n_jobs, default=1, metavar="J", help="parallel trials per search")
@@ -144,7 +152,21 @@ def _run(args):
     elapsed = time.perf_counter() - start
     print(report.read_text() if report.suffix == ".md" else report)
     logger.info("wrote %s in %.0f s", args.out.resolve(), elapsed)
+    failed = _failed_models(args.out, names)
+    if failed:
+        print(f"sindybench: error: {len(failed)} model(s) could not be fitted, their rows read '(not fitted)':\n"
+              + "\n".join(f"  {name}: {status}" for name, status in failed), file=sys.stderr)
+        return 1
     return 0
+
+
+def _failed_models(out, names):
+    """``[(benchmark/model, status)]`` of the models that a run's ``results.json`` files record as not fitted."""
+    failed = []
+    for name in names:
+        results = json.loads((out / name / "results.json").read_text())
+        failed += [(f"{name}/{m['key']}", m["status"]) for m in results["models"] if m["status"] != "ok"]
+    return failed
 
 
 def _read_csv(path, what):
@@ -238,8 +260,10 @@ def main(argv=None):
     Returns
     -------
     int
-        Exit status: 0 on success, 2 when data are missing, an argument is bad, or (``simulate``)
-        a file cannot be read or does not fit the model.
+        Exit status: 0 on success; 1 when ``run`` finished but some model could not be fitted
+        (the run's files are written and the error names the models) or the storage stopped
+        answering; 2 when data are missing, an argument, the output folder or the storage is
+        bad, or (``simulate``) a file cannot be read or does not fit the model.
     """
     args = build_parser().parse_args(argv)
     _configure_logging(args.quiet)
@@ -253,7 +277,10 @@ def main(argv=None):
 
     try:
         return _run(args)
-    except DataNotFoundError as exc:
+    except ConnectionError as exc:  # the storage stopped answering: the finished trials are kept in it
+        print(f"sindybench: error: {exc}\nNo output written.", file=sys.stderr)
+        return 1
+    except (DataNotFoundError, OSError, ValueError, ImportError) as exc:  # data, output folder, storage
         print(f"sindybench: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -13,6 +13,7 @@ import os
 import re
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -209,6 +210,111 @@ def test_missing_data_message_and_exit_status(tmp_path):
     for text in ("dataBenchmark.mat", str(tmp_path / "empty"), "SINDYBENCH_DATA", "--data-home"):
         assert text in proc.stderr
     assert not out.exists() and not [p for p in tmp_path.iterdir() if p.name != "empty"]
+
+
+# --------------------------------------------------------------------------- the output folder, exit status
+@pytest.fixture
+def toy_cli(monkeypatch):
+    """``sindybench run cascaded-tanks`` runs the synthetic benchmark (named cascaded-tanks); counts its loads."""
+    import sindybench.experiments as experiments
+
+    loads = []
+    toy = _synthetic()
+
+    def load(**kwargs):
+        loads.append(kwargs)
+        return toy.load(**kwargs)
+
+    bench = dataclasses.replace(toy, name="cascaded-tanks", load=load)
+    monkeypatch.setattr(experiments, "get_benchmark", lambda name: bench)
+    return bench, loads
+
+
+def _run_toy(out, *extra):
+    return main(["run", "cascaded-tanks", "--quick", "--no-progress", "-q", "--out", str(out), *extra])
+
+
+def test_run_keeps_the_users_files_in_the_output_folder(toy_cli, tmp_path):
+    # issue 18, case 1: the old benchmark folder was renamed away and removed, with the user's files in it
+    out = tmp_path / "out"
+    (out / "cascaded-tanks" / "models").mkdir(parents=True)
+    mine = {out / "notes.txt": "top", out / "cascaded-tanks" / "my_notes.txt": "notes",
+            out / "cascaded-tanks" / "models" / "my_model.json": "{}", out / "cascaded-tanks" / "results.md": "old"}
+    for path, text in mine.items():
+        path.write_text(text)
+    for _ in range(2):  # a first run into the user's folder, then a second over the first
+        assert _run_toy(out) == 0
+        for path, text in mine.items():
+            if path.name != "results.md":  # a file of the run's own name is the run's to replace
+                assert path.read_text() == text, path
+        assert "| SINDy |" in (out / "cascaded-tanks" / "results.md").read_text()
+        assert (out / "cascaded-tanks" / "models" / "arx.json").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging folder left
+
+
+@pytest.mark.parametrize("make, argv, message", [
+    (lambda d: (d / "x.db").write_text("notes\n"), ["--storage", "{d}/x.db"], "is not an SQLite database"),
+    (None, ["--storage", "foo://x"], "'foo' is not a database kind"),
+    (None, ["--seed", str(2**32)], "expected an integer in [0, 2**32 - 1]"),
+    (lambda d: (d / "out").write_text("a file"), [], "out is a file; expected a folder"),
+    (lambda d: (d / "out" / "cascaded-tanks").mkdir(parents=True) or (d / "out" / "cascaded-tanks" / "models")
+     .write_text("x"), [], "models is a file; the run writes a folder of that name"),
+])
+def test_run_refuses_bad_storage_seed_and_output_before_any_work(toy_cli, tmp_path, capsys, make, argv, message):
+    # issue 18, cases 2 and 4: these ran the whole job (every model "failed to fit", exit 0, or a
+    # FileExistsError traceback after the work); now they stop before the data are even loaded
+    if make is not None:
+        make(tmp_path)
+    before = sorted(str(p) for p in tmp_path.rglob("*"))
+    try:
+        status = _run_toy(tmp_path / "out", *[a.format(d=tmp_path) for a in argv])
+    except SystemExit as exc:  # refused by the argument parser
+        status = exc.code
+    assert status == 2
+    assert message in capsys.readouterr().err
+    assert toy_cli[1] == [] and sorted(str(p) for p in tmp_path.rglob("*")) == before
+
+
+def test_run_with_models_that_fail_exits_1_and_names_them(toy_cli, tmp_path, capsys, monkeypatch):
+    # issue 18, case 2: a run whose models could not be fitted exited 0
+    import sindybench.experiments as experiments
+
+    def broken(**kwargs):
+        raise RuntimeError("no estimator today")
+
+    bench = dataclasses.replace(toy_cli[0], models=(*toy_cli[0].models[:1], ModelSpec("broken", "Broken", broken)))
+    monkeypatch.setattr(experiments, "get_benchmark", lambda name: bench)
+    status = _run_toy(tmp_path / "out")
+    err = capsys.readouterr().err
+    assert status == 1
+    assert "1 model(s) could not be fitted" in err and "cascaded-tanks/broken: fit failed: RuntimeError: no estimator" in err
+    results = json.loads((tmp_path / "out" / "cascaded-tanks" / "results.json").read_text())
+    assert [m["status"] for m in results["models"]] == ["ok", "fit failed: RuntimeError: no estimator today"]
+
+
+def test_killed_run_leaves_a_staging_folder_the_next_run_removes(toy_cli, tmp_path):
+    # issue 18, case 22: a SIGKILLed run left .out.tmp-* folders that no later run removed
+    out = tmp_path / "out"
+    script = ("import sys, time\nfrom sindybench.experiments import staged_output_dir\n"
+              "with staged_output_dir(sys.argv[1]) as tmp:\n"
+              "    (tmp / 'results.json').write_text('half')\n    print(tmp, flush=True)\n    time.sleep(60)\n")
+    victim = subprocess.Popen([sys.executable, "-c", script, str(out)], stdout=subprocess.PIPE, text=True)
+    staging = Path(victim.stdout.readline().strip())
+    victim.kill()
+    victim.wait()
+    assert staging.is_dir() and staging.name.startswith(".out.tmp-")
+    # not provably ours, or not stale: a folder without an owner record, one of a live process, one of another host
+    other = {".out.tmp-user": None, ".out.tmp-live": {"host": socket.gethostname(), "pid": os.getppid()},
+             ".out.tmp-remote": {"host": "elsewhere", "pid": 1}}
+    for name, record in other.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "data.txt").write_text("keep")
+        if record is not None:
+            (tmp_path / name / ".sindybench-staging.json").write_text(json.dumps(record))
+    assert _run_toy(out) == 0
+    assert not staging.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["out", *other])
+    assert (out / "cascaded-tanks" / "results.json").is_file()
 
 
 # --------------------------------------------------------------------------- simulate a saved model

@@ -240,7 +240,9 @@ def tune(
     scoring : {"rmse", "nrmse", "r2", "fit_index"} or callable, default="rmse"
         A simulation metric (minimised for rmse and nrmse, maximised
         otherwise, the study's values are the metric itself), or a scorer
-        ``scorer(estimator, X, y) -> float`` to maximise.
+        ``scorer(estimator, X, y) -> float`` to maximise. A persistent study
+        records a scorer function by its module and qualified name, so that
+        another process passing the same function resumes the study.
     n_trials : int, default=100
         Budget of the *study*, not of this call: trials that finished
         (COMPLETE, or PRUNED for a failed evaluation) count, and a call on a
@@ -289,6 +291,12 @@ def tune(
     ------
     AllTrialsFailedError
         When no trial of the study completed (its ``study`` attribute holds them).
+    ValueError
+        For a bad argument, and for a storage that cannot serve: an unknown database
+        kind, a file that is not an SQLite database or an Optuna journal.
+    ConnectionError
+        When the database cannot be reached, or stops answering during the study
+        (the finished trials are kept in it: the same call resumes the study).
 
     Notes
     -----

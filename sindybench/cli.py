@@ -211,6 +211,9 @@ def _read_csv(path, what):
     rows = _csv_rows(path, what)
     if not rows:
         raise ValueError(f"{what} {path} is empty; expected one row per sample (after an optional header row).")
+    if not rows[0][1]:
+        raise ValueError(f"{what} {path}, line 1 is blank; expected a header row naming the columns, or the first "
+                         "sample.")
     if all(_number(text) is not None for text in rows[0][1]):
         header, body = None, rows  # no header row: the first row is a sample
     else:

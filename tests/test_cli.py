@@ -429,6 +429,9 @@ def test_simulate_reads_every_sample(saved_models, tmp_path, text, n_rows):
     ("arx.json", "0.1,0.0\n0.2\n", "line 2: 1 values; expected 2 (one per column of the first row)"),
     ("arx.json", "0.1,0.0,1.0\n", "has 3 column(s) and no header row; the model has 2 input(s)"),
     ("arx1.json", b"u\n0.1\n\xff\xfe\n", "is not UTF-8 text"),
+    ("arx1.json", "\nu\n0.1\n", "line 1 is blank"),
+    ("arx1.json", "", "is empty"),
+    ("arx1.json", " \n0.1\n", "line 1: [' '] holds neither column names nor numbers"),
     ("arx1.json", "u\n0.1\n0\x002\n", "line 3, column 'u'"),
 ])
 def test_simulate_csv_errors_name_the_file_and_line(saved_models, tmp_path, capsys, model, text, message):
@@ -516,39 +519,37 @@ def _is_float(text):
     return True
 
 
-def _csv_case(st):
-    @st.composite
-    def case(draw):
-        n_columns = draw(st.sampled_from([1, 2]))
-        n_rows = draw(st.integers(0, 12))
-        header = draw(st.booleans())
-        file_columns = draw(st.sampled_from([n_columns, n_columns, n_columns + 1, max(n_columns - 1, 1)]))
-        bad_cells = draw(st.booleans())
-        rows = []
-        for _ in range(n_rows):
-            width = file_columns if draw(st.integers(0, 9)) else draw(st.integers(0, 3))
-            rows.append([_cell(draw, st, not (bad_cells and draw(st.integers(0, 4)) == 0)) for _ in range(width)])
-        lines = [(",".join(row), True) for row in rows]  # (text, is a sample row)
-        blank_at = draw(st.lists(st.integers(0, max(len(lines) - 1, 0)), max_size=2)) if lines else []
-        for i in sorted(blank_at, reverse=True):
-            lines.insert(i, ("", False))
-        if header:
-            names = [draw(st.sampled_from(["u", "pump", "a b", '"x,y"', "time"])) for _ in range(file_columns)]
-            lines.insert(0, (",".join(names), False))
-        newline = draw(st.sampled_from(["\n", "\r\n"]))
-        text = newline.join(t for t, _ in lines) + draw(st.sampled_from(["", newline, newline * 3]))
-        clean = (
-            n_rows > 0 and file_columns == n_columns and not blank_at
-            and all(len(r) == n_columns for r in rows)
-            and not any(c.strip(' "') in ("", "nan", "NaN", "inf", "-inf", "1e999", "abc", "0x10", "1,5", "1\n2")
-                        for r in rows for c in r)
-        )
-        while lines and lines[-1][0] == "":  # empty lines at the end (an empty last row too) are no samples
-            n_rows -= lines.pop()[1]
-        if not header and rows and all(not _is_float(c) for c in rows[0]) and any(c.strip() for c in rows[0]):
-            n_rows -= 1  # a first row of words is a header row
-        return n_columns, text, n_rows, clean
-    return case()
+def _csv_case(draw, st):
+    """``(n_columns, text, n_rows, clean)``: a generated CSV file, its number of samples, whether it is clean."""
+    n_columns = draw(st.sampled_from([1, 2]))
+    n_rows = draw(st.integers(0, 12))
+    header = draw(st.booleans())
+    file_columns = draw(st.sampled_from([n_columns, n_columns, n_columns + 1, max(n_columns - 1, 1)]))
+    bad_cells = draw(st.booleans())
+    rows = []
+    for _ in range(n_rows):
+        width = file_columns if draw(st.integers(0, 9)) else draw(st.integers(0, 3))
+        rows.append([_cell(draw, st, not (bad_cells and draw(st.integers(0, 4)) == 0)) for _ in range(width)])
+    lines = [(",".join(row), True) for row in rows]  # (text, is a sample row)
+    blank_at = draw(st.lists(st.integers(0, max(len(lines) - 1, 0)), max_size=2)) if lines else []
+    for i in sorted(blank_at, reverse=True):
+        lines.insert(i, ("", False))
+    if header:
+        names = [draw(st.sampled_from(["u", "pump", "a b", '"x,y"', "time"])) for _ in range(file_columns)]
+        lines.insert(0, (",".join(names), False))
+    newline = draw(st.sampled_from(["\n", "\r\n"]))
+    text = newline.join(t for t, _ in lines) + draw(st.sampled_from(["", newline, newline * 3]))
+    clean = (
+        n_rows > 0 and file_columns == n_columns and not blank_at
+        and all(len(r) == n_columns for r in rows)
+        and not any(c.strip(' "') in ("", "nan", "NaN", "inf", "-inf", "1e999", "abc", "0x10", "1,5", "1\n2")
+                    for r in rows for c in r)
+    )
+    while lines and lines[-1][0] == "":  # empty lines at the end (an empty last row too) are no samples
+        n_rows -= lines.pop()[1]
+    if not header and rows and all(not _is_float(c) for c in rows[0]) and any(c.strip() for c in rows[0]):
+        n_rows -= 1  # a first row of words is a header row
+    return n_columns, text, n_rows, clean
 
 
 def test_simulate_csv_fuzz(saved_models, tmp_path, capsys, runslow):
@@ -566,9 +567,9 @@ def test_simulate_csv_fuzz(saved_models, tmp_path, capsys, runslow):
 
     @hypothesis.settings(max_examples=1500 if runslow else 100, deadline=None, database=None,
                          suppress_health_check=list(hypothesis.HealthCheck))
-    @hypothesis.given(case=_csv_case(st), raw=st.one_of(st.none(), st.binary(max_size=60)))
-    def check(case, raw):
-        n_columns, text, n_rows, clean = case
+    @hypothesis.given(data=st.data(), raw=st.one_of(st.none(), st.binary(max_size=60)))
+    def check(data, raw):
+        n_columns, text, n_rows, clean = _csv_case(data.draw, st)
         start = time.perf_counter()
         status, rows = _simulate_text(folder, models[n_columns], raw if raw is not None else text, tmp_path)
         err = capsys.readouterr().err

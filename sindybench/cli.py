@@ -214,13 +214,14 @@ def _read_csv(path, what):
     if not rows[0][1]:
         raise ValueError(f"{what} {path}, line 1 is blank; expected a header row naming the columns, or the first "
                          "sample.")
-    if all(_number(text) is not None for text in rows[0][1]):
+    numbers = [_number(text) is not None for text in rows[0][1]]
+    if all(numbers):
         header, body = None, rows  # no header row: the first row is a sample
-    else:
+    elif not any(numbers) and any(text.strip() for text in rows[0][1]):
         header, body = [name.strip() for name in rows[0][1]], rows[1:]
-        if not any(header):
-            raise ValueError(f"{what} {path}, line {rows[0][0]}: {rows[0][1]} holds neither column names nor numbers; "
-                             "expected a header row naming the columns, or the first sample.")
+    else:  # a first sample with a bad cell must not pass for a header row (and the record lose a sample)
+        raise ValueError(f"{what} {path}, line {rows[0][0]}: {rows[0][1]} is neither a header row (names, no numbers) "
+                         "nor a sample (a number in every column); expected one of the two.")
     if not body:
         raise ValueError(f"{what} {path} has no samples; expected one row per sample (after an optional header row).")
     n_columns = len(header) if header is not None else len(body[0][1])

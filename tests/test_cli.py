@@ -431,7 +431,8 @@ def test_simulate_reads_every_sample(saved_models, tmp_path, text, n_rows):
     ("arx1.json", b"u\n0.1\n\xff\xfe\n", "is not UTF-8 text"),
     ("arx1.json", "\nu\n0.1\n", "line 1 is blank"),
     ("arx1.json", "", "is empty"),
-    ("arx1.json", " \n0.1\n", "line 1: [' '] holds neither column names nor numbers"),
+    ("arx1.json", " \n0.1\n", "line 1: [' '] is neither a header row (names, no numbers) nor a sample"),
+    ("arx.json", ",0.5\n0.1,0.2\n", "line 1: ['', '0.5'] is neither a header row"),  # not a header: a bad sample
     ("arx1.json", "u\n0.1\n0\x002\n", "line 3, column 'u'"),
 ])
 def test_simulate_csv_errors_name_the_file_and_line(saved_models, tmp_path, capsys, model, text, message):
@@ -547,7 +548,7 @@ def _csv_case(draw, st):
     )
     while lines and lines[-1][0] == "":  # empty lines at the end (an empty last row too) are no samples
         n_rows -= lines.pop()[1]
-    if not header and rows and all(not _is_float(c) for c in rows[0]) and any(c.strip() for c in rows[0]):
+    if not header and rows and not any(_is_float(c) for c in rows[0]) and any(c.strip() for c in rows[0]):
         n_rows -= 1  # a first row of words is a header row
     return n_columns, text, n_rows, clean
 

@@ -176,6 +176,42 @@ def test_two_workers_share_one_study(kind, worker, tmp_path, request):
     assert len(points) == len(trials)
 
 
+def test_lost_database_mid_study_is_a_clear_error_and_the_study_resumes(tmp_path):
+    """The quick version of the next test: an SQLite storage whose connection fails in the third trial."""
+    import numpy as np
+    from sqlalchemy.exc import OperationalError
+
+    from sindybench.baselines import ARX
+    from sindybench.model_selection import IntRange, tune
+
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((200, 1))
+    y = 0.1 * np.cumsum(u, axis=0)
+    space = {"na": IntRange(1, 4), "nb": IntRange(1, 3)}
+    storage = make_storage(f"sqlite:///{tmp_path / 'study.db'}")
+    real, calls = storage.set_trial_user_attr, []
+
+    def failing(trial_id, key, value):
+        if key == "params":
+            calls.append(trial_id)
+        if len(calls) == 3:
+            orig = Exception("server closed the connection unexpectedly")
+            error = OperationalError("UPDATE trial_user_attributes", {}, orig)
+            raise optuna.exceptions.StorageInternalError("An exception is raised during the commit.") from error
+        return real(trial_id, key, value)
+
+    storage.set_trial_user_attr = failing
+    with pytest.raises(ConnectionError, match=r"storage 'RDBStorage': the database stopped answering during the "
+                                              r"study \(OperationalError: server closed.*run the same call again"):
+        tune(ARX(), space, u, y, n_trials=5, storage=storage, study_name="s", random_state=0)
+    storage.set_trial_user_attr = real
+    _, study = tune(ARX(), space, u, y, n_trials=5, storage=storage, study_name="s", random_state=0)
+    states = [t.state for t in study.trials]
+    assert states[:2] == [TrialState.COMPLETE] * 2 and states[2] == TrialState.FAIL
+    assert states.count(TrialState.COMPLETE) == 5 and TrialState.RUNNING not in states
+
+
+@pytest.mark.slow
 def test_postgresql_server_stopped_mid_study_is_a_clear_error_and_the_study_resumes():
     """Issue 18, case 14: the worker died of Optuna's StorageInternalError and an UnboundLocalError traceback.
 

@@ -60,15 +60,17 @@ def _start_time(pid):
         return None
 
 
-def owner_is_gone(host, pid, token=None, since=None):
+def owner_is_gone(host, pid, token=None, since=None, *, margin=60.0):
     """True when the process ``host:pid`` (with ``token``) provably no longer runs.
 
     Only owners on this host can be judged; on another host the answer is
     ``False``. On this host the owner is gone when ``pid`` runs no process,
     when it is this process's own PID but ``token`` is another one (or none:
     the owner was an earlier process with the same PID), or when the process
-    with that PID started more than a second after ``since`` (seconds since
-    the epoch: when the owner made the thing), a PID that was reused.
+    with that PID started more than ``margin`` seconds after ``since``
+    (seconds since the epoch: when the owner made the thing), a PID that was
+    reused. The margin absorbs steps of the wall clock (NTP), which shift the
+    start time computed from ``/proc``.
 
     Examples
     --------
@@ -86,5 +88,5 @@ def owner_is_gone(host, pid, token=None, since=None):
         return True
     if since is not None:
         started = _start_time(pid)
-        return started is not None and started > since + 1.0
+        return started is not None and started > since + margin
     return False

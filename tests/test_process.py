@@ -23,7 +23,8 @@ def test_owner_is_gone():
         assert not owner_is_gone(me["host"], child.pid, since=time.time())
         # the PID now runs a process that started after the owner made its thing: a reused PID
         if os.path.exists(f"/proc/{child.pid}/stat"):
-            assert owner_is_gone(me["host"], child.pid, since=time.time() - 60)
+            assert owner_is_gone(me["host"], child.pid, since=time.time() - 600)
+            assert not owner_is_gone(me["host"], child.pid, since=time.time() - 600, margin=3600)
     finally:
         child.kill()
         child.wait()

@@ -39,6 +39,9 @@ logger = logging.getLogger(__name__)
 HEARTBEAT_INTERVAL = 60
 GRACE_PERIOD = 180
 
+#: A process that started this many seconds after a trial cannot be the trial's worker (a reused PID).
+_START_MARGIN = 7200.0
+
 _JOURNAL_PREFIX = "journal://"
 _JOURNAL_SUFFIXES = (".log", ".journal")
 _SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
@@ -367,7 +370,8 @@ def _is_orphan(study, trial, me):
     if (owner_host, int(pid), token) == (me["host"], me["pid"], me["token"]):
         return (study.study_name, trial.number) not in _RUNNING_HERE
     since = trial.datetime_start.timestamp() if trial.datetime_start is not None else None
-    return owner_is_gone(owner_host, int(pid), token, since)
+    # Optuna records local wall-clock times without a zone: allow for a daylight-saving change
+    return owner_is_gone(owner_host, int(pid), token, since, margin=_START_MARGIN)
 
 
 def count_done(study):

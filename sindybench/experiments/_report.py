@@ -122,11 +122,12 @@ def _remove_stale_staging(final):
         logger.info("removed %s, the staging folder of a run that was killed (%s, process %s)", path, host, pid)
 
 
-
-def _merge(source, target):
-    """Move every entry of ``source`` into ``target``, replacing same-named files; other entries stay."""
+def _merge(source, target, skip=()):
+    """Move every entry of ``source`` (but ``skip``) into ``target``, replacing same-named files; others stay."""
     target.mkdir(exist_ok=True)
     for entry in sorted(source.iterdir()):
+        if entry.name in skip:
+            continue
         destination = target / entry.name
         if entry.is_dir() and not entry.is_symlink():
             if destination.exists() and not destination.is_dir():
@@ -182,8 +183,7 @@ def staged_output_dir(final):
         me = owner()
         (tmp / _OWNER_FILE).write_text(json.dumps({**me, "created": time.time()}))
         yield tmp
-        (tmp / _OWNER_FILE).unlink()
-        _merge(tmp, final)
+        _merge(tmp, final, skip={_OWNER_FILE})  # the record stays until the end: a kill now leaves a removable folder
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
 

@@ -262,7 +262,8 @@ def _model_inputs(model, header, data, path):
     if n_inputs == 0:  # an autonomous model: the file only gives the number of samples
         return data[:, :0]
     if data.shape[1] != n_inputs:
-        found = f"{len(header)} column(s) {header}" if header is not None else f"{data.shape[1]} column(s) and no header row"
+        found = (f"{len(header)} column(s) {header}" if header is not None
+                 else f"{data.shape[1]} column(s) and no header row")
         order = f"the model's inputs {list(names)}" if names is not None else "the model's inputs"
         raise ValueError(f"input {path} has {found}; the model has {n_inputs} input(s): expected {n_inputs} "
                          f"column(s), in the order of {order}" + (" (or a header row naming them)." if names else "."))
@@ -315,8 +316,11 @@ def _predict(model, X, y_init, args):
             return model.predict(X)
     except ValueError as exc:  # name the file the bad values came from
         if y_init is not None and "y_init" in str(exc):
-            raise ValueError(f"--y-init {args.y_init} ({len(y_init)} row(s) of {y_init.shape[1]} value(s)): {exc}") from exc
-        source = f"--input {args.input} ({len(X)} samples)" + (f" from --y-init {args.y_init}" if y_init is not None else "")
+            shape = f"{len(y_init)} row(s) of {y_init.shape[1]} value(s)"
+            raise ValueError(f"--y-init {args.y_init} ({shape}): {exc}") from exc
+        source = f"--input {args.input} ({len(X)} samples)"
+        if y_init is not None:
+            source += f" from --y-init {args.y_init}"
         raise ValueError(f"simulating {args.model} on {source}: {exc}") from exc
 
 

@@ -265,7 +265,7 @@ def tune(
         Threads in this process (``-1``: one per CPU). For CPU-bound fits, run
         several processes on one storage instead.
     random_state : int or None, default=None
-        Seeds TPE. Trial ``n`` draws from a generator seeded by
+        Seeds TPE (an integer from 0 to 2**32 - 1). Trial ``n`` draws from a generator seeded by
         ``(random_state, n)``, so concurrent or restarted workers do not
         repeat each other's points.
     show_progress_bar : bool, default=True

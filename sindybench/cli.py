@@ -17,10 +17,13 @@ Examples
 """
 
 import argparse
+import contextlib
 import csv
 import io
+import json
 import logging
 import math
+import os
 import sys
 import time
 import warnings
@@ -43,6 +46,13 @@ def _non_negative_int(text):
         raise argparse.ArgumentTypeError(f"expected an integer >= 0; got {text!r}") from None
     if value < 0:
         raise argparse.ArgumentTypeError(f"expected an integer >= 0; got {value}")
+    return value
+
+
+def _seed(text):
+    value = _non_negative_int(text)
+    if value >= 2**32:
+        raise argparse.ArgumentTypeError(f"expected an integer in [0, 2**32 - 1] (a numpy seed); got {value}")
     return value
 
 
@@ -84,7 +94,7 @@ def build_parser():
     run.add_argument("benchmark", choices=(*BENCHMARK_NAMES, "all"), help="benchmark to run")
     run.add_argument("--trials", type=_non_negative_int, default=None, metavar="N",
                      help="search trials per model (default: each model's own budget)")
-    run.add_argument("--seed", type=_non_negative_int, default=0, metavar="S", help="random seed (default: 0)")
+    run.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed, 0 to 2**32 - 1 (default: 0)")
     run.add_argument("--storage", type=_storage, default=None, metavar="URL",
                      help="Optuna storage URL, e.g. sqlite:///study.db, to resume or share searches")
     run.add_argument("--n-jobs", type=_n_jobs, default=1, metavar="J", help="parallel trials per search")
@@ -101,8 +111,9 @@ def build_parser():
         "simulate",
         help="simulate a saved model on an input record (CSV)",
         description="Load MODEL.json (written by model.to_json or by 'sindybench run'), simulate it open loop "
-        "on the inputs of --input and write the simulated outputs to --output. CSV files have a header row and "
-        "one row per sample. The input columns are taken by name when the model names its inputs, else in order.",
+        "on the inputs of --input and write the simulated outputs to --output. CSV files have one row per sample, "
+        "after a header row naming the columns (a file whose first row is numbers has none). The input columns are "
+        "taken by name when the model names its inputs and the file has a header, else in order.",
     )
     sim.add_argument("model", type=Path, metavar="MODEL.json", help="saved model")
     sim.add_argument("--input", type=Path, required=True, metavar="FILE.csv",
@@ -113,7 +124,8 @@ def build_parser():
                      help="first measured output samples (one column per output) to start from; "
                      "default: the model's own initial state")
     sim.add_argument("--allow-import", action="store_true",
-                     help="import the module-level Python function the model names (ParametricHiddenState)")
+                     help="import the module-level Python function the model names (ParametricHiddenState); "
+                     "modules in the current folder can be imported too")
     sim.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors on stderr")
     return parser
 
@@ -144,28 +156,89 @@ def _run(args):
     elapsed = time.perf_counter() - start
     print(report.read_text() if report.suffix == ".md" else report)
     logger.info("wrote %s in %.0f s", args.out.resolve(), elapsed)
+    failed = _failed_models(args.out, names)
+    if failed:
+        print(f"sindybench: error: {len(failed)} model(s) could not be fitted, their rows read '(not fitted)':\n"
+              + "\n".join(f"  {name}: {status}" for name, status in failed), file=sys.stderr)
+        return 1
     return 0
 
 
-def _read_csv(path, what):
-    """``(header, data)`` of a CSV file with a header row; ``ValueError`` naming line and column."""
-    with open(path, newline="", encoding="utf-8") as f:
-        rows = [row for row in csv.reader(f) if row]
-    if len(rows) < 2:
-        raise ValueError(f"{what} {path} has no samples; expected a header row and one row per sample.")
-    header = [name.strip() for name in rows[0]]
-    data = np.empty((len(rows) - 1, len(header)))
-    for i, row in enumerate(rows[1:]):
-        if len(row) != len(header):
-            raise ValueError(f"{what} {path}, line {i + 2}: {len(row)} values; expected {len(header)} "
-                             f"(one per column of the header {header}).")
-        for j, text in enumerate(row):
+def _failed_models(out, names):
+    """``[(benchmark/model, status)]`` of the models that a run's ``results.json`` files record as not fitted."""
+    failed = []
+    for name in names:
+        results = json.loads((out / name / "results.json").read_text())
+        failed += [(f"{name}/{m['key']}", m["status"]) for m in results["models"] if m["status"] != "ok"]
+    return failed
+
+
+def _csv_rows(path, what):
+    """``[(line number, cells)]`` of a CSV file, blank lines at its end dropped; ``ValueError`` naming the line."""
+    rows = []
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as f:
+            reader = csv.reader(f)
+            start = 1
             try:
-                value = float(text)
-            except ValueError:
-                value = None
+                for row in reader:
+                    rows.append((start, row))
+                    start = reader.line_num + 1
+            except csv.Error as exc:
+                raise ValueError(f"{what} {path}, line {reader.line_num}: {exc}; expected a CSV file.") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{what} {path} is not UTF-8 text ({exc.reason} at byte {exc.start}); "
+                         "expected a CSV file.") from None
+    while rows and not rows[-1][1]:
+        rows.pop()
+    return rows
+
+
+def _number(text):
+    try:
+        return float(text)
+    except ValueError:
+        return None
+
+
+def _read_csv(path, what):
+    """``(header, data)`` of a CSV file; ``header`` is ``None`` when its first row is numbers.
+
+    Every line up to the last non-blank one is a row: a blank line in the
+    data is a sample with no values (an error), never skipped. Errors are
+    ``ValueError`` naming the file, the line and the column.
+    """
+    rows = _csv_rows(path, what)
+    if not rows:
+        raise ValueError(f"{what} {path} is empty; expected one row per sample (after an optional header row).")
+    if not rows[0][1]:
+        raise ValueError(f"{what} {path}, line 1 is blank; expected a header row naming the columns, or the first "
+                         "sample.")
+    numbers = [_number(text) is not None for text in rows[0][1]]
+    if all(numbers):
+        header, body = None, rows  # no header row: the first row is a sample
+    elif not any(numbers) and any(text.strip() for text in rows[0][1]):
+        header, body = [name.strip() for name in rows[0][1]], rows[1:]
+    else:  # a first sample with a bad cell must not pass for a header row (and the record lose a sample)
+        raise ValueError(f"{what} {path}, line {rows[0][0]}: {rows[0][1]} is neither a header row (names, no numbers) "
+                         "nor a sample (a number in every column); expected one of the two.")
+    if not body:
+        raise ValueError(f"{what} {path} has no samples; expected one row per sample (after an optional header row).")
+    n_columns = len(header) if header is not None else len(body[0][1])
+    names = header if header is not None else [f"column {j + 1}" for j in range(n_columns)]
+    data = np.empty((len(body), n_columns))
+    for i, (line, row) in enumerate(body):
+        if n_columns == 1 and not row:
+            row = [""]  # a blank line in a one-column file is an empty cell
+        if len(row) != n_columns:
+            source = f"the header {header}" if header is not None else "the first row"
+            raise ValueError(f"{what} {path}, line {line}: {len(row)} values; expected {n_columns} "
+                             f"(one per column of {source}).")
+        for j, text in enumerate(row):
+            value = _number(text)
             if value is None or not math.isfinite(value):
-                raise ValueError(f"{what} {path}, line {i + 2}, column {header[j]!r}: {text.strip()!r}; "
+                column = f"column {names[j]!r}" if header is not None else names[j]
+                raise ValueError(f"{what} {path}, line {line}, {column}: {text.strip()!r}; "
                                  "expected a finite number (no NaN, no empty cell).")
             data[i, j] = value
     return header, data
@@ -177,17 +250,23 @@ def _model_inputs(model, header, data, path):
     names = getattr(model, "input_names", None)  # a SINDy model with named inputs
     if names is None and getattr(model, "feature_names_in_", None) is not None:
         names = [str(name) for name in model.feature_names_in_]
-    if names is not None:
+    if names is not None and header is not None:
         missing = [name for name in names if name not in header]
         if missing:
             raise ValueError(f"input {path} has no column {missing[0]!r}; expected the model's inputs {list(names)} "
                              f"(found {header}).")
+        twice = [name for name in names if header.count(name) > 1]
+        if twice:
+            raise ValueError(f"input {path} has the column {twice[0]!r} more than once; expected each input once.")
         return data[:, [header.index(name) for name in names]]
     if n_inputs == 0:  # an autonomous model: the file only gives the number of samples
         return data[:, :0]
-    if len(header) != n_inputs:
-        raise ValueError(f"input {path} has {len(header)} column(s) {header}; the model has {n_inputs} input(s): "
-                         f"expected {n_inputs} column(s), in the order of the model's inputs.")
+    if data.shape[1] != n_inputs:
+        found = (f"{len(header)} column(s) {header}" if header is not None
+                 else f"{data.shape[1]} column(s) and no header row")
+        order = f"the model's inputs {list(names)}" if names is not None else "the model's inputs"
+        raise ValueError(f"input {path} has {found}; the model has {n_inputs} input(s): expected {n_inputs} "
+                         f"column(s), in the order of {order}" + (" (or a header row naming them)." if names else "."))
     return data
 
 
@@ -198,22 +277,61 @@ def _output_names(model, n_outputs):
     return list(names) if names is not None and len(names) == n_outputs else [f"y{i}" for i in range(n_outputs)]
 
 
+@contextlib.contextmanager
+def _current_folder_importable(allow):
+    """With ``allow``, modules in the current folder can be imported (as under ``python -m``), at lowest priority."""
+    added = allow and os.getcwd() not in sys.path and "" not in sys.path
+    if added:
+        sys.path.append(os.getcwd())
+    try:
+        yield
+    finally:
+        if added and os.getcwd() in sys.path:
+            sys.path.remove(os.getcwd())
+
+
+def _load(path, allow_import):
+    from . import load_model
+
+    with _current_folder_importable(allow_import):
+        try:
+            return load_model(path, allow_import=allow_import)
+        except ValueError as exc:  # the Python spelling of the option is not the command line's
+            if "allow_import=True" not in str(exc):
+                raise
+            raise ValueError(str(exc).replace("pass allow_import=True", "pass --allow-import")
+                             .replace("allow_import=True", "--allow-import")) from None
+
+
+def _predict(model, X, y_init, args):
+    from . import SINDy
+
+    try:
+        if y_init is not None:
+            return model.predict(X, y_init=y_init)
+        if isinstance(model, SINDy):
+            return model.predict(X, x0=model.x0_)
+        with warnings.catch_warnings():  # the model's own initial state is what was asked for
+            warnings.filterwarnings("ignore", message="predict without")
+            return model.predict(X)
+    except ValueError as exc:  # name the file the bad values came from
+        if y_init is not None and "y_init" in str(exc):
+            shape = f"{len(y_init)} row(s) of {y_init.shape[1]} value(s)"
+            raise ValueError(f"--y-init {args.y_init} ({shape}): {exc}") from exc
+        source = f"--input {args.input} ({len(X)} samples)"
+        if y_init is not None:
+            source += f" from --y-init {args.y_init}"
+        raise ValueError(f"simulating {args.model} on {source}: {exc}") from exc
+
+
 def _simulate(args):
-    from . import SINDy, load_model
     from .io import write_text_atomic
 
-    model = load_model(args.model, allow_import=args.allow_import)
+    model = _load(args.model, args.allow_import)
     header, data = _read_csv(args.input, "input")
     X = _model_inputs(model, header, data, args.input)
     y_init = None if args.y_init is None else _read_csv(args.y_init, "--y-init")[1]
-    if y_init is not None:
-        y_pred = model.predict(X, y_init=y_init)
-    elif isinstance(model, SINDy):
-        y_pred = model.predict(X, x0=model.x0_)
-    else:
-        with warnings.catch_warnings():  # the model's own initial state is what was asked for
-            warnings.filterwarnings("ignore", message="predict without")
-            y_pred = model.predict(X)
+    y_pred = _predict(model, X, y_init, args)
     y_pred = np.asarray(y_pred, dtype=float).reshape(X.shape[0], -1)
     text = io.StringIO()
     writer = csv.writer(text, lineterminator="\n")
@@ -238,8 +356,10 @@ def main(argv=None):
     Returns
     -------
     int
-        Exit status: 0 on success, 2 when data are missing, an argument is bad, or (``simulate``)
-        a file cannot be read or does not fit the model.
+        Exit status: 0 on success; 1 when ``run`` finished but some model could not be fitted
+        (the run's files are written and the error names the models) or the storage stopped
+        answering; 2 when data are missing, an argument, the output folder or the storage is
+        bad, or (``simulate``) a file cannot be read or does not fit the model.
     """
     args = build_parser().parse_args(argv)
     _configure_logging(args.quiet)
@@ -253,7 +373,10 @@ def main(argv=None):
 
     try:
         return _run(args)
-    except DataNotFoundError as exc:
+    except ConnectionError as exc:  # the storage stopped answering: the finished trials are kept in it
+        print(f"sindybench: error: {exc}\nNo output written.", file=sys.stderr)
+        return 1
+    except (DataNotFoundError, OSError, ValueError, ImportError) as exc:  # data, output folder, storage
         print(f"sindybench: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:

@@ -13,6 +13,7 @@ import os
 import re
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -250,6 +251,111 @@ def test_missing_data_message_and_exit_status(tmp_path):
     assert not out.exists() and not [p for p in tmp_path.iterdir() if p.name != "empty"]
 
 
+# --------------------------------------------------------------------------- the output folder, exit status
+@pytest.fixture
+def toy_cli(monkeypatch):
+    """``sindybench run cascaded-tanks`` runs the synthetic benchmark (named cascaded-tanks); counts its loads."""
+    import sindybench.experiments as experiments
+
+    loads = []
+    toy = _synthetic()
+
+    def load(**kwargs):
+        loads.append(kwargs)
+        return toy.load(**kwargs)
+
+    bench = dataclasses.replace(toy, name="cascaded-tanks", load=load)
+    monkeypatch.setattr(experiments, "get_benchmark", lambda name: bench)
+    return bench, loads
+
+
+def _run_toy(out, *extra):
+    return main(["run", "cascaded-tanks", "--quick", "--no-progress", "-q", "--out", str(out), *extra])
+
+
+def test_run_keeps_the_users_files_in_the_output_folder(toy_cli, tmp_path):
+    # issue 18, case 1: the old benchmark folder was renamed away and removed, with the user's files in it
+    out = tmp_path / "out"
+    (out / "cascaded-tanks" / "models").mkdir(parents=True)
+    mine = {out / "notes.txt": "top", out / "cascaded-tanks" / "my_notes.txt": "notes",
+            out / "cascaded-tanks" / "models" / "my_model.json": "{}", out / "cascaded-tanks" / "results.md": "old"}
+    for path, text in mine.items():
+        path.write_text(text)
+    for _ in range(2):  # a first run into the user's folder, then a second over the first
+        assert _run_toy(out) == 0
+        for path, text in mine.items():
+            if path.name != "results.md":  # a file of the run's own name is the run's to replace
+                assert path.read_text() == text, path
+        assert "| SINDy |" in (out / "cascaded-tanks" / "results.md").read_text()
+        assert (out / "cascaded-tanks" / "models" / "arx.json").is_file()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging folder left
+
+
+@pytest.mark.parametrize("make, argv, message", [
+    (lambda d: (d / "x.db").write_text("notes\n"), ["--storage", "{d}/x.db"], "is not an SQLite database"),
+    (None, ["--storage", "foo://x"], "'foo' is not a database kind"),
+    (None, ["--seed", str(2**32)], "expected an integer in [0, 2**32 - 1]"),
+    (lambda d: (d / "out").write_text("a file"), [], "out is a file; expected a folder"),
+    (lambda d: (d / "out" / "cascaded-tanks").mkdir(parents=True) or (d / "out" / "cascaded-tanks" / "models")
+     .write_text("x"), [], "models is a file; the run writes a folder of that name"),
+])
+def test_run_refuses_bad_storage_seed_and_output_before_any_work(toy_cli, tmp_path, capsys, make, argv, message):
+    # issue 18, cases 2 and 4: these ran the whole job (every model "failed to fit", exit 0, or a
+    # FileExistsError traceback after the work); now they stop before the data are even loaded
+    if make is not None:
+        make(tmp_path)
+    before = sorted(str(p) for p in tmp_path.rglob("*"))
+    try:
+        status = _run_toy(tmp_path / "out", *[a.format(d=tmp_path) for a in argv])
+    except SystemExit as exc:  # refused by the argument parser
+        status = exc.code
+    assert status == 2
+    assert message in capsys.readouterr().err
+    assert toy_cli[1] == [] and sorted(str(p) for p in tmp_path.rglob("*")) == before
+
+
+def test_run_with_models_that_fail_exits_1_and_names_them(toy_cli, tmp_path, capsys, monkeypatch):
+    # issue 18, case 2: a run whose models could not be fitted exited 0
+    import sindybench.experiments as experiments
+
+    def broken(**kwargs):
+        raise RuntimeError("no estimator today")
+
+    bench = dataclasses.replace(toy_cli[0], models=(*toy_cli[0].models[:1], ModelSpec("broken", "Broken", broken)))
+    monkeypatch.setattr(experiments, "get_benchmark", lambda name: bench)
+    status = _run_toy(tmp_path / "out")
+    err = capsys.readouterr().err
+    assert status == 1
+    assert "1 model(s) could not be fitted" in err and "cascaded-tanks/broken: fit failed: RuntimeError: no estimator" in err
+    results = json.loads((tmp_path / "out" / "cascaded-tanks" / "results.json").read_text())
+    assert [m["status"] for m in results["models"]] == ["ok", "fit failed: RuntimeError: no estimator today"]
+
+
+def test_killed_run_leaves_a_staging_folder_the_next_run_removes(toy_cli, tmp_path):
+    # issue 18, case 22: a SIGKILLed run left .out.tmp-* folders that no later run removed
+    out = tmp_path / "out"
+    script = ("import sys, time\nfrom sindybench.experiments import staged_output_dir\n"
+              "with staged_output_dir(sys.argv[1]) as tmp:\n"
+              "    (tmp / 'results.json').write_text('half')\n    print(tmp, flush=True)\n    time.sleep(60)\n")
+    victim = subprocess.Popen([sys.executable, "-c", script, str(out)], stdout=subprocess.PIPE, text=True)
+    staging = Path(victim.stdout.readline().strip())
+    victim.kill()
+    victim.wait()
+    assert staging.is_dir() and staging.name.startswith(".out.tmp-")
+    # not provably ours, or not stale: a folder without an owner record, one of a live process, one of another host
+    other = {".out.tmp-user": None, ".out.tmp-live": {"host": socket.gethostname(), "pid": os.getppid()},
+             ".out.tmp-remote": {"host": "elsewhere", "pid": 1}}
+    for name, record in other.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "data.txt").write_text("keep")
+        if record is not None:
+            (tmp_path / name / ".sindybench-staging.json").write_text(json.dumps(record))
+    assert _run_toy(out) == 0
+    assert not staging.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["out", *other])
+    assert (out / "cascaded-tanks" / "results.json").is_file()
+
+
 # --------------------------------------------------------------------------- simulate a saved model
 def _write_csv(path, header, rows):
     path.write_text(",".join(header) + "\n" + "".join(",".join(str(v) for v in row) + "\n" for row in rows))
@@ -270,6 +376,7 @@ def saved_models(tmp_path_factory):
     arx = ARX(na=1, nb=1).fit(u, rec.y)
     sindy.to_json(folder / "sindy.json")
     arx.to_json(folder / "arx.json")
+    ARX(na=1, nb=1).fit(rec.u, rec.y).to_json(folder / "arx1.json")  # one input, no names
     inputs = _write_csv(folder / "u.csv", ["aux", "pump", "time"], np.column_stack([u[:, 1], u[:, 0], rec.t]))
     return folder, u, rec.y, {"sindy": sindy, "arx": arx}, inputs
 
@@ -321,6 +428,202 @@ def test_simulate_command_wrong_number_of_inputs(saved_models, tmp_path, capsys)
                  str(tmp_path / "y.csv")]) == 2
     assert "has 1 column(s) ['a']; the model has 2 input(s)" in capsys.readouterr().err
     assert not (tmp_path / "y.csv").exists()
+
+
+def _simulate_text(folder, model, text, tmp_path, *extra):
+    """Exit status and output rows of ``simulate`` on an input file holding ``text`` (str or bytes)."""
+    path = tmp_path / "u.csv"
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
+    output = tmp_path / "y.csv"
+    output.unlink(missing_ok=True)
+    status = main(["simulate", str(folder / model), "--input", str(path), "--output", str(output), "-q", *extra])
+    rows = output.read_text().splitlines()[1:] if output.exists() else None
+    return status, rows
+
+
+@pytest.mark.parametrize("text, n_rows", [
+    ("0.1\n0.2\n0.3\n0.4\n", 4),  # no header row: was read as a header, and 4 rows gave 3 outputs
+    ("0.1\r\n0.2\r\n0.3\r\n0.4", 4),
+    ("u\n0.1\n0.2\n0.3\n\n\n", 3),  # blank lines at the end are no samples
+    ("\ufeffu\n0.1\n0.2\n", 2),  # a byte-order mark (spreadsheet exports)
+])
+def test_simulate_reads_every_sample(saved_models, tmp_path, text, n_rows):
+    # issue 18, case 3: a CSV without a header row lost its first sample
+    folder, u, y, models, inputs = saved_models
+    status, rows = _simulate_text(folder, "arx1.json", text, tmp_path)
+    assert status == 0 and len(rows) == n_rows
+    values = np.array([float(v) for v in text.lstrip("\ufeffu\n").split()])[:, None]
+    expected = load_model(folder / "arx1.json").predict(values)
+    assert np.array_equal(np.array([float(r) for r in rows]), np.asarray(expected).ravel())
+
+
+@pytest.mark.parametrize("model, text, message", [
+    # a blank line in a one-column file is a missing sample: it was dropped, and the output one sample short
+    ("arx1.json", "u\n0.1\n\n0.3\n0.4\n", "line 3, column 'u': ''; expected a finite number"),
+    ("arx1.json", "0.1\n\n0.3\n", "line 2, column 1: ''; expected a finite number"),
+    # the line numbers count every line of the file: they were row numbers, wrong after a blank line ...
+    ("arx.json", "a,b\n0.1,0.0\n\n0.2,x\n", "line 3: 0 values; expected 2"),
+    # ... or after a quoted cell that spans two lines
+    ("arx.json", 'a,b\n"0.1\n",0.0\n0.2,x\n', "line 4, column 'b': 'x'"),
+    ("arx.json", "0.1,0.0\n0.2\n", "line 2: 1 values; expected 2 (one per column of the first row)"),
+    ("arx.json", "0.1,0.0,1.0\n", "has 3 column(s) and no header row; the model has 2 input(s)"),
+    ("arx1.json", b"u\n0.1\n\xff\xfe\n", "is not UTF-8 text"),
+    ("arx1.json", "\nu\n0.1\n", "line 1 is blank"),
+    ("arx1.json", "", "is empty"),
+    ("arx1.json", " \n0.1\n", "line 1: [' '] is neither a header row (names, no numbers) nor a sample"),
+    ("arx.json", ",0.5\n0.1,0.2\n", "line 1: ['', '0.5'] is neither a header row"),  # not a header: a bad sample
+    ("arx1.json", "u\n0.1\n0\x002\n", "line 3, column 'u'"),
+])
+def test_simulate_csv_errors_name_the_file_and_line(saved_models, tmp_path, capsys, model, text, message):
+    folder = saved_models[0]
+    status, rows = _simulate_text(folder, model, text, tmp_path)
+    err = capsys.readouterr().err
+    assert status == 2 and rows is None
+    assert str(tmp_path / "u.csv") in err and message in err, err
+
+
+def test_simulate_y_init_errors_name_the_file(saved_models, tmp_path, capsys):
+    # issue 18, case 16 (command line): the estimator's message about y_init did not say which file it was
+    folder, u, y, models, inputs = saved_models
+    y0 = _write_csv(tmp_path / "y0.csv", ["a", "b"], [[0.1, 0.0]])
+    status, _ = _simulate_text(folder, "arx1.json", "u\n0.1\n0.2\n", tmp_path, "--y-init", str(y0))
+    err = capsys.readouterr().err
+    assert status == 2 and f"--y-init {y0} (1 row(s) of 2 value(s)): y_init has 2 " in err
+
+
+RHS_MODULE = """
+import numpy as np
+
+
+def leak(xh, y, u, *, a):
+    return -a * xh + u
+"""
+
+CLI_SCRIPT = "import sys\nfrom sindybench.cli import main\nsys.exit(main())\n"
+
+
+def test_simulate_allow_import_finds_a_module_in_the_current_folder(tmp_path, monkeypatch, capsys):
+    # issue 18, case 20: the console script's sys.path holds its own folder, not the current one, so
+    # --allow-import could not import the user's module next to the model; without the flag, the message
+    # spelled the option the Python way (allow_import=True)
+    from sindybench import HiddenStateSINDy
+    from sindybench.hidden import ParametricHiddenState
+    from sindybench.libraries import PolynomialLibrary
+
+    work, bin_dir = tmp_path / "work", tmp_path / "bin"
+    work.mkdir()
+    bin_dir.mkdir()
+    (work / "my_tank_rhs.py").write_text(RHS_MODULE)
+    monkeypatch.syspath_prepend(str(work))
+    import my_tank_rhs
+
+    t = np.arange(80) * 0.05
+    u, y = np.sin(t)[:, None], np.cos(t)[:, None]
+    hidden = ParametricHiddenState(my_tank_rhs.leak, params={"a": 0.5}, x0_bounds=(0.0, 1.0), grid_size=2,
+                                   init_size=5)
+    model = HiddenStateSINDy(hidden=hidden, library=PolynomialLibrary(degree=1), dt=0.05, n_trials=2,
+                             random_state=0).fit(u, y)
+    model.to_json(work / "model.json")
+    _write_csv(work / "u.csv", ["u"], u)
+    _write_csv(work / "y0.csv", ["y"], y[:5])
+    (bin_dir / "sindybench_cli.py").write_text(CLI_SCRIPT)  # run as the console script is: from another folder
+    argv = [sys.executable, str(bin_dir / "sindybench_cli.py"), "simulate", "model.json", "--input", "u.csv",
+            "--y-init", "y0.csv", "--output", "y.csv", "-q"]
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONSAFEPATH"}
+    proc = subprocess.run([*argv, "--allow-import"], cwd=work, capture_output=True, text=True, timeout=120, env=env)
+    assert proc.returncode == 0, proc.stderr
+    simulated = np.array([float(r) for r in (work / "y.csv").read_text().splitlines()[1:]])
+    assert np.array_equal(simulated, np.asarray(model.predict(u, y_init=y[:5])).ravel())
+    (work / "y.csv").unlink()
+    monkeypatch.chdir(work)
+    assert main(argv[2:]) == 2
+    err = capsys.readouterr().err
+    assert "'my_tank_rhs:leak'" in err and "pass --allow-import" in err and "allow_import=True" not in err
+
+
+# --------------------------------------------------------------------------- fuzzing simulate's CSV reading
+def _cell(draw, st, valid):
+    if valid:
+        value = draw(st.one_of(st.floats(allow_nan=False, allow_infinity=False, width=32),
+                               st.integers(-10**6, 10**6)))
+        text = repr(value) if isinstance(value, float) else str(value)
+        return draw(st.sampled_from(["{}", " {} ", '"{}"'])).format(text)
+    return draw(st.sampled_from(["", " ", "nan", "NaN", "inf", "-inf", "1e999", "abc", "0x10", "1,5", '"1\n2"']))
+
+
+def _is_float(text):
+    try:
+        float(text.strip().strip('"'))
+    except ValueError:
+        return False
+    return True
+
+
+def _csv_case(draw, st):
+    """``(n_columns, text, n_rows, clean)``: a generated CSV file, its number of samples, whether it is clean."""
+    n_columns = draw(st.sampled_from([1, 2]))
+    n_rows = draw(st.integers(0, 12))
+    header = draw(st.booleans())
+    file_columns = draw(st.sampled_from([n_columns, n_columns, n_columns + 1, max(n_columns - 1, 1)]))
+    bad_cells = draw(st.booleans())
+    rows = []
+    for _ in range(n_rows):
+        width = file_columns if draw(st.integers(0, 9)) else draw(st.integers(0, 3))
+        rows.append([_cell(draw, st, not (bad_cells and draw(st.integers(0, 4)) == 0)) for _ in range(width)])
+    lines = [(",".join(row), True) for row in rows]  # (text, is a sample row)
+    blank_at = draw(st.lists(st.integers(0, max(len(lines) - 1, 0)), max_size=2)) if lines else []
+    for i in sorted(blank_at, reverse=True):
+        lines.insert(i, ("", False))
+    if header:
+        names = [draw(st.sampled_from(["u", "pump", "a b", '"x,y"', "time"])) for _ in range(file_columns)]
+        lines.insert(0, (",".join(names), False))
+    newline = draw(st.sampled_from(["\n", "\r\n"]))
+    text = newline.join(t for t, _ in lines) + draw(st.sampled_from(["", newline, newline * 3]))
+    clean = (
+        n_rows > 0 and file_columns == n_columns and not blank_at
+        and all(len(r) == n_columns for r in rows)
+        and not any(c.strip(' "') in ("", "nan", "NaN", "inf", "-inf", "1e999", "abc", "0x10", "1,5", "1\n2")
+                    for r in rows for c in r)
+    )
+    while lines and lines[-1][0] == "":  # empty lines at the end (an empty last row too) are no samples
+        n_rows -= lines.pop()[1]
+    if not header and rows and not any(_is_float(c) for c in rows[0]) and any(c.strip() for c in rows[0]):
+        n_rows -= 1  # a first row of words is a header row
+    return n_columns, text, n_rows, clean
+
+
+def test_simulate_csv_fuzz(saved_models, tmp_path, capsys, runslow):
+    """Every generated CSV gives an output of the input's length, or exit 2 with a message naming the file.
+
+    A clean file (a number in every cell, as many columns as the model has inputs, no blank line
+    inside, with or without a header row) must simulate; anything else may be refused, but only
+    with a message naming the input file, never a traceback, and without writing the output. A
+    quick profile by default; ``--runslow`` tries many more files.
+    """
+    hypothesis = pytest.importorskip("hypothesis", reason="the test extra (hypothesis) is missing")
+    st = hypothesis.strategies
+    folder = saved_models[0]
+    models = {1: "arx1.json", 2: "arx.json"}
+
+    @hypothesis.settings(max_examples=1500 if runslow else 100, deadline=None, database=None,
+                         suppress_health_check=list(hypothesis.HealthCheck))
+    @hypothesis.given(data=st.data(), raw=st.one_of(st.none(), st.binary(max_size=60)))
+    def check(data, raw):
+        n_columns, text, n_rows, clean = _csv_case(data.draw, st)
+        start = time.perf_counter()
+        status, rows = _simulate_text(folder, models[n_columns], raw if raw is not None else text, tmp_path)
+        err = capsys.readouterr().err
+        assert time.perf_counter() - start < 10.0
+        assert status in (0, 2), err
+        if status == 0:
+            assert rows is not None and "error" not in err
+            if raw is None:
+                assert len(rows) == n_rows, (text, rows)
+        else:
+            assert rows is None and str(tmp_path / "u.csv") in err, err
+            assert raw is not None or not clean, (text, err)
+
+    check()
 
 
 # --------------------------------------------------------------------------- smoke run of the study

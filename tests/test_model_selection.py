@@ -31,7 +31,7 @@ from sindybench.model_selection import (
     tune,
 )
 from sindybench.model_selection._space import check_search_space
-from sindybench.model_selection._storage import make_storage, worker_id
+from sindybench.model_selection._storage import make_storage, tag_trial, worker_id
 from sindybench.simulate import simulate
 
 optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -347,7 +347,7 @@ def test_resume_fails_trials_of_dead_workers(arx_data, tmp_path):
     orphan = study.ask()
     orphan.set_user_attr("worker", f"{worker_id().rpartition(':')[0]}:{int(dead.stdout)}")
     alive = study.ask()
-    alive.set_user_attr("worker", worker_id())  # this process: still running
+    tag_trial(alive)  # this process: still running
     _, study = tune(ARX(), ARX_SPACE, u, y, n_trials=5, storage=storage, study_name="s", random_state=0)
     states = [t.state for t in study.trials]
     assert states[orphan.number] == TrialState.FAIL and states[alive.number] == TrialState.RUNNING
@@ -408,8 +408,8 @@ def test_check_storage_opens_nothing(tmp_path, monkeypatch):
     [(dict(n_trials=0), "n_trials must be an integer >= 1; got 0"),
      (dict(timeout=-1), "timeout must be None or a number of seconds > 0; got -1"),
      (dict(n_jobs=0), "n_jobs must be an integer >= 1, or -1"),
-     (dict(random_state=1.5), "random_state must be None or an integer seed >= 0; got 1.5"),
-     (dict(random_state=-1), "random_state must be None or an integer seed >= 0; got -1"),
+     (dict(random_state=1.5), r"random_state must be None or an integer seed in \[0, 2\*\*32 - 1\]; got 1.5"),
+     (dict(random_state=-1), r"random_state must be None or an integer seed in \[0, 2\*\*32 - 1\]; got -1"),
      (dict(scoring="mse"), "scoring must be one of .*got 'mse'"),
      (dict(storage="x.csv"), "storage 'x.csv' is not understood"),
      (dict(refit="yes"), "refit must be True or False; got 'yes'"),
@@ -444,3 +444,87 @@ def test_tune_rejects_bad_arguments(arx_data, kwargs, match):
 def test_dimensions_reject_bad_arguments(make, match):
     with pytest.raises(ValueError, match=match):
         make()
+
+
+def _scorer_factory():
+    def neg_rmse(model, X, y):  # a new function object, at a new address, on every call of the factory
+        return -rmse(y, model.predict(X, y_init=y[:5]))
+
+    return neg_rmse
+
+
+def test_resume_with_a_callable_scoring(arx_data, tmp_path):
+    # issue 18, case 7: the study recorded repr(scoring), whose memory address differs in every process
+    u, y = arx_data
+    storage = tmp_path / "study.log"
+    first, second = _scorer_factory(), _scorer_factory()
+    assert first is not second and repr(first) != repr(second)
+    tune(ARX(), ARX_SPACE, u, y, scoring=first, n_trials=3, storage=storage, random_state=0)
+    _, study = tune(ARX(), ARX_SPACE, u, y, scoring=second, n_trials=5, storage=storage, random_state=0)
+    assert len(study.trials) == 5
+    assert study.user_attrs["tune_call"]["scoring"] == f"{__name__}._scorer_factory.<locals>.neg_rmse"
+    with pytest.raises(ValueError, match="made by another call"):
+        tune(ARX(), ARX_SPACE, u, y, scoring=SCORER, n_trials=6, storage=storage, random_state=0)
+
+
+@pytest.mark.parametrize("token", [None, "the worker before the container restarted"])
+def test_restarted_worker_with_the_same_pid_reclaims_its_orphan(arx_data, tmp_path, token):
+    # issue 18, case 8: a container restart gives the new worker the host name and PID of the dead one;
+    # on a journal file (no heartbeat) its orphaned trial stayed RUNNING and the study ended one trial short
+    u, y = arx_data
+    storage = tmp_path / "study.log"
+    tune(ARX(), ARX_SPACE, u, y, n_trials=3, storage=storage, random_state=0)
+    study = optuna.load_study(study_name="tune-ARX", storage=make_storage(storage))
+    orphan = study.ask()
+    if token is not None:
+        orphan.set_user_attr("worker_token", token)
+    orphan.set_user_attr("worker", worker_id())  # this host, this very PID
+    _, study = tune(ARX(), ARX_SPACE, u, y, n_trials=5, storage=storage, random_state=0)
+    states = [t.state for t in study.trials]
+    assert states[orphan.number] == TrialState.FAIL
+    assert states.count(TrialState.COMPLETE) == 5 and TrialState.RUNNING not in states
+
+
+def _garbage_journal(path):
+    path.write_text("this is my shopping list\nnot a journal\n")
+
+
+def _torn_journal(path):
+    tune(ARX(), ARX_SPACE, *_arx_record(), n_trials=2, storage=path, random_state=0)
+    with open(path, "a") as f:
+        f.write("{not json}\n{\"op_code\": 0}\n")
+
+
+def _arx_record():
+    rng = np.random.default_rng(1)
+    u = rng.standard_normal((200, 1))
+    return u, np.cumsum(u, axis=0)[:, :1] * 0.1
+
+
+@pytest.mark.parametrize("name, make, error, match", [
+    ("foo://bar", None, ValueError, r"storage 'foo://bar': 'foo' is not a database kind SQLAlchemy knows"),
+    ("x.db", lambda p: p.write_text("my notes\n"), ValueError, r"'.*x\.db' is not an SQLite database"),
+    ("x.log", _garbage_journal, ValueError, r"'.*x\.log' is not an Optuna journal file \(line 1"),
+    ("x.log", _torn_journal, ValueError, r"storage '.*x\.log': the journal file cannot be read \(JSONDecodeError"),
+    ("x.db", lambda p: p.mkdir(), ValueError, r"'.*x\.db' is a folder"),
+])
+def test_tune_storage_errors_name_the_storage(arx_data, tmp_path, monkeypatch, name, make, error, match):
+    # issue 18, case 14: these escaped as NoSuchModuleError, sqlite's DatabaseError or a bare JSONDecodeError
+    monkeypatch.chdir(tmp_path)
+    if make is not None:
+        make(tmp_path / name)
+    u, y = arx_data
+    with pytest.raises(error, match=match):
+        tune(ARX(), ARX_SPACE, u, y, n_trials=2, storage=name, random_state=0)
+
+
+def test_postgresql_server_that_does_not_answer_is_a_connection_error():
+    with pytest.raises(ConnectionError, match=r"storage 'postgresql\+psycopg://u:\*\*\*@/db\?host=/no/such/.*cannot reach"):
+        make_storage("postgresql+psycopg://u:secret@/db?host=/no/such/folder&connect_timeout=2")
+
+
+@pytest.mark.parametrize("seed", [2**32, 2**40])
+def test_tune_rejects_seeds_numpy_cannot_take(arx_data, seed):
+    u, y = arx_data
+    with pytest.raises(ValueError, match=r"random_state must be None or an integer seed in \[0, 2\*\*32 - 1\]"):
+        tune(ARX(), ARX_SPACE, u, y, n_trials=2, random_state=seed)

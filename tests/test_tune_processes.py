@@ -174,3 +174,85 @@ def test_two_workers_share_one_study(kind, worker, tmp_path, request):
     # same random_state in both workers, yet no point is evaluated twice
     points = {json.dumps(t.params, sort_keys=True) for t in trials}
     assert len(points) == len(trials)
+
+
+def test_lost_database_mid_study_is_a_clear_error_and_the_study_resumes(tmp_path):
+    """The quick version of the next test: an SQLite storage whose connection fails in the third trial."""
+    import numpy as np
+    from sqlalchemy.exc import OperationalError
+
+    from sindybench.baselines import ARX
+    from sindybench.model_selection import IntRange, tune
+
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((200, 1))
+    y = 0.1 * np.cumsum(u, axis=0)
+    space = {"na": IntRange(1, 4), "nb": IntRange(1, 3)}
+    storage = make_storage(f"sqlite:///{tmp_path / 'study.db'}")
+    real, calls = storage.set_trial_user_attr, []
+
+    def failing(trial_id, key, value):
+        if key == "params":
+            calls.append(trial_id)
+        if len(calls) == 3:
+            orig = Exception("server closed the connection unexpectedly")
+            error = OperationalError("UPDATE trial_user_attributes", {}, orig)
+            raise optuna.exceptions.StorageInternalError("An exception is raised during the commit.") from error
+        return real(trial_id, key, value)
+
+    storage.set_trial_user_attr = failing
+    with pytest.raises(ConnectionError, match=r"storage 'RDBStorage': the database stopped answering during the "
+                                              r"study \(OperationalError: server closed.*run the same call again"):
+        tune(ARX(), space, u, y, n_trials=5, storage=storage, study_name="s", random_state=0)
+    storage.set_trial_user_attr = real
+    _, study = tune(ARX(), space, u, y, n_trials=5, storage=storage, study_name="s", random_state=0)
+    states = [t.state for t in study.trials]
+    assert states[:2] == [TrialState.COMPLETE] * 2 and states[2] == TrialState.FAIL
+    assert states.count(TrialState.COMPLETE) == 5 and TrialState.RUNNING not in states
+
+
+@pytest.mark.slow
+def test_postgresql_server_stopped_mid_study_is_a_clear_error_and_the_study_resumes():
+    """Issue 18, case 14: the worker died of Optuna's StorageInternalError and an UnboundLocalError traceback.
+
+    A server of its own (the session's is shared with other tests) is stopped in the
+    middle of the third fit, then started again: ``tune`` raises a ``ConnectionError``
+    saying what happened and what to do, and the same call then resumes the study
+    with the two finished trials kept and the interrupted one marked FAIL.
+    """
+    import numpy as np
+
+    import _postgres
+    from sindybench.baselines import ARX
+    from sindybench.model_selection import IntRange, tune
+
+    bindir = _postgres.find_bindir()
+    if bindir is None:
+        pytest.skip("no PostgreSQL server binaries")
+    user = _postgres._server_user()
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((200, 1))
+    y = 0.1 * np.cumsum(u, axis=0)
+    space = {"na": IntRange(1, 4), "nb": IntRange(1, 3)}
+    with _postgres.postgres_server(bindir) as (sockets, superuser):
+        url = _postgres.url(sockets, superuser, _postgres.create_database(bindir, sockets, superuser))
+        data = os.path.join(os.path.dirname(sockets), "data")
+        fits = []
+
+        class StoppingARX(ARX):
+            def fit(self, X, y):
+                fits.append(1)
+                if len(fits) == 3:
+                    _postgres._run([f"{bindir}/pg_ctl", "-D", data, "-m", "immediate", "-w", "stop"], user)
+                return super().fit(X, y)
+
+        with pytest.raises(ConnectionError, match=r"(?s)storage 'postgresql\+psycopg://.*stopped answering during "
+                                                  r"the study.*finished trials are kept.*run the same call again"):
+            tune(StoppingARX(), space, u, y, n_trials=5, storage=url, study_name="s", random_state=0)
+        options = f"-k {sockets} -p {_postgres._PORT} -c listen_addresses='' -c fsync=off"
+        _postgres._run([f"{bindir}/pg_ctl", "-D", data, "-l", os.path.join(os.path.dirname(sockets), "restart.log"),
+                        "-w", "-o", options, "start"], user)
+        _, study = tune(StoppingARX(), space, u, y, n_trials=5, storage=url, study_name="s", random_state=0)
+        states = [t.state for t in study.trials]
+        assert states[:2] == [TrialState.COMPLETE] * 2 and states[2] == TrialState.FAIL
+        assert states.count(TrialState.COMPLETE) == 5 and TrialState.RUNNING not in states

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
-from ._report import staged_output_dir, write_results
+from ._report import check_output_dir, staged_output_dir, write_results
 from ._report import write_report as _write_report
 from ._runner import load_data, run_benchmark, test_sets
 
@@ -46,11 +46,14 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
                    data_home=None, download_if_missing=True, show_progress_bar=False, write_report=None):
     """Run several benchmarks and write their results under ``out``.
 
-    The storage is checked and all records are loaded first, so a bad
-    storage or missing data fail before any training.
+    The storage, the seed and the output folder are checked, all records
+    are loaded and the storage is opened first, so a bad storage, a seed
+    numpy cannot take (>= 2**32), an output path that is a file, or missing
+    data fail before any training.
     Results go to ``out/<benchmark>/`` (``results.json``, ``results.md``,
     ``models/``, figures) and, with several benchmarks, ``out/report.md``.
-    Files appear only when the whole run succeeded.
+    Files appear only when the whole run succeeded; files in ``out`` that the
+    run does not write are kept (see :func:`staged_output_dir`).
 
     Parameters
     ----------
@@ -68,12 +71,23 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
     Path
         ``out/report.md`` when written, else the single benchmark's ``results.md``.
     """
+    from .._validation import check_integer
     from ..model_selection import check_storage
+    from ..model_selection._storage import make_storage
+    from ..model_selection._tune import MAX_SEED
 
     check_storage(storage)
+    check_integer(seed, "seed", low=0, high=MAX_SEED - 1)
     out = Path(out)
     write_report_md = len(benchmarks) > 1 if write_report is None else write_report
+    entries = {"report.md": "file"} if write_report_md else {}
+    for b in benchmarks:
+        entries.update({b.name: "dir", f"{b.name}/models": "dir", f"{b.name}/results.json": "file",
+                        f"{b.name}/results.md": "file"})
+    check_output_dir(out, entries)
     data = {b.name: load_data(b, data_home=data_home, download_if_missing=download_if_missing) for b in benchmarks}
+    if storage is not None:
+        make_storage(storage)  # a database that cannot be opened fails here, before any training
     start = time.perf_counter()
     all_results = []
     # one BLAS thread: the study's products are small, so threads only add overhead (many times over on a

@@ -1,11 +1,12 @@
 """Write a run's results: JSON, Markdown tables, fitted models and figures.
 
 Everything is written into a fresh directory that replaces the target only
-when the whole run succeeded (:func:`atomic_output_dir`), so an error leaves
-no partial files behind.
+when the whole run succeeded (:func:`staged_output_dir`), so an error leaves
+no partial files behind, and entries the run did not write are never removed.
 """
 
 import contextlib
+import glob
 import json
 import logging
 import math
@@ -13,13 +14,16 @@ import os
 import shutil
 import tempfile
 import textwrap
+import time
 from pathlib import Path
 
 import numpy as np
 
+from .._process import owner, owner_is_gone
 from ..plotting import plot_hysteresis, plot_simulation
 
 __all__ = [
+    "check_output_dir",
     "comparison_rows",
     "fit_from_r2",
     "format_number",
@@ -33,48 +37,155 @@ logger = logging.getLogger(__name__)
 _COLUMNS = ("model", "RMSE", "RMSE (study)", "R^2", "R^2 (study)", "fit %", "fit % (study)")
 
 
-@contextlib.contextmanager
-def staged_output_dir(final):
-    """Yield a temporary directory whose contents move into ``final`` on success.
+_OWNER_FILE = ".sindybench-staging.json"
+#: An empty staging folder older than this (seconds) lost its run before it could record its owner.
+_EMPTY_STAGING_AGE = 3600
 
-    The temporary directory is a sibling of ``final`` (same file system, so
-    each move is a rename). On success every entry of it replaces the entry of
-    the same name in ``final`` (other entries of ``final`` are kept); on an
-    exception it is removed and ``final`` is left untouched, so a failed run
-    leaves no partial files.
 
-    Parameters
-    ----------
-    final : str or path-like
+def check_output_dir(final, entries=()):
+    """Refuse, before any work, an output folder the run could not write into.
+
+    ``final`` must be a folder or a path that does not exist yet whose first
+    existing parent is a folder; each of ``entries`` (``{name: "dir" or
+    "file"}``, names relative to ``final``) that exists must be of that kind.
+
+    Raises
+    ------
+    NotADirectoryError, IsADirectoryError
+        Naming the path and what was expected.
 
     Examples
     --------
     >>> import tempfile, pathlib
     >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> _ = (root / "notes.txt").write_text("mine")
+    >>> check_output_dir(root / "notes.txt")
+    Traceback (most recent call last):
+    ...
+    NotADirectoryError: output folder .../notes.txt is a file; expected a folder (or a path that does not exist yet).
+    """
+    final = Path(final)
+    for parent in (final, *final.parents):
+        if parent.exists():
+            if not parent.is_dir():
+                what = "output folder" if parent == final else f"the output folder {final} is inside"
+                raise NotADirectoryError(f"{what} {parent} is a file; expected a folder (or a path that does not "
+                                         "exist yet).")
+            break
+    for name, kind in dict(entries).items():
+        path = final / name
+        if kind == "dir" and path.exists() and not path.is_dir():
+            raise NotADirectoryError(f"{path} is a file; the run writes a folder of that name: expected a folder, or "
+                                     "no such entry (move the file away or choose another --out).")
+        if kind == "file" and path.is_dir():
+            raise IsADirectoryError(f"{path} is a folder; the run writes a file of that name: expected a file, or "
+                                    "no such entry (move the folder away or choose another --out).")
+
+
+def _staging_folders(final):
+    """Sibling staging folders of ``final``: ``(path, owner record or None)``."""
+    for path in final.parent.glob(f".{glob.escape(final.name)}.tmp-*"):
+        if path.is_symlink() or not path.is_dir():
+            continue
+        try:
+            record = json.loads((path / _OWNER_FILE).read_text())
+        except (OSError, ValueError):
+            record = None
+        yield path, record if isinstance(record, dict) else None
+
+
+def _remove_stale_staging(final):
+    """Remove the staging folders of runs that were killed: only those provably ours and stale.
+
+    A staging folder names its owner (host, PID, token, start) in a record
+    written when it is made; it is removed when that owner is on this host and
+    provably no longer runs (:func:`sindybench._process.owner_is_gone`). An
+    empty folder without a record (its run was killed before writing one) is
+    removed once an hour old; anything else is left alone, with a warning.
+    """
+    for path, record in _staging_folders(final):
+        if record is None:
+            try:
+                old = time.time() - path.stat().st_mtime > _EMPTY_STAGING_AGE
+                if old and not any(path.iterdir()):
+                    path.rmdir()  # never removes content
+                    continue
+            except OSError:
+                pass
+            logger.warning("left alone: %s (a staging folder without an owner record; remove it yourself if no run "
+                           "is writing into it)", path)
+            continue
+        host, pid, token, since = (record.get(k) for k in ("host", "pid", "token", "created"))
+        if not owner_is_gone(host, pid, token, since if isinstance(since, (int, float)) else None):
+            continue
+        shutil.rmtree(path, ignore_errors=True)
+        logger.info("removed %s, the staging folder of a run that was killed (%s, process %s)", path, host, pid)
+
+
+def _merge(source, target, skip=()):
+    """Move every entry of ``source`` (but ``skip``) into ``target``, replacing same-named files; others stay."""
+    target.mkdir(exist_ok=True)
+    for entry in sorted(source.iterdir()):
+        if entry.name in skip:
+            continue
+        destination = target / entry.name
+        if entry.is_dir() and not entry.is_symlink():
+            if destination.exists() and not destination.is_dir():
+                raise NotADirectoryError(f"{destination} is a file; the run writes a folder of that name.")
+            _merge(entry, destination)
+        else:
+            if destination.is_dir() and not destination.is_symlink():
+                raise IsADirectoryError(f"{destination} is a folder; the run writes a file of that name.")
+            os.replace(entry, destination)
+
+
+@contextlib.contextmanager
+def staged_output_dir(final):
+    """Yield a temporary directory whose contents move into ``final`` on success.
+
+    The temporary directory is a hidden sibling of ``final``
+    (``.<name>.tmp-*``, on the same file system, so each move is a rename).
+    On success each file in it replaces the file of the same name in
+    ``final``, folder by folder: entries of ``final`` that the run did not
+    write (the user's notes, files of an earlier run) are kept, never
+    deleted. On an exception it is removed and ``final`` is left untouched,
+    so a failed run leaves no partial files. The folder records its owner
+    (host and process): staging folders left by runs that were killed
+    (SIGKILL, a power cut) are removed by the next run into the same
+    ``final``, and only those.
+
+    Parameters
+    ----------
+    final : str or path-like
+
+    Raises
+    ------
+    NotADirectoryError
+        Before yielding, when ``final`` (or a parent) is a file.
+
+    Examples
+    --------
+    >>> import tempfile, pathlib
+    >>> root = pathlib.Path(tempfile.mkdtemp())
+    >>> (root / "out").mkdir()
+    >>> _ = (root / "out" / "notes.txt").write_text("mine")
     >>> with staged_output_dir(root / "out") as tmp:
     ...     _ = (tmp / "a.txt").write_text("done")
     >>> sorted(p.name for p in root.iterdir()), sorted(p.name for p in (root / "out").iterdir())
-    (['out'], ['a.txt'])
+    (['out'], ['a.txt', 'notes.txt'])
     """
     final = Path(final)
+    check_output_dir(final)
     final.parent.mkdir(parents=True, exist_ok=True)
+    _remove_stale_staging(final)
     tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.tmp-", dir=final.parent))
     try:
+        me = owner()
+        (tmp / _OWNER_FILE).write_text(json.dumps({**me, "created": time.time()}))
         yield tmp
-    except BaseException:
+        _merge(tmp, final, skip={_OWNER_FILE})  # the record stays until the end: a kill now leaves a removable folder
+    finally:
         shutil.rmtree(tmp, ignore_errors=True)
-        raise
-    final.mkdir(exist_ok=True)
-    for entry in sorted(tmp.iterdir()):
-        target = final / entry.name
-        if target.is_dir() and not target.is_symlink():
-            trash = tmp / f".old-{entry.name}"
-            target.rename(trash)
-            entry.rename(target)
-            shutil.rmtree(trash, ignore_errors=True)
-        else:
-            os.replace(entry, target)
-    shutil.rmtree(tmp, ignore_errors=True)
 
 
 def fit_from_r2(value):

@@ -334,6 +334,8 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
                     show_progress_bar=show_progress_bar,
                 )
             entry.update(info, status="ok", equations=_equations(estimator))
+        except ConnectionError:  # the storage stopped answering: every later search would fail the same way
+            raise
         except Exception as exc:  # one model failing must not lose the others' results
             logger.warning("%s: %s failed to fit: %s", benchmark.name, spec.label, exc)
             estimator = None

@@ -4,6 +4,8 @@ Also the bookkeeping that makes a study resumable: which trials count toward
 the budget, and which RUNNING trials were left behind by a dead worker.
 """
 
+import contextlib
+import json
 import logging
 import os
 import random
@@ -16,7 +18,19 @@ from optuna.storages import BaseStorage, InMemoryStorage, JournalStorage, RDBSto
 from optuna.storages.journal import JournalFileBackend, JournalFileOpenLock
 from optuna.trial import TrialState
 
-__all__ = ["check_storage", "count_claimed", "describe_storage", "count_done", "fail_dead_workers", "make_storage", "worker_id"]
+from .._process import owner, owner_is_gone
+
+__all__ = [
+    "check_storage",
+    "count_claimed",
+    "count_done",
+    "describe_storage",
+    "fail_dead_workers",
+    "make_storage",
+    "tag_trial",
+    "this_call_trials",
+    "worker_id",
+]
 
 logger = logging.getLogger(__name__)
 
@@ -25,12 +39,18 @@ logger = logging.getLogger(__name__)
 HEARTBEAT_INTERVAL = 60
 GRACE_PERIOD = 180
 
+#: A process that started this many seconds after a trial cannot be the trial's worker (a reused PID).
+_START_MARGIN = 7200.0
+
 _JOURNAL_PREFIX = "journal://"
 _JOURNAL_SUFFIXES = (".log", ".journal")
 _SQLITE_SUFFIXES = (".db", ".sqlite", ".sqlite3")
 
 
 def _rdb(url):
+    from sqlalchemy.exc import ArgumentError, DatabaseError, OperationalError  # SQLAlchemy comes with optuna
+
+    where = describe_storage(url)
     try:
         return _open_rdb(url)
     except ImportError as exc:  # SQLAlchemy imports the URL's driver when it makes the engine
@@ -40,6 +60,33 @@ def _rdb(url):
             "pip install 'sindybench[postgres]' (psycopg 3, URL 'postgresql+psycopg://user@host/db'); "
             "for MySQL: pip install pymysql (URL 'mysql+pymysql://user@host/db')."
         ) from exc
+    except ArgumentError as exc:  # an unknown database kind (NoSuchModuleError) or a URL that does not parse
+        raise ValueError(_bad_url_message(where, exc)) from None
+    except OperationalError as exc:
+        if url.startswith("sqlite:///"):
+            raise OSError(f"storage {where!r}: cannot open the SQLite file {url[len('sqlite:///'):]!r} "
+                          f"({getattr(exc, 'orig', exc)}).") from exc
+        raise ConnectionError(
+            f"storage {where!r}: cannot reach the database ({_first_line(getattr(exc, 'orig', exc))}); expected a "
+            "running server that accepts this URL (host, port, user, password, database name)."
+        ) from exc
+    except DatabaseError as exc:  # sqlite: "file is not a database"
+        raise ValueError(
+            f"storage {where!r}: {url[len('sqlite:///'):]!r} is not an SQLite database ({getattr(exc, 'orig', exc)}); "
+            "expected an SQLite file written by Optuna, or the name of a new file."
+        ) from exc
+
+
+def _first_line(exc):
+    return str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+
+
+def _bad_url_message(where, exc):
+    scheme = where.split("://", 1)[0]
+    if type(exc).__name__ == "NoSuchModuleError":
+        return (f"storage {where!r}: {scheme!r} is not a database kind SQLAlchemy knows; expected a URL such as "
+                "'sqlite:///study.db', 'postgresql+psycopg://user@host/db' or 'mysql+pymysql://user@host/db'.")
+    return f"storage {where!r} is not a database URL ({exc}); expected e.g. 'sqlite:///study.db'."
 
 
 def _open_rdb(url):
@@ -144,6 +191,8 @@ def _parse_checked(storage):
     elif kind == "rdb" and target.startswith("sqlite:///"):
         path, noun = target[len("sqlite:///") :], "SQLite"
     else:
+        if kind == "rdb":
+            _check_url(target)
         return kind, target
     folder = os.path.dirname(path)
     if folder and not os.path.isdir(folder):
@@ -151,7 +200,59 @@ def _parse_checked(storage):
             f"storage {storage!r}: the folder {folder!r} does not exist; expected an existing folder for the "
             f"{noun} file."
         )
+    if os.path.isdir(path):
+        raise ValueError(f"storage {storage!r}: {path!r} is a folder; expected the name of a {noun} file.")
+    if noun == "SQLite":
+        _check_sqlite_file(storage, path)
+    else:
+        _check_journal_file(storage, path)
     return kind, target
+
+
+def _check_url(url):
+    """``ValueError`` for a URL SQLAlchemy cannot parse or whose database kind it does not know (nothing opened)."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        make_url(url).get_dialect()  # loads SQLAlchemy's dialect module, never the driver, never connects
+    except ArgumentError as exc:
+        raise ValueError(_bad_url_message(describe_storage(url), exc)) from None
+
+
+def _read_start(path, size, *, line=False):
+    """The first ``size`` bytes (or first line, at most ``size`` bytes) of ``path``; ``None`` when it does not exist."""
+    try:
+        with open(path, "rb") as f:
+            return f.readline(size) if line else f.read(size)
+    except FileNotFoundError:
+        return None  # a new file
+    except OSError as exc:
+        raise OSError(f"storage file {path!r} cannot be read: {exc}") from exc
+
+
+def _check_sqlite_file(storage, path):
+    head = _read_start(path, 16)
+    if head and head != b"SQLite format 3\x00":
+        raise ValueError(
+            f"storage {storage!r}: {path!r} is not an SQLite database (it does not start with the SQLite header); "
+            "expected an SQLite file written by Optuna, or the name of a new file."
+        )
+
+
+def _check_journal_file(storage, path):
+    line = _read_start(path, 1 << 20, line=True)
+    if not line:
+        return
+    try:
+        entry = json.loads(line) if line.endswith(b"\n") else {"op_code": None}  # a first write in progress
+    except ValueError:
+        entry = None
+    if not isinstance(entry, dict) or "op_code" not in entry:
+        raise ValueError(
+            f"storage {storage!r}: {path!r} is not an Optuna journal file (line 1 is not a journal entry); "
+            "expected a journal written by Optuna, or the name of a new file."
+        )
 
 
 def describe_storage(storage):
@@ -209,8 +310,18 @@ def make_storage(storage):
     if kind == "object":
         return target
     if kind == "journal":
-        return JournalStorage(JournalFileBackend(target))
+        return _journal(target)
     return _rdb(target)
+
+
+def _journal(path):
+    try:
+        return JournalStorage(JournalFileBackend(path))
+    except (ValueError, KeyError, TypeError, AttributeError, IndexError) as exc:  # garbage in the log
+        raise ValueError(
+            f"storage {path!r}: the journal file cannot be read ({type(exc).__name__}: {exc}); expected a journal "
+            "written by Optuna. Move it away or pass another file."
+        ) from exc
 
 
 def worker_id():
@@ -218,14 +329,49 @@ def worker_id():
     return f"{socket.gethostname()}:{os.getpid()}"
 
 
-def _alive(pid):
+#: ``(study name, trial number)`` of the trials that this process is running (see :func:`tag_trial`).
+_RUNNING_HERE = set()
+
+
+def tag_trial(trial, running=None):
+    """Record on ``trial`` the worker that runs it: ``worker`` (``host:pid``) and ``worker_token``.
+
+    The token (drawn once per process) is written first, so a trial that names
+    a worker names its token too: a worker restarted with the same host and
+    PID (a container's PID 1) tells its predecessor's trials from its own. The
+    trial is also noted as running in this process (and added to the set
+    ``running``, which the caller discards from :data:`_RUNNING_HERE` when its
+    trials ended), so that a trial of this process left RUNNING by a lost
+    connection is reclaimed by the next call in the same process.
+    """
+    key = (trial.study.study_name, trial.number)
+    _RUNNING_HERE.add(key)
+    if running is not None:
+        running.add(key)
+    trial.set_user_attr("worker_token", owner()["token"])
+    trial.set_user_attr("worker", worker_id())
+
+
+@contextlib.contextmanager
+def this_call_trials():
+    """Yield the set to pass to :func:`tag_trial`; on exit its trials no longer run in this process."""
+    running = set()
     try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
+        yield running
+    finally:
+        _RUNNING_HERE.difference_update(running)
+
+
+def _is_orphan(study, trial, me):
+    owner_host, _, pid = trial.user_attrs.get("worker", "").rpartition(":")
+    if not pid.isdigit():
         return False
-    except PermissionError:
-        return True
-    return True
+    token = trial.user_attrs.get("worker_token")
+    if (owner_host, int(pid), token) == (me["host"], me["pid"], me["token"]):
+        return (study.study_name, trial.number) not in _RUNNING_HERE
+    since = trial.datetime_start.timestamp() if trial.datetime_start is not None else None
+    # Optuna records local wall-clock times without a zone: allow for a daylight-saving change
+    return owner_is_gone(owner_host, int(pid), token, since, margin=_START_MARGIN)
 
 
 def count_done(study):
@@ -269,12 +415,9 @@ def fail_dead_workers(study):
     list of int
         Numbers of the trials marked FAIL.
     """
-    host = socket.gethostname()
-    failed = []
+    failed, me = [], owner()
     for trial in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
-        owner = trial.user_attrs.get("worker", "")
-        owner_host, _, pid = owner.rpartition(":")
-        if owner_host != host or not pid.isdigit() or int(pid) == os.getpid() or _alive(int(pid)):
+        if not _is_orphan(study, trial, me):
             continue
         try:
             study.tell(trial.number, state=TrialState.FAIL)

@@ -3,6 +3,7 @@
 import collections
 import logging
 import numbers
+import re
 
 import numpy as np
 import optuna
@@ -16,11 +17,21 @@ from ..metrics import make_simulation_scorer
 from ._sampler import make_sampler
 from ._space import check_search_space, sample_params
 from ._split import HoldoutSplit
-from ._storage import count_claimed, fail_dead_workers, make_storage, worker_id
+from ._storage import (
+    count_claimed,
+    describe_storage,
+    fail_dead_workers,
+    make_storage,
+    tag_trial,
+    this_call_trials,
+)
 
 __all__ = ["AllTrialsFailedError", "tune"]
 
 logger = logging.getLogger(__name__)
+
+#: Seeds are numpy ``RandomState`` seeds: integers below 2**32.
+MAX_SEED = 2**32
 
 _DIRECTIONS = {"rmse": "minimize", "nrmse": "minimize", "r2": "maximize", "fit_index": "maximize"}
 
@@ -42,9 +53,11 @@ def _check_args(n_trials, timeout, n_jobs, random_state, scoring):
     if isinstance(n_jobs, bool) or not isinstance(n_jobs, numbers.Integral) or n_jobs == 0 or n_jobs < -1:
         raise ValueError(f"n_jobs must be an integer >= 1, or -1 for one thread per CPU; got {n_jobs!r}.")
     if random_state is not None and (
-        isinstance(random_state, bool) or not isinstance(random_state, numbers.Integral) or random_state < 0
+        isinstance(random_state, bool)
+        or not isinstance(random_state, numbers.Integral)
+        or not 0 <= random_state < MAX_SEED
     ):
-        raise ValueError(f"random_state must be None or an integer seed >= 0; got {random_state!r}.")
+        raise ValueError(f"random_state must be None or an integer seed in [0, 2**32 - 1]; got {random_state!r}.")
     if isinstance(scoring, str):
         if scoring not in _DIRECTIONS:
             raise ValueError(f"scoring must be one of {sorted(_DIRECTIONS)} or a scorer callable; got {scoring!r}.")
@@ -79,11 +92,9 @@ class _BudgetFilled(Exception):
     """Raised by a trial that started when other workers already held every place of the budget."""
 
 
-def _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials):
-    worker = worker_id()
-
+def _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials, running):
     def objective(trial):
-        trial.set_user_attr("worker", worker)
+        tag_trial(trial, running)
         if count_claimed(trial.study, before=trial.number) >= n_trials:
             # two workers started their last trials at once: the later one stands down (it ends FAIL,
             # which never counts), so the study ends with exactly n_trials finished trials
@@ -124,7 +135,7 @@ def _open_study(storage, study_name, estimator, search_space, direction, scoring
         load_if_exists=True,
     )
     # one attribute, written at once: a second worker never sees half of it
-    signature = {"estimator": type(estimator).__name__, "search_space": space_text, "scoring": repr(scoring)}
+    signature = {"estimator": type(estimator).__name__, "search_space": space_text, "scoring": _scoring_name(scoring)}
     stored = study.user_attrs.get("tune_call")
     if stored is not None and stored != signature:
         raise ValueError(
@@ -136,6 +147,40 @@ def _open_study(storage, study_name, estimator, search_space, direction, scoring
     if stored is None:
         study.set_user_attr("tune_call", signature)
     return study
+
+
+def _scoring_name(scoring):
+    """``scoring`` as the study records it: the same text in every process that passes the same scorer.
+
+    A metric name stays its ``repr``; a function, class or method is named by
+    its module and qualified name; any other scorer object by its ``repr`` with
+    memory addresses (``at 0x7f...``) removed, which differ from run to run.
+
+    Examples
+    --------
+    >>> _scoring_name("rmse"), _scoring_name(len)
+    ("'rmse'", 'builtins.len')
+    >>> import functools
+    >>> _scoring_name(functools.partial(_scoring_name))
+    'functools.partial(<function _scoring_name>)'
+    """
+    if isinstance(scoring, str):
+        return repr(scoring)
+    name = getattr(scoring, "__qualname__", None)
+    if isinstance(name, str):
+        return f"{getattr(scoring, '__module__', None) or ''}.{name}".lstrip(".")
+    return re.sub(r" at 0x[0-9a-fA-F]+", "", repr(scoring))
+
+
+def _storage_failure(exc):
+    """The database error behind ``exc`` (Optuna's ``StorageInternalError`` or a SQLAlchemy ``OperationalError``)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        seen.add(id(exc))
+        if isinstance(exc, optuna.exceptions.StorageInternalError) or type(exc).__name__ == "OperationalError":
+            return exc
+        exc = exc.__cause__ or exc.__context__
+    return None
 
 
 def _failure_summary(study):
@@ -195,7 +240,9 @@ def tune(
     scoring : {"rmse", "nrmse", "r2", "fit_index"} or callable, default="rmse"
         A simulation metric (minimised for rmse and nrmse, maximised
         otherwise, the study's values are the metric itself), or a scorer
-        ``scorer(estimator, X, y) -> float`` to maximise.
+        ``scorer(estimator, X, y) -> float`` to maximise. A persistent study
+        records a scorer function by its module and qualified name, so that
+        another process passing the same function resumes the study.
     n_trials : int, default=100
         Budget of the *study*, not of this call: trials that finished
         (COMPLETE, or PRUNED for a failed evaluation) count, and a call on a
@@ -218,7 +265,7 @@ def tune(
         Threads in this process (``-1``: one per CPU). For CPU-bound fits, run
         several processes on one storage instead.
     random_state : int or None, default=None
-        Seeds TPE. Trial ``n`` draws from a generator seeded by
+        Seeds TPE (an integer from 0 to 2**32 - 1). Trial ``n`` draws from a generator seeded by
         ``(random_state, n)``, so concurrent or restarted workers do not
         repeat each other's points.
     show_progress_bar : bool, default=True
@@ -244,6 +291,12 @@ def tune(
     ------
     AllTrialsFailedError
         When no trial of the study completed (its ``study`` attribute holds them).
+    ValueError
+        For a bad argument, and for a storage that cannot serve: an unknown database
+        kind, a file that is not an SQLite database or an Optuna journal.
+    ConnectionError
+        When the database cannot be reached, or stops answering during the study
+        (the finished trials are kept in it: the same call resumes the study).
 
     Notes
     -----
@@ -281,7 +334,32 @@ def tune(
     if X is not None and X.shape[0] != y.shape[0]:
         raise ValueError(f"X has {X.shape[0]} samples and y has {y.shape[0]}; expected the same number of samples.")
     splits = _splits(cv, X, y)
-    study = _open_study(make_storage(storage), study_name, estimator, search_space, direction, scoring, random_state)
+    opened = make_storage(storage)
+    try:
+        study = _open_study(opened, study_name, estimator, search_space, direction, scoring, random_state)
+        with this_call_trials() as running:  # once the call ends, a trial of it still RUNNING is an orphan
+            objective = _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials, running)
+            best = _run_study(study, objective, search_space, n_trials=n_trials, timeout=timeout, n_jobs=n_jobs,
+                              show_progress_bar=show_progress_bar)
+    except Exception as exc:
+        failure = _storage_failure(exc)
+        if failure is None:
+            raise
+        cause = failure.__cause__ or failure
+        text = str(getattr(cause, "orig", None) or cause).strip().splitlines()
+        raise ConnectionError(
+            f"storage {describe_storage(storage)!r}: the database stopped answering during the study "
+            f"({type(cause).__name__}: {text[0] if text else ''}). The finished trials are kept in it; run the "
+            "same call again once it answers to resume (a trial left RUNNING is then marked FAIL and run again)."
+        ) from failure
+    best_estimator = clone(estimator).set_params(**best)
+    if refit:
+        best_estimator.fit(X, y)
+    return best_estimator, study
+
+
+def _run_study(study, objective, search_space, *, n_trials, timeout, n_jobs, show_progress_bar):
+    """Run the missing trials of ``study``; return the best trial's parameters."""
     fail_dead_workers(study)
 
     def stop_at_budget(study, trial):
@@ -294,7 +372,7 @@ def tune(
     if remaining > 0:
         logger.info("study %r: running up to %d of %d trials", study.study_name, remaining, n_trials)
         study.optimize(
-            _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials),
+            objective,
             n_trials=remaining,
             timeout=timeout,
             n_jobs=n_jobs,
@@ -310,8 +388,4 @@ def tune(
             study,
         )
     best = study.best_trial
-    params = sample_params(search_space, optuna.trial.FixedTrial(best.params, best.number))
-    best_estimator = clone(estimator).set_params(**params)
-    if refit:
-        best_estimator.fit(X, y)
-    return best_estimator, study
+    return sample_params(search_space, optuna.trial.FixedTrial(best.params, best.number))

@@ -14,7 +14,7 @@ import numpy as np
 from numba import njit
 
 from .._validation import check_signal
-from ._model_step import kernel, model_step, step_jacobian
+from ._model_step import kernel, model_step, step_jacobian, workspace
 
 __all__ = ["FilterDivergenceError", "KalmanResult", "extended_kalman_filter", "rts_smoother"]
 
@@ -102,6 +102,25 @@ def _cho_solve(L, B):
             B[i, c] = s / L[i, i]
 
 
+@njit(cache=True, inline="always")
+def _sandwich(A, P, tmp, out):
+    """``out = A P A'`` (symmetrised), with ``tmp`` of shape (n, n)."""
+    n = P.shape[0]
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += A[i, k] * P[k, j]
+            tmp[i, j] = acc
+    for i in range(n):
+        for j in range(i + 1):
+            acc = 0.0
+            for k in range(n):
+                acc += tmp[i, k] * A[j, k]
+            out[i, j] = acc
+            out[j, i] = acc
+
+
 @njit(cache=True)
 def _filter(x0, P0, u, y, h, Q, R, oidx, kern, xf, Pf, xp, Pp, F, innov, S_out):
     """Run the filter; return (first failing sample or -1, failure code, log-likelihood).
@@ -115,21 +134,25 @@ def _filter(x0, P0, u, y, h, Q, R, oidx, kern, xf, Pf, xp, Pp, F, innov, S_out):
     P = P0.copy()
     x_next = np.empty(n)
     J = np.empty((n, n))
+    work = workspace(kern, n, u.shape[1])
     S = np.empty((m, m))
     L = np.zeros((m, m))
     PHt = np.empty((n, m))
     Kt = np.empty((m, n))
     A = np.empty((n, n))
+    tmp = np.empty((n, n))
     e = np.empty(m)
     w = np.empty((m, 1))
     loglik = 0.0
     for k in range(N):
         if k > 0:
-            if step_jacobian(x, u[k - 1:k + 1], h[k - 1:k], kern, x_next, J) >= 0:
+            if step_jacobian(x, u[k - 1:k + 1], h[k - 1:k], kern, work, x_next, J) >= 0:
                 return k, 1, loglik
             x[:] = x_next
-            P = J @ P @ J.T + Q
-            P = 0.5 * (P + P.T)
+            _sandwich(J, P, tmp, P)
+            for i in range(n):
+                for j in range(n):
+                    P[i, j] += Q[i, j]
             F[k] = J
         xp[k] = x
         Pp[k] = P
@@ -165,8 +188,16 @@ def _filter(x0, P0, u, y, h, Q, R, oidx, kern, xf, Pf, xp, Pp, F, innov, S_out):
                 A[i, j] = 1.0 if i == j else 0.0
             for a in range(m):
                 A[i, oidx[a]] -= Kt[a, i]
-        P = A @ P @ A.T + Kt.T @ R @ Kt
-        P = 0.5 * (P + P.T)
+        _sandwich(A, P, tmp, P)
+        for i in range(n):
+            for j in range(i + 1):
+                acc = 0.0
+                for a in range(m):
+                    for b in range(m):
+                        acc += Kt[a, i] * R[a, b] * Kt[b, j]
+                P[i, j] += acc
+                if j != i:
+                    P[j, i] += acc
         xf[k] = x
         Pf[k] = P
         innov[k] = e
@@ -224,11 +255,7 @@ def check_covariance(C, n, name, *, definite=False):
 
 
 def _check_record(m, X, y):
-    y = check_signal(y, "y")
-    if np.isnan(y).any():
-        k = int(np.argmax(np.isnan(y).any(axis=1)))
-        raise ValueError(f"y has NaN at sample {k}; expected measured values at every sample (the filter cannot "
-                         "skip samples).")
+    y = check_signal(y, "y")  # refuses NaN: the filter does not skip samples
     n_out = len(m.output_index)
     if y.shape[1] != n_out:
         raise ValueError(f"y has {y.shape[1]} columns; expected {n_out} (one per measured state).")

@@ -13,10 +13,14 @@ does:
   with respect to the state; :func:`step_states` advances several samples
   without a Jacobian. Both are numba functions that other compiled loops call.
 
-They reuse the compiled kernels of :mod:`sindybench.simulate` (``_run_terms``)
-and :mod:`sindybench.refine._sensitivity` (``_run_sensitivity``): the step is
-the simulator's step, and its Jacobian is the forward sensitivity of that
-discrete map with respect to the initial state.
+They reuse the compiled pieces of the simulator: the flattened active terms
+of :class:`~sindybench.simulate.TermsRHS` (``_arrays``), its kernel
+``simulate._run_terms`` and the factor derivatives of
+``refine._sensitivity._factor``. The step is the simulator's step (same
+stages, same order of sums: the same state to the last bit), and its
+Jacobian is the forward sensitivity of that discrete map with respect to the
+state, as ``refine._sensitivity._run_sensitivity`` computes it for
+parameters.
 """
 
 from typing import NamedTuple
@@ -25,8 +29,7 @@ import numpy as np
 from numba import njit
 
 from .._validation import check_bounds
-from ..libraries._terms import terms_to_arrays
-from ..refine._sensitivity import _run_sensitivity
+from ..refine._sensitivity import _factor
 from ..simulate import _STAGES, TermsRHS, _run_terms
 
 __all__ = ["ModelStep", "model_step"]
@@ -143,38 +146,128 @@ def model_step(model):
 
 def kernel(m):
     """The compiled model as one tuple for :func:`step_jacobian` and :func:`step_states`."""
-    rhs = m.rhs
-    active = np.flatnonzero(np.any(rhs.coef != 0, axis=1))
-    terms = terms_to_arrays([rhs.terms[j] for j in active])
-    coef = np.ascontiguousarray(rhs.coef[active])
-    par = (np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0))
     offsets, weights = (np.array(v, dtype=float) for v in _STAGES[m.method])
     return (np.int64(m.n_substeps), offsets, weights, m.input_hold == "linear", np.asarray(m.lower, dtype=float),
-            np.asarray(m.upper, dtype=float), float(m.max_abs), terms, coef, par, rhs._arrays)
+            np.asarray(m.upper, dtype=float), float(m.max_abs), m.rhs._arrays)
+
+
+@njit(cache=True, inline="always")
+def _rhs_jacobian(z, n, arrays, theta, dtheta, fv, fd, K, s, jac):
+    """``K[s] = f(z)`` and ``jac = df/dx`` (the first ``n`` columns of ``z``), from the simulator's flattened terms.
+
+    Values are accumulated in the simulator's order, so the state is the simulator's to the last bit.
+    """
+    ptr, col, op, a, b, rptr, rows, vals = arrays
+    for f in range(col.shape[0]):
+        fv[f], fd[f] = _factor(z[col[f]], op[f], a[f], b[f])
+    for j in range(ptr.shape[0] - 1):
+        value = 1.0
+        for f in range(ptr[j], ptr[j + 1]):
+            value *= fv[f]
+        theta[j] = value
+        for c in range(n):
+            dtheta[j, c] = 0.0
+        for f in range(ptr[j], ptr[j + 1]):
+            if col[f] < n and fd[f] != 0.0:
+                d = fd[f]
+                for g in range(ptr[j], ptr[j + 1]):
+                    if g != f:
+                        d *= fv[g]
+                dtheta[j, col[f]] += d
+    for i in range(n):
+        acc = 0.0
+        for c in range(n):
+            jac[i, c] = 0.0
+        for k in range(rptr[i], rptr[i + 1]):
+            acc += theta[rows[k]] * vals[k]
+            for c in range(n):
+                jac[i, c] += vals[k] * dtheta[rows[k], c]
+        K[s, i] = acc
 
 
 @njit(cache=True)
-def step_jacobian(x, u2, h1, kern, x_next, jac):
+def workspace(kern, n, n_u):
+    """Scratch arrays of :func:`step_jacobian`, allocated once per loop."""
+    arrays, n_st = kern[7], kern[1].shape[0]
+    n_terms, n_factors = arrays[0].shape[0] - 1, arrays[1].shape[0]
+    return (np.empty(n + n_u), np.empty(n_terms), np.empty((n_terms, n)), np.empty(n_factors), np.empty(n_factors),
+            np.empty((n, n)), np.zeros((n_st, n)), np.zeros((n_st, n, n)), np.empty((n, n)))
+
+
+@njit(cache=True)
+def step_jacobian(x, u2, h1, kern, work, x_next, jac):
     """One sample step from ``x`` with inputs ``u2`` (2 rows) over ``h1`` (1 step).
 
-    Writes the next state into ``x_next`` and ``d x_next / d x`` into ``jac``;
-    returns -1, or 1 when the step diverged (non-finite or beyond ``max_abs``).
+    Writes the next state into ``x_next`` and ``d x_next / d x`` into ``jac``
+    (the tangent of the simulator's discrete step: a component clipped at a
+    bound, or held there, has a zero row); returns -1, or 1 when the step
+    diverged (non-finite or beyond ``max_abs``). Same stages as
+    ``refine._sensitivity._run_sensitivity`` with the initial state as the
+    parameters, specialised to one sample and a square sensitivity.
     """
-    n_sub, offsets, weights, linear, lo, hi, max_abs, terms, coef, par, _ = kern
-    n = x.shape[0]
-    eye = np.eye(n)
-    out_x = np.empty((2, n))
-    out_s = np.empty((2, 0, n))
-    step = _run_sensitivity(x, eye, u2, h1, n_sub, offsets, weights, linear, lo, hi, max_abs, terms, coef, par,
-                            np.zeros(0, dtype=np.int64), out_x, out_s, jac)
+    n_sub, offsets, weights, linear, lo, hi, max_abs, arrays = kern
+    n, n_st, n_u = x.shape[0], offsets.shape[0], u2.shape[1]
+    z, theta, dtheta, fv, fd, fjac, K, dK, dz = work
     for i in range(n):
-        x_next[i] = out_x[1, i]
-    return step
+        x_next[i] = x[i]
+        for c in range(n):
+            jac[i, c] = 1.0 if i == c else 0.0
+    hs = h1[0] / n_sub
+    for j in range(n_sub):
+        for s in range(n_st):
+            cs = offsets[s]
+            for i in range(n):
+                zi = x_next[i] + cs * hs * K[s - 1, i] if cs != 0.0 else x_next[i]
+                clipped = zi <= lo[i] or zi >= hi[i]
+                z[i] = min(max(zi, lo[i]), hi[i])
+                for c in range(n):
+                    if clipped:
+                        dz[i, c] = 0.0
+                    elif cs != 0.0:
+                        dz[i, c] = jac[i, c] + cs * hs * dK[s - 1, i, c]
+                    else:
+                        dz[i, c] = jac[i, c]
+            frac = (j + cs) / n_sub
+            for i in range(n_u):
+                z[n + i] = u2[0, i] + frac * (u2[1, i] - u2[0, i]) if linear else u2[0, i]
+            _rhs_jacobian(z, n, arrays, theta, dtheta, fv, fd, K, s, fjac)
+            for i in range(n):
+                if (z[i] <= lo[i] and K[s, i] < 0.0) or (z[i] >= hi[i] and K[s, i] > 0.0):
+                    K[s, i] = 0.0
+                    for c in range(n):
+                        dK[s, i, c] = 0.0
+                    continue
+                for c in range(n):
+                    acc = 0.0
+                    for e in range(n):
+                        acc += fjac[i, e] * dz[e, c]
+                    dK[s, i, c] = acc
+        bad = False
+        for i in range(n):
+            incr = 0.0
+            for s in range(n_st):
+                incr += weights[s] * K[s, i]
+            x_next[i] += hs * incr
+            if x_next[i] <= lo[i] or x_next[i] >= hi[i]:
+                x_next[i] = min(max(x_next[i], lo[i]), hi[i])
+                for c in range(n):
+                    jac[i, c] = 0.0
+            else:
+                for c in range(n):
+                    incr = 0.0
+                    for s in range(n_st):
+                        incr += weights[s] * dK[s, i, c]
+                    jac[i, c] += hs * incr
+            if not (abs(x_next[i]) <= max_abs and abs(x_next[i]) < np.inf):
+                bad = True
+        if bad:
+            return 1
+    return -1
 
 
 @njit(cache=True)
 def step_states(x, u, h, kern, out):
     """Simulate from ``x`` over the rows of ``u`` into ``out``; -1 or the first diverged row."""
-    n_sub, offsets, weights, linear, lo, hi, max_abs, _, _, _, arrays = kern
+    n_sub, offsets, weights, linear, lo, hi, max_abs, arrays = kern
     return _run_terms(x, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, arrays, out)
 

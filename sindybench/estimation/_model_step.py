@@ -185,6 +185,15 @@ def _rhs_jacobian(z, n, arrays, theta, dtheta, fv, fd, K, s, jac):
         K[s, i] = acc
 
 
+@njit(cache=True, inline="always")
+def _weighted(weights, stages):
+    """``sum_s weights[s] stages[s]``: the Runge-Kutta increment of one component."""
+    acc = 0.0
+    for s in range(weights.shape[0]):
+        acc += weights[s] * stages[s]
+    return acc
+
+
 @njit(cache=True)
 def workspace(kern, n, n_u):
     """Scratch arrays of :func:`step_jacobian`, allocated once per loop."""
@@ -244,22 +253,13 @@ def step_jacobian(x, u2, h1, kern, work, x_next, jac):
                     dK[s, i, c] = acc
         bad = False
         for i in range(n):
-            incr = 0.0
-            for s in range(n_st):
-                incr += weights[s] * K[s, i]
-            x_next[i] += hs * incr
-            if x_next[i] <= lo[i] or x_next[i] >= hi[i]:
+            x_next[i] += hs * _weighted(weights, K[:, i])
+            held = x_next[i] <= lo[i] or x_next[i] >= hi[i]  # clipped: no sensitivity through this step
+            if held:
                 x_next[i] = min(max(x_next[i], lo[i]), hi[i])
-                for c in range(n):
-                    jac[i, c] = 0.0
-            else:
-                for c in range(n):
-                    incr = 0.0
-                    for s in range(n_st):
-                        incr += weights[s] * dK[s, i, c]
-                    jac[i, c] += hs * incr
-            if not (abs(x_next[i]) <= max_abs and abs(x_next[i]) < np.inf):
-                bad = True
+            for c in range(n):
+                jac[i, c] = 0.0 if held else jac[i, c] + hs * _weighted(weights, dK[:, i, c])
+            bad |= not (abs(x_next[i]) <= max_abs and abs(x_next[i]) < np.inf)
         if bad:
             return 1
     return -1

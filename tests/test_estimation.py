@@ -8,9 +8,13 @@ from sindybench import SINDy
 from sindybench.estimation import (
     FilterDivergenceError,
     ModelStep,
+    estimate_noise,
     extended_kalman_filter,
+    k_step_rmse,
     model_step,
+    predict_k_step,
     rts_smoother,
+    smooth_initial_state,
 )
 from sindybench.estimation._model_step import kernel, step_jacobian, step_states, workspace
 from sindybench.libraries import PolynomialLibrary
@@ -208,6 +212,55 @@ def test_smoother_is_the_linear_rts_on_a_linear_model(rng):
     np.testing.assert_allclose(res.states, xs, rtol=1e-9, atol=1e-12)
     assert res.innovations.shape == (80, 1) and res.innovation_covariances.shape == (80, 1, 1)
     assert np.isfinite(res.log_likelihood)
+
+
+def test_estimated_noise_is_near_the_truth_and_filters_as_well(rng):
+    m = duffing()
+    Q, R = np.diag([1e-6, 4e-4]), np.array([[1e-3]])
+    u = drive(4000, rng)
+    x, y = noisy_record(m, u, Q, R, [0.5, 0.0], rng)
+    Q_hat, R_hat = estimate_noise(m._replace(x0=np.array([0.5, 0.0])), u, y)
+    assert 0.7 < R_hat[0, 0] / R[0, 0] < 1.4, R_hat
+    assert 0.3 < Q_hat[1, 1] / Q[1, 1] < 3.0, Q_hat
+    errs = [np.sqrt(np.mean((extended_kalman_filter(m, u, y, Q=q, R=r, x0=[0.5, 0.0], P0=0.1).states[:, 1]
+                             - x[:, 1]) ** 2)) for q, r in ((Q, R), (Q_hat, R_hat))]
+    assert errs[1] < 1.1 * errs[0], errs
+
+
+# ------------------------------------------------------------------ prediction modes
+def test_k_step_prediction_is_the_filtered_state_simulated_k_samples(rng):
+    m = duffing()
+    Q, R = np.diag([1e-6, 4e-4]), np.array([[1e-3]])
+    u = drive(300, rng)
+    x, y = noisy_record(m, u, Q, R, [0.5, 0.0], rng)
+    k = 7
+    y_pred = predict_k_step(m, u, y, k, Q=Q, R=R, x0=[0.5, 0.0], P0=0.1)
+    xf = extended_kalman_filter(m, u, y, Q=Q, R=R, x0=[0.5, 0.0], P0=0.1).states
+    assert y_pred.shape == (300 - k, 1)
+    for t in (0, 100, 292):
+        x_sim = simulate(DUFFING, xf[t], u[t:t + k + 1], DT, **settings(m))
+        assert y_pred[t, 0] == x_sim[-1, 0]
+    # the prediction error grows with the horizon and stays below the measurement noise for one step
+    errs = [k_step_rmse(m, u, y, h, Q=Q, R=R, x0=[0.5, 0.0], P0=0.1) for h in (1, 10, 40)]
+    assert errs[0] < errs[1] < errs[2], errs
+    assert np.sqrt(np.mean((y_pred[:, 0] - x[k:, 0]) ** 2)) < np.sqrt(R[0, 0])
+    with pytest.raises(ValueError, match=r"k must be an integer in \[1, 299\]; got 300"):
+        predict_k_step(m, u, y, 300, Q=Q, R=R)
+
+
+def test_smoothed_initial_state_reads_only_n_init_samples(rng):
+    m = duffing()
+    u = drive(200, rng)
+    x = simulate(DUFFING, [0.4, -0.7], u, DT, **settings(m))
+    y = x[:, :1] + 0.01 * rng.standard_normal((200, 1))
+    x0 = smooth_initial_state(m, u, y[:30], Q=0.0, R=1e-4, x0=[y[0, 0], 0.0], P0=np.diag([1e-4, 4.0]))
+    y_changed = y.copy()
+    y_changed[30:] += 5.0  # samples after n_init do not count
+    x0_again = smooth_initial_state(m, u, y_changed[:30], Q=0.0, R=1e-4, x0=[y[0, 0], 0.0], P0=np.diag([1e-4, 4.0]))
+    np.testing.assert_array_equal(x0, x0_again)
+    assert np.abs(x0 - [0.4, -0.7]).max() < 0.05
+    with pytest.raises(ValueError, match="X has 20 rows; expected at least n_init = 30"):
+        smooth_initial_state(m, u[:20], y[:30], Q=0.0, R=1e-4)
 
 
 # ----------------------------------------------------------------------- bad input

@@ -2,12 +2,18 @@
 
 from ._kalman import FilterDivergenceError, KalmanResult, extended_kalman_filter, rts_smoother
 from ._model_step import ModelStep, model_step
+from ._noise import estimate_noise
+from ._predict import k_step_rmse, predict_k_step, smooth_initial_state
 
 __all__ = [
     "FilterDivergenceError",
     "KalmanResult",
     "ModelStep",
+    "estimate_noise",
     "extended_kalman_filter",
+    "k_step_rmse",
     "model_step",
+    "predict_k_step",
     "rts_smoother",
+    "smooth_initial_state",
 ]

@@ -179,9 +179,9 @@ def _filter(x0, P0, u, y, h, Q, R, oidx, kern, xf, Pf, xp, Pp, F, innov, S_out):
         for i in range(n):
             for a in range(m):
                 x[i] += Kt[a, i] * e[a]
-            x[i] = min(max(x[i], lo[i]), hi[i])
             if not np.isfinite(x[i]):
                 return k, 3, loglik
+            x[i] = min(max(x[i], lo[i]), hi[i])
         # Joseph form: (I - K H) P (I - K H)' + K R K'
         for i in range(n):
             for j in range(n):

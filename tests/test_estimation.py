@@ -43,17 +43,12 @@ MIXED = TermsRHS.from_equations([
 MIXED_BOUNDS = (np.array([-np.inf, -np.inf, 0.0]), np.array([np.inf, np.inf, 0.25]))
 
 
-def duffing(**kw):
-    settings = dict(output_index=(0,), lower=np.full(2, -np.inf), upper=np.full(2, np.inf), dt=DT, n_substeps=2,
-                    method="rk4", input_hold="linear", max_abs=1e6, x0=np.zeros(2), state_scale=np.ones(2))
-    settings.update(kw)
-    return ModelStep(rhs=DUFFING, n_inputs=1, **settings)
+def duffing():
+    return ModelStep.from_rhs(DUFFING, DT, n_inputs=1, n_substeps=2, input_hold="linear", max_abs=1e6)
 
 
 def mixed(method="rk4", hold="zoh"):
-    return ModelStep(rhs=MIXED, n_inputs=1, output_index=(0,), lower=MIXED_BOUNDS[0], upper=MIXED_BOUNDS[1], dt=DT,
-                     n_substeps=3, method=method, input_hold=hold, max_abs=np.inf, x0=np.zeros(3),
-                     state_scale=np.ones(3))
+    return ModelStep.from_rhs(MIXED, DT, n_inputs=1, bounds=MIXED_BOUNDS, n_substeps=3, method=method, input_hold=hold)
 
 
 def settings(m):
@@ -297,8 +292,7 @@ def test_bad_records_are_refused(rng):
 def test_a_diverging_filter_raises(rng):
     # x0' = x0^2 blows up from 1 within a second; the filter is told nothing measured helps
     rhs = TermsRHS.from_equations([{((0, POW, 2.0, 0.0),): 1.0}])
-    m = ModelStep(rhs, 0, (0,), np.full(1, -np.inf), np.full(1, np.inf), 0.1, 1, "rk4", "zoh", 1e6, np.ones(1),
-                  np.ones(1))
+    m = ModelStep.from_rhs(rhs, 0.1, max_abs=1e6)
     with pytest.raises(FilterDivergenceError, match="diverged at sample 1[0-9] of 40: the model's step") as info:
         extended_kalman_filter(m, None, np.full((40, 1), 1.0), Q=0.0, R=1e6, x0=[1.0], P0=1e-6)
     assert 10 <= info.value.step < 20

@@ -354,8 +354,7 @@ def extended_kalman_filter(model, X, y, *, Q, R, x0=None, P0=None):
     >>> from sindybench.simulate import TermsRHS, simulate
     >>> from sindybench.estimation import ModelStep
     >>> rhs = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0}, {((0, 0, 1, 0),): -4.0, ((1, 0, 1, 0),): -0.4}])
-    >>> m = ModelStep(rhs, 0, (0,), np.full(2, -np.inf), np.full(2, np.inf), 0.05, 1, "rk4", "zoh", np.inf,
-    ...               np.zeros(2), np.ones(2))
+    >>> m = ModelStep.from_rhs(rhs, 0.05)
     >>> x = simulate(rhs, [1.0, 0.0], np.zeros((200, 0)), 0.05)
     >>> y = x[:, :1] + 0.01 * np.random.default_rng(0).standard_normal((200, 1))
     >>> res = extended_kalman_filter(m, None, y, Q=1e-8, R=1e-4, x0=[0.0, 0.0], P0=1.0)
@@ -385,8 +384,7 @@ def rts_smoother(model, X, y, *, Q, R, x0=None, P0=None):
     >>> from sindybench.simulate import TermsRHS, simulate
     >>> from sindybench.estimation import ModelStep
     >>> rhs = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0}, {((0, 0, 1, 0),): -4.0}])
-    >>> m = ModelStep(rhs, 0, (0,), np.full(2, -np.inf), np.full(2, np.inf), 0.05, 1, "rk4", "zoh", np.inf,
-    ...               np.zeros(2), np.ones(2))
+    >>> m = ModelStep.from_rhs(rhs, 0.05)
     >>> y = simulate(rhs, [1.0, 0.5], np.zeros((100, 0)), 0.05)[:, :1]
     >>> res = rts_smoother(m, None, y, Q=0.0, R=1e-6, x0=[0.0, 0.0], P0=10.0)
     >>> np.round(res.states[0], 3).tolist()

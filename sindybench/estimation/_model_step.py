@@ -78,6 +78,28 @@ class ModelStep(NamedTuple):
     def n_states(self):
         return self.rhs.n_states
 
+    @classmethod
+    def from_rhs(cls, rhs, dt, *, n_inputs=0, output_index=(0,), bounds=None, n_substeps=1, method="rk4",
+                 input_hold="zoh", max_abs=np.inf, x0=None, state_scale=None):
+        """A model given by its right-hand side and simulation settings (defaults as ``simulate``'s).
+
+        Examples
+        --------
+        >>> from sindybench.libraries import POW
+        >>> m = ModelStep.from_rhs(TermsRHS([[-1.0]], [((0, POW, 1, 0),)], 1), 0.1)
+        >>> m.n_states, m.output_index, m.upper.tolist()
+        (1, (0,), [inf])
+        """
+        if not isinstance(rhs, TermsRHS):
+            raise ValueError(f"rhs must be a TermsRHS; got {type(rhs).__name__}.")
+        n = rhs.n_states
+        lo, hi = check_bounds(bounds, n)
+        x0 = np.zeros(n) if x0 is None else np.asarray(x0, dtype=float)
+        scale = np.ones(n) if state_scale is None else np.asarray(state_scale, dtype=float)
+        return cls(rhs=rhs, n_inputs=int(n_inputs), output_index=tuple(int(i) for i in output_index), lower=lo,
+                   upper=hi, dt=float(dt), n_substeps=int(n_substeps), method=method, input_hold=input_hold,
+                   max_abs=float(max_abs), x0=x0, state_scale=scale)
+
 
 def _scale(states):
     scale = np.std(np.asarray(states, dtype=float), axis=0)

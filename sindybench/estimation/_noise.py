@@ -62,8 +62,7 @@ def estimate_noise(model, X, y, *, max_samples=20000, max_iter=None):
     >>> from sindybench.simulate import TermsRHS, simulate
     >>> from sindybench.estimation import ModelStep
     >>> rhs = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0}, {((0, 0, 1, 0),): -4.0, ((1, 0, 1, 0),): -0.2}])
-    >>> m = ModelStep(rhs, 0, (0,), np.full(2, -np.inf), np.full(2, np.inf), 0.05, 1, "rk4", "zoh", np.inf,
-    ...               np.array([1.0, 0.0]), np.ones(2))
+    >>> m = ModelStep.from_rhs(rhs, 0.05, x0=np.array([1.0, 0.0]))
     >>> y = simulate(rhs, [1.0, 0.0], np.zeros((400, 0)), 0.05)[:, :1]
     >>> y = y + 0.01 * np.random.default_rng(0).standard_normal(y.shape)
     >>> Q, R = estimate_noise(m, None, y)

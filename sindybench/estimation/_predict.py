@@ -65,8 +65,7 @@ def predict_k_step(model, X, y, k, *, Q, R, x0=None, P0=None):
     >>> from sindybench.simulate import TermsRHS, simulate
     >>> from sindybench.estimation import ModelStep
     >>> rhs = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0}, {((0, 0, 1, 0),): -4.0}])
-    >>> m = ModelStep(rhs, 0, (0,), np.full(2, -np.inf), np.full(2, np.inf), 0.05, 1, "rk4", "zoh", np.inf,
-    ...               np.zeros(2), np.ones(2))
+    >>> m = ModelStep.from_rhs(rhs, 0.05)
     >>> y = simulate(rhs, [1.0, 0.0], np.zeros((100, 0)), 0.05)[:, :1]
     >>> y_pred = predict_k_step(m, None, y, 5, Q=0.0, R=1e-8, x0=[1.0, 0.0], P0=1e-8)
     >>> y_pred.shape, bool(np.allclose(y_pred, y[5:], atol=1e-6))
@@ -80,7 +79,8 @@ def predict_k_step(model, X, y, k, *, Q, R, x0=None, P0=None):
         raise ValueError(f"k = {k} leaves no sample to predict in a record of {n_samples}; expected k < n_samples.")
     u = np.zeros((n_samples, 0)) if X is None else np.asarray(X, dtype=float).reshape(n_samples, -1)
     out = np.empty((n_samples - k, len(m.output_index)))
-    t = _k_step(res.states, np.ascontiguousarray(u), m.dt, k, kernel(m), np.asarray(m.output_index, dtype=np.int64), out)
+    oidx = np.asarray(m.output_index, dtype=np.int64)
+    t = _k_step(res.states, np.ascontiguousarray(u), m.dt, k, kernel(m), oidx, out)
     if t >= 0:
         raise SimulationError(f"the {k}-step prediction from sample {t} diverged.", step=int(t))
     return out
@@ -100,8 +100,7 @@ def k_step_rmse(model, X, y, k, *, Q, R, x0=None, P0=None, multioutput="uniform_
     >>> from sindybench.simulate import TermsRHS, simulate
     >>> from sindybench.estimation import ModelStep
     >>> rhs = TermsRHS.from_equations([{((0, 0, 1, 0),): -1.0}])
-    >>> m = ModelStep(rhs, 0, (0,), np.full(1, -np.inf), np.full(1, np.inf), 0.1, 1, "rk4", "zoh", np.inf,
-    ...               np.ones(1), np.ones(1))
+    >>> m = ModelStep.from_rhs(rhs, 0.1, x0=np.ones(1))
     >>> y = simulate(rhs, [1.0], np.zeros((50, 0)), 0.1)[:, :1]
     >>> k_step_rmse(m, None, y, 3, Q=0.0, R=1e-6, x0=[1.0], P0=1e-6) < 1e-6
     True
@@ -138,8 +137,7 @@ def smooth_initial_state(model, X, y_init, *, Q, R, x0=None, P0=None):
     >>> from sindybench.simulate import TermsRHS, simulate
     >>> from sindybench.estimation import ModelStep
     >>> rhs = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0}, {((0, 0, 1, 0),): -4.0}])
-    >>> m = ModelStep(rhs, 0, (0,), np.full(2, -np.inf), np.full(2, np.inf), 0.05, 1, "rk4", "zoh", np.inf,
-    ...               np.zeros(2), np.ones(2))
+    >>> m = ModelStep.from_rhs(rhs, 0.05)
     >>> y = simulate(rhs, [0.3, -1.0], np.zeros((40, 0)), 0.05)[:, :1]
     >>> np.round(smooth_initial_state(m, None, y[:20], Q=0.0, R=1e-8, P0=10.0), 4).tolist()
     [0.3, -1.0]

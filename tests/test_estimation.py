@@ -11,6 +11,7 @@ from sindybench.estimation import (
     estimate_noise,
     extended_kalman_filter,
     k_step_rmse,
+    linearize,
     model_step,
     predict_k_step,
     rts_smoother,
@@ -256,6 +257,34 @@ def test_smoothed_initial_state_reads_only_n_init_samples(rng):
     assert np.abs(x0 - [0.4, -0.7]).max() < 0.05
     with pytest.raises(ValueError, match="X has 20 rows; expected at least n_init = 30"):
         smooth_initial_state(m, u[:20], y[:30], Q=0.0, R=1e-4)
+
+
+# ------------------------------------------------------------------- linearization
+@pytest.mark.parametrize("method", ["rk4", "euler"])
+def test_linearization_matches_finite_differences(method):
+    m = mixed(method, "zoh")
+    x, u = np.array([0.15, -0.4, 0.1]), np.array([0.7])
+    lin = linearize(m, x, u)
+    eps = 1e-6
+
+    def central(fun, v):
+        return np.column_stack([(fun(v + eps * e) - fun(v - eps * e)) / (2 * eps) for e in np.eye(v.size)])
+
+    np.testing.assert_allclose(lin.A, central(lambda v: MIXED(v, u), x), rtol=1e-6, atol=1e-8)
+    np.testing.assert_allclose(lin.B, central(lambda v: MIXED(x, v), u), rtol=1e-6, atol=1e-8)
+
+    def one_step(x0, u0):
+        return simulate(MIXED, x0, np.tile(u0, (2, 1)), DT, **settings(m))[1]
+
+    np.testing.assert_allclose(lin.Ad, central(lambda v: one_step(v, u), x), rtol=1e-6, atol=1e-8)
+    np.testing.assert_allclose(lin.Bd, central(lambda v: one_step(x, v), u), rtol=1e-6, atol=1e-8)
+    np.testing.assert_array_equal(lin.x_next, one_step(x, u))
+    np.testing.assert_allclose(lin.f, MIXED(x, u), rtol=1e-14)
+    assert lin.C.tolist() == [[1.0, 0.0, 0.0]] and lin.D.shape == (1, 1) and lin.Dd.shape == (1, 1)
+    with pytest.raises(ValueError, match=r"x\[2\] = 0.5 is outside the model's bounds \[0, 0.25\]"):
+        linearize(m, [0.0, 0.0, 0.5], u)
+    with pytest.raises(ValueError, match="expected 1 finite numbers"):
+        linearize(m, x, [0.0, 1.0])
 
 
 # ----------------------------------------------------------------------- bad input

@@ -207,6 +207,27 @@ def _rhs_jacobian(z, n, arrays, theta, dtheta, fv, fd, K, s, jac):
         K[s, i] = acc
 
 
+@njit(cache=True)
+def rhs_jacobian(z, n, arrays):
+    """``f(z)`` and ``df/dz[:, :n]`` of the right-hand side with flattened ``arrays`` at ``z = [x, u]``."""
+    n_terms, n_factors = arrays[0].shape[0] - 1, arrays[1].shape[0]
+    K = np.empty((1, n))
+    jac = np.empty((n, n))
+    _rhs_jacobian(z, n, arrays, np.empty(n_terms), np.empty((n_terms, n)), np.empty(n_factors),
+                  np.empty(n_factors), K, 0, jac)
+    return K[0], jac
+
+
+def with_inputs_as_states(m):
+    """The model over ``[x, u]`` with ``u' = 0``: its state Jacobians hold the input Jacobians too."""
+    rhs, n_u = m.rhs, m.n_inputs
+    coef = np.hstack([rhs.coef, np.zeros((rhs.coef.shape[0], n_u))])
+    lower = np.concatenate([m.lower, np.full(n_u, -np.inf)])
+    upper = np.concatenate([m.upper, np.full(n_u, np.inf)])
+    return m._replace(rhs=TermsRHS(coef, rhs.terms, rhs.n_states + n_u), n_inputs=0, lower=lower, upper=upper,
+                      input_hold="zoh", x0=np.zeros(rhs.n_states + n_u), state_scale=np.ones(rhs.n_states + n_u))
+
+
 @njit(cache=True, inline="always")
 def _weighted(weights, stages):
     """``sum_s weights[s] stages[s]``: the Runge-Kutta increment of one component."""

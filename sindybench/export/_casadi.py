@@ -15,14 +15,6 @@ from ..simulate import _STAGES
 __all__ = ["CasadiModel", "simulate_casadi", "to_casadi"]
 
 
-def _import_casadi():
-    try:
-        import casadi
-    except ImportError as exc:
-        raise ImportError('to_casadi needs CasADi: pip install "sindybench[casadi]" (or pip install casadi).') from exc
-    return casadi
-
-
 class CasadiModel(NamedTuple):
     """The CasADi functions of a fitted model.
 
@@ -126,7 +118,10 @@ def to_casadi(model):
     >>> float(simulate(rhs, [1.0], [[0.5], [0.5]], 0.1)[1, 0])   # doctest: +ELLIPSIS
     0.95241...
     """
-    ca = _import_casadi()
+    try:
+        import casadi as ca
+    except ImportError as exc:
+        raise ImportError('to_casadi needs CasADi: pip install "sindybench[casadi]" (or pip install casadi).') from exc
     m = model_step(model)
     n, n_u = m.n_states, m.n_inputs
     arrays = m.rhs._arrays

@@ -15,7 +15,7 @@ def _difference_noise(y):
     """Noise variance of each column from third differences (white noise: ``var(diff3) = 20 sigma^2``)."""
     d3 = np.diff(y, n=3, axis=0)
     var = np.mean(d3**2, axis=0) / 20.0 if d3.shape[0] else np.zeros(y.shape[1])
-    floor = 1e-12 * np.maximum(np.var(y, axis=0), 1e-300)
+    floor = 1e-6 * np.maximum(np.var(y, axis=0), 1e-300)
     return np.maximum(var, floor)
 
 
@@ -35,8 +35,11 @@ def estimate_noise(model, X, y, *, max_samples=20000, max_iter=None):
     The parameters are the logarithms of the diagonal entries: ``Q_ii =
     exp(a_i) s_i^2`` with ``s_i`` the spread of state ``i`` in the model's
     simulation of the record, and ``R_jj = exp(b_j) r_j`` with ``r_j`` the
-    noise variance of output ``j`` seen in its third differences. From ``a =
-    log(1e-4)`` and ``b = 0`` Nelder-Mead maximises the Gaussian
+    noise variance of output ``j`` seen in its third differences (at least
+    ``(1e-3 std(y_j))^2``). From ``a = log(1e-4)`` and ``b = 0``, within
+    ``Q_ii <= s_i^2`` and ``R_jj`` within a factor 100 of ``r_j`` (the
+    likelihood alone cannot tell noise on a measured state from noise on
+    its measurement), Nelder-Mead maximises the Gaussian
     log-likelihood of the innovations of the extended Kalman filter over the
     first ``max_samples`` samples, started at the model's first training state
     (``x0_``). A filter that diverges for some trial values scores as the worst.
@@ -90,8 +93,9 @@ def estimate_noise(model, X, y, *, max_samples=20000, max_iter=None):
 
     start = np.concatenate([np.full(n, np.log(1e-4)), np.zeros(n_out)])
     simplex = np.vstack([start, start + np.log(10.0) * np.eye(start.size)])
+    bounds = [(np.log(1e-12), 0.0)] * n + [(np.log(1e-2), np.log(1e2))] * n_out
     max_iter = 200 * start.size if max_iter is None else check_integer(max_iter, "max_iter")
-    res = minimize(cost, start, method="Nelder-Mead",
+    res = minimize(cost, start, method="Nelder-Mead", bounds=bounds,
                    options=dict(initial_simplex=simplex, maxiter=max_iter, xatol=1e-2, fatol=1e-6))
     if not np.isfinite(res.fun) or res.fun >= 1e300:
         raise FilterDivergenceError("estimate_noise: the filter diverged for every trial value; check the model "

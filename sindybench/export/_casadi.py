@@ -48,8 +48,8 @@ def _factor(ca, v, op, a, b):
     if op in (POW, ABS_POW):
         w = ca.fabs(v) if op == ABS_POW else v
         return w if a == 1.0 else w * w if a == 2.0 else w * w * w if a == 3.0 else w**a
-    if op == SQRT:
-        return ca.sqrt(ca.fmin(ca.fmax(v, a), b))
+    if op == SQRT:  # a lower clip at 0 is raised to 1e-100: sqrt keeps a finite derivative there
+        return ca.sqrt(ca.fmin(ca.fmax(v, max(a, 1e-100)), b))
     if op == STEP:
         return ca.if_else(ca.logic_and(v >= a, v <= b), 1.0, 0.0)
     if op == SIGN:
@@ -90,7 +90,9 @@ def to_casadi(model):
     operation (explicit Runge-Kutta stages, sub-steps, input hold, bounds:
     stage states clipped, outward derivatives at a bound zeroed, the state
     clipped after each sub-step), so a run of ``step`` matches the
-    simulator to rounding. Divergence (``max_abs``) is not checked.
+    simulator to rounding. Divergence (``max_abs``) is not checked. A square
+    root clipped at 0 is clipped at 1e-100 instead (its value changes by at
+    most 1e-50, its derivatives stay finite for the solvers).
 
     Parameters
     ----------

@@ -137,7 +137,8 @@ for t in range(n_steps):
 
 y_hist, x_true, x_est = np.array(y_hist), np.array(x_true), np.array(x_est)
 print(f"closed loop over {n_steps} samples ({n_steps * data.dt:.0f} s): level RMSE to the set-point "
-      f"{np.sqrt(np.mean((x_true[:, 1] - reference) ** 2)):.3f} V (set-point changes included); IPOPT {1e3 * np.median(solve_s):.0f} ms per solve (median), {solves.count('Solve_Succeeded')} of "
+      f"{np.sqrt(np.mean((x_true[:, 1] - reference) ** 2)):.3f} V (set-point changes included); "
+      f"IPOPT {1e3 * np.median(solve_s):.0f} ms per solve (median), {solves.count('Solve_Succeeded')} of "
       f"{len(solves)} solves converged")
 ends = [n_steps // 3 - 1, 2 * n_steps // 3 - 1, n_steps - 1]
 print("level at the end of each set-point:", [f"{x_true[i, 1]:.2f} V (set {reference[i]:.1f})" for i in ends])

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from sindybench import SINDy
+from sindybench import HiddenStateSINDy, SINDy
 from sindybench.estimation import (
     FilterDivergenceError,
     ModelStep,
@@ -18,6 +18,7 @@ from sindybench.estimation import (
     smooth_initial_state,
 )
 from sindybench.estimation._model_step import kernel, step_jacobian, step_states, workspace
+from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT
 from sindybench.refine import estimate_initial_state, simulate_sensitivity
@@ -127,6 +128,22 @@ def test_model_step_reads_a_fitted_sindy(rng):
     np.testing.assert_array_equal(xs, model.simulate(u[:30], y[0]))
     with pytest.raises(ValueError, match="not fitted"):
         model_step(SINDy())
+
+
+def test_model_step_reads_a_fitted_hidden_state_sindy(rng):
+    u = drive(1500, rng)
+    x = simulate(DUFFING, [0.5, 0.0], u, DT, n_substeps=4)
+    model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=3), dt=DT,
+                             n_substeps=2, input_hold="linear").fit(u, x[:, :1])
+    m = model_step(model)
+    assert (m.n_states, m.n_inputs, m.output_index, m.input_hold) == (2, 1, (0,), "linear")
+    np.testing.assert_allclose(m.state_scale, np.std(model.states_, axis=0))
+    xs, _ = steps(m, model.x0_, u[:50])
+    np.testing.assert_array_equal(xs, model.simulate(u[:50], x0=model.x0_))
+    # the filter follows the hidden velocity of the truth from a wrong start
+    res = extended_kalman_filter(model, u, x[:, :1] + 0.001 * rng.standard_normal((1500, 1)), Q=[1e-8, 1e-6],
+                                 R=1e-6, x0=[0.5, 1.0], P0=1.0)
+    assert np.sqrt(np.mean((res.states[100:, 1] - x[100:, 1]) ** 2)) < 0.02 * np.std(x[:, 1])
 
 
 # --------------------------------------------------------------- filter and smoother

@@ -167,7 +167,13 @@ def model_step(model):
 
 
 def kernel(m):
-    """The compiled model as one tuple for :func:`step_jacobian` and :func:`step_states`."""
+    """The compiled model as one tuple for :func:`step_jacobian` and :func:`step_states`.
+
+    ``(n_substeps, stage offsets, stage weights, linear hold, lower, upper,
+    max_abs, flattened active terms)``; the terms are the simulator's
+    (``TermsRHS._arrays``: ``ptr, col, op, a, b`` of the active terms, then
+    ``rptr, rows, vals``, their coefficients per state).
+    """
     offsets, weights = (np.array(v, dtype=float) for v in _STAGES[m.method])
     return (np.int64(m.n_substeps), offsets, weights, m.input_hold == "linear", np.asarray(m.lower, dtype=float),
             np.asarray(m.upper, dtype=float), float(m.max_abs), m.rhs._arrays)

@@ -8,9 +8,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..estimation._model_step import model_step
+from ..estimation._model_step import kernel, model_step
 from ..libraries._terms import ABS_POW, POW, SIGN, SQRT, STEP
-from ..simulate import _STAGES
 
 __all__ = ["CasadiModel", "simulate_casadi", "to_casadi"]
 
@@ -126,14 +125,12 @@ def to_casadi(model):
         raise ImportError('to_casadi needs CasADi: pip install "sindybench[casadi]" (or pip install casadi).') from exc
     m = model_step(model)
     n, n_u = m.n_states, m.n_inputs
-    arrays = m.rhs._arrays
+    _, offsets, weights, _, lo, hi, _, arrays = kernel(m)  # stage table and flattened active terms
     x, u = ca.SX.sym("x", n), ca.SX.sym("u", n_u)
     z = [x[i] for i in range(n)] + [u[i] for i in range(n_u)]
     rhs = ca.Function("rhs", [x, u], [ca.vertcat(*_rhs_expr(ca, arrays, z, n))], ["x", "u"], ["xdot"])
 
     u0, u1 = ca.SX.sym("u0", n_u), ca.SX.sym("u1", n_u)
-    offsets, weights = _STAGES[m.method]
-    lo, hi = m.lower, m.upper
     hs = m.dt / m.n_substeps
     linear = m.input_hold == "linear"
     state = [x[i] for i in range(n)]
@@ -156,7 +153,7 @@ def to_casadi(model):
             stages.append(k)
         for i in range(n):
             incr = 0.0
-            for s, w in enumerate(weights):
+            for s, w in enumerate(weights.tolist()):
                 incr = incr + w * stages[s][i]
             state[i] = _clip(ca, state[i] + hs * incr, lo[i], hi[i])
     step = ca.Function("step", [x, u0, u1], [ca.vertcat(*state)], ["x", "u0", "u1"], ["x_next"])

@@ -10,6 +10,8 @@ MODULES = (
     ("sindybench.differentiation", "Derivative estimation"),
     ("sindybench.simulate", "Simulation"),
     ("sindybench.refine", "Fitting by simulation error"),
+    ("sindybench.estimation", "State estimation, prediction, linearization"),
+    ("sindybench.export", "Export (CasADi)"),
     ("sindybench.metrics", "Metrics and scorers"),
     ("sindybench.plotting", "Plotting"),
     ("sindybench.model_selection", "Model selection"),

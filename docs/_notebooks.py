@@ -14,7 +14,7 @@ The notebooks are Jupytext text notebooks, ``examples/<name>.py``. For each,
 
 from pathlib import Path
 
-NOTEBOOKS = ("quickstart", "pick_and_place", "bouc_wen", "cascaded_tanks", "sklearn_optuna_workflow")
+NOTEBOOKS = ("quickstart", "pick_and_place", "bouc_wen", "cascaded_tanks", "sklearn_optuna_workflow", "mpc_tanks")
 
 
 def write_notebooks(target, executed, examples, names=NOTEBOOKS):

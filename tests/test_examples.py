@@ -17,6 +17,7 @@ NOTEBOOKS = {
     "bouc_wen": ("Ideal (true m, c, k)", 5, True),
     "cascaded_tanks": ("Hidden SINDy", 3, True),
     "sklearn_optuna_workflow": ("tune", 2, False),
+    "mpc_tanks": ("closed loop over", 1, True),
 }
 
 

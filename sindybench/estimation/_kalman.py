@@ -1,0 +1,399 @@
+"""Continuous-discrete extended Kalman filter and Rauch-Tung-Striebel smoother.
+
+The state is propagated from sample to sample by the fitted model's own
+integrator (the simulator's step: Runge-Kutta stages, sub-steps, input hold,
+bounds) and the covariance by the exact Jacobian ``F`` of that step,
+``P <- F P F' + Q``; each measured sample then updates the measured states
+(the model's output states, ``H`` a selection) in Joseph form. The loop over
+samples, the smoother's backward pass included, is compiled with numba.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+from numba import njit
+
+from .._validation import check_signal
+from ._model_step import kernel, model_step, step_jacobian, workspace
+
+__all__ = ["FilterDivergenceError", "KalmanResult", "extended_kalman_filter", "rts_smoother"]
+
+_LOG_2PI = float(np.log(2 * np.pi))
+
+
+class FilterDivergenceError(RuntimeError):
+    """The filter diverged: the model's step blew up or a covariance lost positive definiteness.
+
+    Attributes
+    ----------
+    step : int
+        Index of the sample where it happened.
+    """
+
+    def __init__(self, message, *, step):
+        super().__init__(message)
+        self.step = step
+
+
+class KalmanResult(NamedTuple):
+    """What :func:`extended_kalman_filter` and :func:`rts_smoother` return.
+
+    Attributes
+    ----------
+    states : ndarray of shape (n_samples, n_states)
+        Filtered states ``x[k|k]`` (smoothed ``x[k|N]`` for the smoother).
+    covariances : ndarray of shape (n_samples, n_states, n_states)
+        Their covariances.
+    filtered_states, filtered_covariances : ndarray
+        The filter's ``x[k|k]`` and ``P[k|k]`` (the same arrays as ``states``
+        and ``covariances`` for the filter).
+    innovations : ndarray of shape (n_samples, n_outputs)
+        ``y[k] - x[k|k-1][output_index]``.
+    innovation_covariances : ndarray of shape (n_samples, n_outputs, n_outputs)
+    log_likelihood : float
+        Gaussian log-likelihood of the innovations.
+    """
+
+    states: np.ndarray
+    covariances: np.ndarray
+    filtered_states: np.ndarray
+    filtered_covariances: np.ndarray
+    innovations: np.ndarray
+    innovation_covariances: np.ndarray
+    log_likelihood: float
+
+
+# ------------------------------------------------------------ small dense algebra
+@njit(cache=True, inline="always")
+def _cholesky(A, L):
+    """Lower Cholesky factor of ``A`` into ``L``; False when ``A`` is not positive definite."""
+    n = A.shape[0]
+    for j in range(n):
+        d = A[j, j]
+        for k in range(j):
+            d -= L[j, k] * L[j, k]
+        if not d > 0.0:
+            return False
+        L[j, j] = np.sqrt(d)
+        for i in range(j + 1, n):
+            s = A[i, j]
+            for k in range(j):
+                s -= L[i, k] * L[j, k]
+            L[i, j] = s / L[j, j]
+        for i in range(j):
+            L[i, j] = 0.0
+    return True
+
+
+@njit(cache=True, inline="always")
+def _cho_solve(L, B):
+    """Solve ``L L' X = B`` in place (``B`` of shape (n, r))."""
+    n = L.shape[0]
+    for c in range(B.shape[1]):
+        for i in range(n):
+            s = B[i, c]
+            for k in range(i):
+                s -= L[i, k] * B[k, c]
+            B[i, c] = s / L[i, i]
+        for i in range(n - 1, -1, -1):
+            s = B[i, c]
+            for k in range(i + 1, n):
+                s -= L[k, i] * B[k, c]
+            B[i, c] = s / L[i, i]
+
+
+@njit(cache=True, inline="always")
+def _sandwich(A, P, tmp, out):
+    """``out = A P A'`` (symmetrised), with ``tmp`` of shape (n, n)."""
+    n = P.shape[0]
+    for i in range(n):
+        for j in range(n):
+            acc = 0.0
+            for k in range(n):
+                acc += A[i, k] * P[k, j]
+            tmp[i, j] = acc
+    for i in range(n):
+        for j in range(i + 1):
+            acc = 0.0
+            for k in range(n):
+                acc += tmp[i, k] * A[j, k]
+            out[i, j] = acc
+            out[j, i] = acc
+
+
+@njit(cache=True)
+def _filter(x0, P0, u, y, h, Q, R, oidx, kern, xf, Pf, xp, Pp, F, innov, S_out):
+    """Run the filter; return (first failing sample or -1, failure code, log-likelihood).
+
+    Codes: 1 the model's step diverged, 2 the innovation covariance is not
+    positive definite, 3 the updated state is not finite.
+    """
+    n, m, N = x0.shape[0], oidx.shape[0], y.shape[0]
+    lo, hi = kern[4], kern[5]
+    x = x0.copy()
+    P = P0.copy()
+    x_next = np.empty(n)
+    J = np.empty((n, n))
+    work = workspace(kern, n, u.shape[1])
+    S = np.empty((m, m))
+    L = np.zeros((m, m))
+    PHt = np.empty((n, m))
+    Kt = np.empty((m, n))
+    A = np.empty((n, n))
+    tmp = np.empty((n, n))
+    e = np.empty(m)
+    w = np.empty((m, 1))
+    loglik = 0.0
+    for k in range(N):
+        if k > 0:
+            if step_jacobian(x, u[k - 1:k + 1], h[k - 1:k], kern, work, x_next, J) >= 0:
+                return k, 1, loglik
+            x[:] = x_next
+            _sandwich(J, P, tmp, P)
+            for i in range(n):
+                for j in range(n):
+                    P[i, j] += Q[i, j]
+            F[k] = J
+        xp[k] = x
+        Pp[k] = P
+        # update with y[k]: H picks the measured states
+        for a in range(m):
+            e[a] = y[k, a] - x[oidx[a]]
+            for b in range(m):
+                S[a, b] = P[oidx[a], oidx[b]] + R[a, b]
+            for i in range(n):
+                PHt[i, a] = P[i, oidx[a]]
+        if not _cholesky(S, L):
+            return k, 2, loglik
+        Kt[:, :] = PHt.T
+        _cho_solve(L, Kt)  # Kt = S^-1 H P, the transposed gain
+        for a in range(m):
+            w[a, 0] = e[a]
+        _cho_solve(L, w)
+        logdet = 0.0
+        quad = 0.0
+        for a in range(m):
+            logdet += 2.0 * np.log(L[a, a])
+            quad += e[a] * w[a, 0]
+        loglik -= 0.5 * (logdet + quad + m * _LOG_2PI)
+        for i in range(n):
+            for a in range(m):
+                x[i] += Kt[a, i] * e[a]
+            if not np.isfinite(x[i]):
+                return k, 3, loglik
+            x[i] = min(max(x[i], lo[i]), hi[i])
+        # Joseph form: (I - K H) P (I - K H)' + K R K'
+        for i in range(n):
+            for j in range(n):
+                A[i, j] = 1.0 if i == j else 0.0
+            for a in range(m):
+                A[i, oidx[a]] -= Kt[a, i]
+        _sandwich(A, P, tmp, P)
+        for i in range(n):
+            for j in range(i + 1):
+                acc = 0.0
+                for a in range(m):
+                    for b in range(m):
+                        acc += Kt[a, i] * R[a, b] * Kt[b, j]
+                P[i, j] += acc
+                if j != i:
+                    P[j, i] += acc
+        xf[k] = x
+        Pf[k] = P
+        innov[k] = e
+        S_out[k] = S
+    return -1, 0, loglik
+
+
+@njit(cache=True)
+def _smooth(xf, Pf, xp, Pp, F, xs, Ps):
+    """Backward RTS pass; return -1 or the sample whose predicted covariance is singular."""
+    N, n = xf.shape
+    xs[N - 1] = xf[N - 1]
+    Ps[N - 1] = Pf[N - 1]
+    L = np.zeros((n, n))
+    for k in range(N - 2, -1, -1):
+        # gain G = Pf[k] F' Pp[k+1]^-1, from Pp[k+1] G' = F Pf[k]
+        Gt = F[k + 1] @ Pf[k]
+        if _cholesky(Pp[k + 1], L):
+            _cho_solve(L, Gt)
+        else:
+            Gt = np.linalg.pinv(Pp[k + 1]) @ Gt
+        G = Gt.T.copy()
+        xs[k] = xf[k] + G @ (xs[k + 1] - xp[k + 1])
+        P = Pf[k] + G @ (Ps[k + 1] - Pp[k + 1]) @ Gt
+        Ps[k] = 0.5 * (P + P.T)
+        for i in range(n):
+            if not np.isfinite(xs[k, i]):
+                return k
+    return -1
+
+
+# ----------------------------------------------------------------- input checks
+def check_covariance(C, n, name, *, definite=False):
+    """A symmetric positive (semi-)definite ``(n, n)`` matrix from a matrix, a diagonal or a scalar."""
+    C = np.asarray(C, dtype=float)
+    if C.ndim == 0:
+        C = np.full(n, float(C))
+    if C.ndim == 1:
+        if C.shape[0] != n:
+            raise ValueError(f"{name} has {C.shape[0]} entries; expected {n} (a diagonal) or an ({n}, {n}) matrix.")
+        C = np.diag(C)
+    if C.shape != (n, n):
+        raise ValueError(f"{name} has shape {C.shape}; expected ({n}, {n}) (or a diagonal of length {n}).")
+    if not np.all(np.isfinite(C)):
+        raise ValueError(f"{name} contains NaN or inf; expected a finite covariance.")
+    if not np.allclose(C, C.T, rtol=1e-10, atol=1e-14 * max(1.0, np.abs(C).max())):
+        raise ValueError(f"{name} is not symmetric; expected a covariance matrix.")
+    C = 0.5 * (C + C.T)
+    low = np.linalg.eigvalsh(C).min() if n else 0.0
+    tol = 1e-12 * max(1.0, np.abs(C).max())
+    if low < -tol or (definite and low <= 0.0):
+        kind = "positive definite" if definite else "positive semi-definite"
+        raise ValueError(f"{name} is not {kind} (smallest eigenvalue {low:.3g}); expected a {kind} covariance.")
+    return np.ascontiguousarray(C)
+
+
+def _check_record(m, X, y):
+    y = check_signal(y, "y")  # refuses NaN: the filter does not skip samples
+    n_out = len(m.output_index)
+    if y.shape[1] != n_out:
+        raise ValueError(f"y has {y.shape[1]} columns; expected {n_out} (one per measured state).")
+    if m.n_inputs == 0 and X is None:
+        X = np.zeros((y.shape[0], 0))
+    X = np.ascontiguousarray(check_signal(X, "X"))
+    if X.shape != (y.shape[0], m.n_inputs):
+        raise ValueError(f"X has shape {X.shape}; expected ({y.shape[0]}, {m.n_inputs}) (one row per sample of y, "
+                         "one column per input).")
+    if not np.all(np.isfinite(X)):
+        raise ValueError("X contains NaN or inf; expected finite inputs.")
+    return X, np.ascontiguousarray(y)
+
+
+def _check_prior(m, x0, P0):
+    n = m.n_states
+    x0 = m.x0 if x0 is None else np.asarray(x0, dtype=float)
+    if x0.shape != (n,) or not np.all(np.isfinite(x0)):
+        raise ValueError(f"x0 = {x0!r}; expected {n} finite numbers (the prior mean of the first state).")
+    P0 = np.diag(m.state_scale**2) if P0 is None else P0
+    return np.clip(x0, m.lower, m.upper), check_covariance(P0, n, "P0")
+
+
+_CAUSES = {
+    1: "the model's step diverged (state not finite or beyond max_abs)",
+    2: "the innovation covariance lost positive definiteness",
+    3: "the updated state is not finite",
+}
+
+
+def run_filter(model, X, y, *, Q, R, x0=None, P0=None):
+    """The filter with its stored predictions (the smoother's input); checks every argument."""
+    m = model_step(model)
+    X, y = _check_record(m, X, y)
+    n, n_out, N = m.n_states, len(m.output_index), y.shape[0]
+    Q = check_covariance(Q, n, "Q")
+    R = check_covariance(R, n_out, "R", definite=True)
+    x0, P0 = _check_prior(m, x0, P0)
+    h = np.full(max(N - 1, 0), m.dt)
+    arrays = {name: np.zeros(shape) for name, shape in (
+        ("xf", (N, n)), ("Pf", (N, n, n)), ("xp", (N, n)), ("Pp", (N, n, n)), ("F", (N, n, n)),
+        ("innov", (N, n_out)), ("S", (N, n_out, n_out)))}
+    oidx = np.asarray(m.output_index, dtype=np.int64)
+    k, code, loglik = _filter(x0, P0, X, y, h, Q, R, oidx, kernel(m), *arrays.values())
+    if k >= 0:
+        raise FilterDivergenceError(f"the Kalman filter diverged at sample {k} of {N}: {_CAUSES[code]}. Check the "
+                                    "model (does its simulation of this record stay finite?), Q, R and the prior.",
+                                    step=int(k))
+    return arrays, float(loglik)
+
+
+def extended_kalman_filter(model, X, y, *, Q, R, x0=None, P0=None):
+    """Filtered states of a fitted model given its inputs and measured outputs.
+
+    Parameters
+    ----------
+    model : SINDy, HiddenStateSINDy or ModelStep
+        A fitted model with the compiled right-hand side.
+    X : array-like of shape (n_samples, n_inputs)
+        Inputs (None for a model without inputs).
+    y : array-like of shape (n_samples, n_outputs)
+        Measured outputs (the model's output states), no NaN.
+    Q : array-like of shape (n_states, n_states), (n_states,) or float
+        Process noise covariance added per sample step (a diagonal or a
+        scalar times the identity are accepted); positive semi-definite.
+    R : array-like of shape (n_outputs, n_outputs), (n_outputs,) or float
+        Measurement noise covariance; positive definite.
+    x0 : array-like of shape (n_states,), optional
+        Prior mean of the state at the first sample (default: the model's
+        first training state).
+    P0 : array-like, optional
+        Prior covariance (default: the variance of each state on the
+        training record, on the diagonal).
+
+    Returns
+    -------
+    KalmanResult
+
+    Raises
+    ------
+    ValueError
+        On a wrong shape, NaN, or a covariance that is not positive
+        (semi-)definite.
+    FilterDivergenceError
+        When the filter diverges.
+
+    See Also
+    --------
+    rts_smoother, estimate_noise
+
+    Examples
+    --------
+    A damped oscillator whose velocity is not measured:
+
+    >>> import numpy as np
+    >>> from sindybench.simulate import TermsRHS, simulate
+    >>> from sindybench.estimation import ModelStep
+    >>> rhs = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0}, {((0, 0, 1, 0),): -4.0, ((1, 0, 1, 0),): -0.4}])
+    >>> m = ModelStep.from_rhs(rhs, 0.05)
+    >>> x = simulate(rhs, [1.0, 0.0], np.zeros((200, 0)), 0.05)
+    >>> y = x[:, :1] + 0.01 * np.random.default_rng(0).standard_normal((200, 1))
+    >>> res = extended_kalman_filter(m, None, y, Q=1e-8, R=1e-4, x0=[0.0, 0.0], P0=1.0)
+    >>> bool(np.abs(res.states[-50:, 1] - x[-50:, 1]).max() < 0.02)
+    True
+    """
+    a, loglik = run_filter(model, X, y, Q=Q, R=R, x0=x0, P0=P0)
+    return KalmanResult(a["xf"], a["Pf"], a["xf"], a["Pf"], a["innov"], a["S"], loglik)
+
+
+def rts_smoother(model, X, y, *, Q, R, x0=None, P0=None):
+    """Smoothed states (Rauch-Tung-Striebel) of a fitted model over a whole record.
+
+    The extended Kalman filter runs forward, then the backward pass combines
+    each filtered state with the smoothed next one through the stored step
+    Jacobians. Parameters, errors and defaults are those of
+    :func:`extended_kalman_filter`.
+
+    Returns
+    -------
+    KalmanResult
+        ``states`` and ``covariances`` are the smoothed ones.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from sindybench.simulate import TermsRHS, simulate
+    >>> from sindybench.estimation import ModelStep
+    >>> rhs = TermsRHS.from_equations([{((1, 0, 1, 0),): 1.0}, {((0, 0, 1, 0),): -4.0}])
+    >>> m = ModelStep.from_rhs(rhs, 0.05)
+    >>> y = simulate(rhs, [1.0, 0.5], np.zeros((100, 0)), 0.05)[:, :1]
+    >>> res = rts_smoother(m, None, y, Q=0.0, R=1e-6, x0=[0.0, 0.0], P0=10.0)
+    >>> np.round(res.states[0], 3).tolist()
+    [1.0, 0.5]
+    """
+    a, loglik = run_filter(model, X, y, Q=Q, R=R, x0=x0, P0=P0)
+    xs, Ps = np.empty_like(a["xf"]), np.empty_like(a["Pf"])
+    if a["xf"].shape[0]:
+        k = _smooth(a["xf"], a["Pf"], a["xp"], a["Pp"], a["F"], xs, Ps)
+        if k >= 0:
+            raise FilterDivergenceError(f"the RTS smoother produced a non-finite state at sample {k}.", step=int(k))
+    return KalmanResult(xs, Ps, a["xf"], a["Pf"], a["innov"], a["S"], loglik)

@@ -32,6 +32,10 @@ class LagModel(RegressorMixin, BaseEstimator):
     def _fit_lags(self, X, y):
         """Validate, set the common fitted attributes, return ``(phi, target)``."""
         na, nb, nk = self._check_orders()
+        if X is None:
+            raise ValueError(
+                f"X is None; {type(self).__name__} expects the inputs, an array of shape (n_samples, n_inputs)."
+            )
         u, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
         y = np.asarray(y, dtype=float)
         self.y_ndim_ = y.ndim
@@ -40,13 +44,12 @@ class LagModel(RegressorMixin, BaseEstimator):
         self.n_outputs_ = y.shape[1]
         self.n_lags_ = n_lags(na, nb, nk)
         self.y_mean_ = y.mean(axis=0)
-        phi, target = lagged_regressors(u, y, na, nb, nk)
-        if target.shape[0] < 1:
+        if y.shape[0] <= self.n_lags_:
             raise ValueError(
                 f"got {y.shape[0]} samples; {type(self).__name__}(na={na}, nb={nb}, nk={nk}) needs at least "
                 f"{self.n_lags_ + 1} (the {self.n_lags_} first samples only start the lags)."
             )
-        return phi, target
+        return lagged_regressors(u, y, na, nb, nk)
 
     def _initial_outputs(self, y_init, n_samples):
         n0 = min(self.n_lags_, n_samples)

@@ -394,6 +394,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         dt, est_space = self._check_params(dt)
         hidden = clone(self.hidden) if self.hidden is not None else _default_strategy()
         hidden._validate()
+        hidden._validate_data(X, y1)
         space = {_HIDDEN_PREFIX + k: ("float", lo, hi, log) for k, (lo, hi, log) in hidden.search_space().items()}
         space.update(est_space)
         n = y1.shape[0]

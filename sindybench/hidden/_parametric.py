@@ -170,10 +170,8 @@ class ParametricHiddenState(HiddenStrategy):
         """
         rhs = self._hidden_rhs()
         name = getattr(rhs, "__qualname__", None) or repr(rhs)
-        specs = self._x0_specs()
-        q = len(specs)
-        x_h = np.array([s if isinstance(s, float) else _middle(s) for s in specs])
-        params = {k: s if isinstance(s, float) else _middle(s) for k, s in self._param_specs().items()}
+        params, x_h = self._split(self.resolve_params({k: _middle(s) for k, s in self.search_space().items()}))
+        q = x_h.shape[0]
         call = f"rhs(x_h, y, u{''.join(f', {k}=...' for k in params)})"
         try:
             signature = inspect.signature(rhs)

@@ -145,6 +145,38 @@ def test_concat_with_custom_is_not_compilable(Z):
     assert_allclose(lib.transform(Z)[:, 4:], np.cos(Z))
 
 
+def test_concat_drops_repeated_terms(Z):
+    # before: x0, x1, x2 twice (two collinear columns, a coefficient split between them; issue 18, case 18)
+    lib = (PolynomialLibrary(degree=1) + PolynomialLibrary(degree=3, include_bias=False)).fit(Z)
+    names = lib.get_feature_names_out().tolist()
+    assert names == PolynomialLibrary(degree=3).fit(Z).get_feature_names_out().tolist()
+    assert len(names) == len(set(names)) == lib.n_output_features_ == len(lib.terms_) == 20
+    assert_allclose(lib.transform(Z), PolynomialLibrary(degree=3).fit_transform(Z))
+    # a repeat in canonical form (x0 x0 is x0^2) is a repeat too; the first occurrence stays
+    lib = ConcatLibrary([PolynomialLibrary(degree=2, variables=[0]),
+                         TermsLibrary(terms=[[[0, POW, 1.0, 0.0], [0, POW, 1.0, 0.0]], [[1, SIGN, 0, 0]]])]).fit(Z)
+    assert lib.get_feature_names_out().tolist() == ["1", "x0", "x0^2", "sign(x1)"]
+    assert lib.terms_[2] == ((0, POW, 2.0, 0.0),)
+
+
+def test_concat_without_repeats_keeps_every_column(Z):
+    # the libraries of the benchmark experiments have no repeated term: their columns are unchanged
+    parts = [PolynomialLibrary(degree=2), SqrtLibrary(variables=[0, 1]), TermsLibrary(terms=[[[1, SIGN, 0, 0]]])]
+    lib = ConcatLibrary(parts).fit(Z)
+    assert lib.terms_ == [t for p in parts for t in clone(p).fit(Z).terms_]
+
+
+def test_sindy_with_repeated_terms_gets_one_coefficient():
+    from sindybench import STLS, SINDy
+    from sindybench.simulate import simulate
+
+    u = np.sin(np.arange(0, 10, 0.01))[:, None]
+    y = simulate(lambda x, u: np.array([-2.0 * x[0] + u[0]]), [0.5], u, dt=0.01, input_hold="linear")
+    library = PolynomialLibrary(degree=1) + PolynomialLibrary(degree=2, include_bias=False)
+    model = SINDy(library=library, optimizer=STLS(threshold=0.1), dt=0.01).fit(u, y)
+    assert model.equations(precision=1) == ["y0' = -2.0 y0 + 1.0 u0"]
+
+
 def test_concat_nested_params():
     lib = ConcatLibrary([PolynomialLibrary(degree=2), SqrtLibrary()])
     assert lib.get_params()["libraries__0__degree"] == 2

@@ -14,6 +14,7 @@ from sindybench.libraries import (
     ConcatLibrary,
     CustomLibrary,
     ExternalLibrary,
+    FrictionLibrary,
     PolynomialLibrary,
     ProductLibrary,
     SqrtLibrary,
@@ -175,6 +176,46 @@ def test_sindy_with_repeated_terms_gets_one_coefficient():
     library = PolynomialLibrary(degree=1) + PolynomialLibrary(degree=2, include_bias=False)
     model = SINDy(library=library, optimizer=STLS(threshold=0.1), dt=0.01).fit(u, y)
     assert model.equations(precision=1) == ["y0' = -2.0 y0 + 1.0 u0"]
+
+
+def test_friction_library_values_and_names():
+    Z = np.array([[2.0, -0.5], [-1.0, 0.0], [0.0, 3.0]])
+    lib = FrictionLibrary(powers=[1.0, 2.0]).fit(Z)
+    assert lib.get_feature_names_out(["x", "v"]).tolist() == [
+        "sign(x)", "sign(v)", "sign(x) |x|", "sign(v) |v|", "sign(x) |x|^2", "sign(v) |v|^2"]
+    assert_allclose(lib.transform(Z), np.column_stack([np.sign(Z), Z, np.sign(Z) * Z**2]))
+    assert FrictionLibrary(variables=[1]).fit(Z).get_feature_names_out(["x", "v"]).tolist() == ["sign(v)"]
+
+
+@pytest.mark.parametrize("powers, match", [("2", "powers must be a sequence of numbers > 0"),
+                                           (3.0, "powers must be a sequence of numbers > 0"),
+                                           ([0.0], "powers must be a finite number > 0"),
+                                           ([np.nan], "powers must be a finite number > 0")])
+def test_friction_library_bad_powers(powers, match):
+    with pytest.raises(ValueError, match=match):
+        FrictionLibrary(powers=powers).fit(np.zeros((2, 1)))
+
+
+def test_sindy_finds_coulomb_friction(tmp_path):
+    # a velocity v' = u - 0.5 v - 0.3 sign(v), simulated and identified with polynomial + friction terms
+    from sindybench import STLS, SINDy, load_model
+    from sindybench.io import save_model
+    from sindybench.simulate import simulate
+
+    t = np.arange(0, 40, 0.01)
+    u = (np.sin(0.7 * t) + 0.5 * np.sin(2.3 * t))[:, None]
+    y = simulate(lambda x, u: np.array([u[0] - 0.5 * x[0] - 0.3 * np.sign(x[0])]), [0.2], u, dt=0.01,
+                 input_hold="linear")
+    library = PolynomialLibrary(degree=1) + FrictionLibrary(variables=[0])
+    model = SINDy(library=library, optimizer=STLS(threshold=0.05), dt=0.01).fit(u, y)
+    coef = dict(zip(model.library_.get_feature_names_out(["y0", "u0"]), model.coef_[0]))
+    assert {k for k, c in coef.items() if c != 0} == {"y0", "u0", "sign(y0)"}
+    assert coef["y0"] == pytest.approx(-0.5, rel=0.06) and coef["u0"] == pytest.approx(1.0, rel=0.01)
+    assert coef["sign(y0)"] == pytest.approx(-0.3, rel=0.06)  # the differentiated kinks cost a few percent
+    assert model.score(u, y) > 0.99
+    save_model(model, tmp_path / "friction.json")
+    loaded = load_model(tmp_path / "friction.json")
+    np.testing.assert_array_equal(loaded.predict(u, y_init=y), model.predict(u, y_init=y))
 
 
 def test_concat_nested_params():

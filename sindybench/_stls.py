@@ -42,9 +42,9 @@ from functools import lru_cache
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import check_is_fitted
 
-from ._validation import check_bool, check_integer, check_positive, check_signal
+from ._validation import check_bool, check_integer, check_positive, check_signal, validate_named
 from .io import SaveLoadMixin, check_params, encode_array, register_model
 
 __all__ = ["GramCache", "STLS", "clear_stls_cache", "stls"]
@@ -491,7 +491,8 @@ class STLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
             self.threshold, self.alpha, self.max_iter, self.normalize_columns, self.unbias
         )
         check_bool(self.cache, "cache")
-        X, y = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=float)
+        X, y = validate_named(self, X, y, multi_output=True, y_numeric=True, dtype=float)
+        y = check_signal(y, "y", ensure_2d=False)  # strings pass validate_data as they are
         target_1d = y.ndim == 1
         y2 = y.reshape(-1, 1) if target_1d else y
         gram = _shared_cache(X, y2) if self.cache else GramCache._from_checked(X, y2)
@@ -513,7 +514,7 @@ class STLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
         ndarray of shape (n_samples,) or (n_samples, n_targets)
         """
         check_is_fitted(self)
-        X = validate_data(self, X, reset=False, dtype=float)
+        X = validate_named(self, X, reset=False, dtype=float)
         return X @ self.coef_.T
 
     def __sklearn_tags__(self):

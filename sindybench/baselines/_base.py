@@ -2,9 +2,9 @@
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import check_is_fitted
 
-from .._validation import check_integer, check_signal
+from .._validation import check_integer, check_signal, validate_named
 from ..metrics import make_simulation_scorer
 from ._lags import lagged_regressors, n_lags
 
@@ -36,7 +36,7 @@ class LagModel(RegressorMixin, BaseEstimator):
             raise ValueError(
                 f"X is None; {type(self).__name__} expects the inputs, an array of shape (n_samples, n_inputs)."
             )
-        u, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
+        u, y = validate_named(self, X, y, multi_output=True, y_numeric=True)
         y = np.asarray(y, dtype=float)
         self.y_ndim_ = y.ndim
         y = y.reshape(-1, 1) if y.ndim == 1 else y
@@ -84,7 +84,7 @@ class LagModel(RegressorMixin, BaseEstimator):
             unstable model gives inf or NaN, never an exception.
         """
         check_is_fitted(self)
-        u = np.asarray(validate_data(self, X, reset=False), dtype=float)
+        u = np.asarray(validate_named(self, X, reset=False), dtype=float)
         y_start = self._initial_outputs(y_init, u.shape[0])
         with np.errstate(over="ignore", invalid="ignore"):
             y = self._simulate(u, y_start) if u.shape[0] > y_start.shape[0] else y_start.copy()

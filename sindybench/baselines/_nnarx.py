@@ -220,7 +220,11 @@ class NNARX(SaveLoadMixin, LagModel):
         else:
             self.linear_coef_ = np.zeros((features.shape[1], z.shape[1]))
             self.linear_intercept_ = np.zeros(z.shape[1])
-        rng = check_random_state(self.random_state)
+        try:
+            rng = check_random_state(self.random_state)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"random_state = {self.random_state!r}: {exc}; expected None, an integer in "
+                             "[0, 2**32 - 1] or a numpy RandomState.") from exc
         seeds = rng.randint(np.iinfo(np.int32).max, size=int(self.n_estimators))
         # one BLAS thread: the products are (n_samples x a few dozen), where threads only add overhead (tens of
         # times slower on a busy machine), and a thread count would change the rounding, hence the networks

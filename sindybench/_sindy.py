@@ -15,6 +15,7 @@ from ._validation import (
     check_array_like,
     check_bounds,
     check_dt,
+    check_estimator_param,
     check_inputs_outputs,
     check_integer,
     check_model_inputs,
@@ -39,7 +40,8 @@ logger = logging.getLogger(__name__)
 def _check_names(names, n, prefix, name):
     if names is None:
         return [f"{prefix}{i}" for i in range(n)]
-    if isinstance(names, str) or len(names) != n or not all(isinstance(s, str) for s in names):
+    if isinstance(names, str) or not hasattr(names, "__len__") or len(names) != n or not all(
+            isinstance(s, str) for s in names):
         raise ValueError(f"{name} must be a list of {n} strings; got {names!r}.")
     return list(names)
 
@@ -162,6 +164,7 @@ class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, Regressor
         check_option(self.input_hold, "input_hold", _HOLDS)
         check_positive(self.max_abs, "max_abs", allow_inf=True)
         check_bounds(self.bounds, n_states)
+        check_estimator_param(self.optimizer, "optimizer", "a regressor with coef_ such as STLS()")
         if self.refine is not None and not hasattr(self.refine, "run"):
             raise ValueError(f"refine must be an OutputErrorRefinement or None; got {type(self.refine).__name__}.")
 

@@ -22,6 +22,15 @@ Each least-squares problem on a support ``S`` is then a small problem on the
 columns ``S`` of ``R`` (O(n_features^3)), solved by an orthogonal method, so
 the accuracy matches a least-squares solve on ``theta`` itself (no squaring of
 the condition number as with the normal equations).
+
+Scale. Data far from unit magnitude (columns of ``theta`` whose magnitudes
+differ by more than ``2**40``, or any value beyond ``2**+-400``, where
+squares overflow or ``lstsq``'s rank cut-off drops the small columns) is
+rescaled column by column by powers of two before the factorization, and the
+thresholds, the ridge penalty and the returned coefficients are expressed in
+the original units. Powers of two are exact, and data within these limits is
+not touched at all, so results on ordinary data are bit for bit those of the
+unscaled algorithm.
 """
 
 import logging
@@ -33,9 +42,9 @@ from functools import lru_cache
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import check_is_fitted
 
-from ._validation import check_bool, check_integer, check_positive, check_signal
+from ._validation import check_bool, check_integer, check_positive, check_signal, validate_named
 from .io import SaveLoadMixin, check_params, encode_array, register_model
 
 __all__ = ["GramCache", "STLS", "clear_stls_cache", "stls"]
@@ -45,6 +54,8 @@ logger = logging.getLogger(__name__)
 _SUPPORT_TOL = 1e-14  # pysindy's cut for the support refitted by ``unbias``
 _QR_CHUNK = 200_000  # rows factorized at a time (bounded memory for long records)
 _SHARED_CACHE_SIZE = 8
+_SCALE_RATIO = 2.0**40  # column magnitudes further apart are equilibrated (lstsq's rank cut-off is ~1e-15)
+_SAFE_RANGE = (2.0**-400, 2.0**400)  # magnitudes whose squares and sums neither overflow nor underflow
 
 
 @lru_cache(maxsize=4)
@@ -59,12 +70,35 @@ def _weights(n):
 def _fingerprint(a):
     """Cheap O(size) summary of an array's content (shape, dtype, weighted column sums)."""
     a2 = a.reshape(a.shape[0], -1)
-    sums = _weights(a.shape[0]) @ a2
+    with np.errstate(over="ignore", invalid="ignore"):  # near the float limit the sums saturate (still a key)
+        sums = _weights(a.shape[0]) @ a2
     return (a.shape, a.dtype.str, sums.tobytes())
 
 
 def _data_key(theta, target):
     return (_fingerprint(theta), _fingerprint(target))
+
+
+def _power_of_two(m):
+    """The largest power of two <= ``m`` (1 where ``m`` is 0): an exact scale."""
+    _, e = np.frexp(m)
+    return np.where(m > 0, np.ldexp(1.0, e - 1), 1.0)
+
+
+def _scales(theta, target):
+    """Power-of-two scales of the columns of ``theta`` and ``target``, or ``None`` when none is needed."""
+    if theta.shape[0] == 0:
+        return None
+    col = np.max(np.abs(theta), axis=0)
+    tcol = np.max(np.abs(target), axis=0)
+    low, high = _SAFE_RANGE
+    big, small = col[col > 0], np.r_[col[col > 0], tcol[tcol > 0]]
+    if small.size == 0:
+        return None
+    spread = big.size > 0 and big.max() / _SCALE_RATIO > big.min()
+    if not (spread or small.min() < low or small.max() > high):
+        return None
+    return _power_of_two(col), _power_of_two(tcol)
 
 
 def _check_data(theta, target):
@@ -124,6 +158,13 @@ class GramCache:
         n, p = theta.shape
         self.n_samples, self.n_features, self.n_targets = n, p, target.shape[1]
         self._key = _data_key(theta, target) if key is None else key
+        scales = _scales(theta, target)
+        if scales is None:
+            self._theta_scale, self._target_scale = np.ones(p), np.ones(target.shape[1])
+        else:
+            self._theta_scale, self._target_scale = scales
+            theta, target = theta / self._theta_scale, target / self._target_scale
+            logger.debug("STLS rescales the data (column scales %s)", self._theta_scale)
         r = None
         for start in range(0, n, _QR_CHUNK):
             block = np.hstack([theta[start : start + _QR_CHUNK], target[start : start + _QR_CHUNK]])
@@ -133,7 +174,9 @@ class GramCache:
         m = min(r.shape[0], p)
         self._a = np.ascontiguousarray(r[:m, :p])
         self._c = np.ascontiguousarray(r[:m, p:])
-        self.col_norms = np.sqrt(np.sum(self._a**2, axis=0))
+        self._norms = np.sqrt(np.sum(self._a**2, axis=0))  # of the (rescaled) columns
+        with np.errstate(over="ignore"):
+            self.col_norms = self._norms * self._theta_scale
 
     @classmethod
     def _from_checked(cls, theta, target, key=None):
@@ -145,12 +188,13 @@ class GramCache:
     @property
     def gram(self):
         """``theta^T theta``, shape (n_features, n_features)."""
-        return self._a.T @ self._a
+        a = self._a * self._theta_scale
+        return a.T @ a
 
     @property
     def projected_target(self):
         """``theta^T target``, shape (n_features, n_targets)."""
-        return self._a.T @ self._c
+        return (self._a * self._theta_scale).T @ (self._c * self._target_scale)
 
     def matches(self, theta, target):
         """True when ``(theta, target)`` has the shape and fingerprint this cache was built from."""
@@ -205,10 +249,12 @@ def _check_params(threshold, alpha, max_iter, normalize_columns, unbias):
     return threshold, alpha, max_iter
 
 
-def _solve_groups(a, c, ind, rows, alpha):
+def _solve_groups(a, c, ind, rows, alpha, units):
     """Least squares (ridge if ``alpha > 0``) for each target in ``rows`` on its support.
 
-    Targets sharing a support are solved together. Returns ``{row: (support, w)}``.
+    Targets sharing a support are solved together. The penalty is
+    ``alpha ||w / units||^2`` (``units``: one scale per column). Returns
+    ``{row: (support, w)}``.
     """
     out = {}
     groups = {}
@@ -219,7 +265,7 @@ def _solve_groups(a, c, ind, rows, alpha):
         lhs = a[:, support]
         rhs = c[:, members]
         if alpha > 0:
-            lhs = np.vstack([lhs, np.sqrt(alpha) * np.eye(support.size)])
+            lhs = np.vstack([lhs, np.diag(np.sqrt(alpha) / units[support])])
             rhs = np.vstack([rhs, np.zeros((support.size, len(members)))])
         w = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
         for k, i in enumerate(members):
@@ -229,11 +275,19 @@ def _solve_groups(a, c, ind, rows, alpha):
 
 def _stls_core(cache, threshold, alpha, max_iter, normalize_columns, unbias):
     """STLS on a :class:`GramCache`; returns ``coef`` (n_targets, n_features) and ``n_iter``."""
+    # Working units: ``a`` holds the columns of theta / theta_scale (/ their norms with normalize_columns),
+    # ``c`` the targets / target_scale; a working coefficient w is w * target_scale / units in the units
+    # in which it is thresholded and penalized, and w * target_scale / (norms * theta_scale) in the end.
+    # Without rescaling every scale is 1.0, and multiplying or dividing by 1.0 is exact.
     a, c = cache._a, cache._c
     n_targets, n_features = cache.n_targets, cache.n_features
+    t_scale, y_scale = cache._theta_scale, cache._target_scale
+    norms = np.ones(n_features)
+    units = t_scale
     if normalize_columns:
-        norms = np.where(cache.col_norms > 0, cache.col_norms, 1.0)
+        norms = np.where(cache._norms > 0, cache._norms, 1.0)
         a = a / norms
+        units = np.ones(n_features)
     ind = np.ones((n_targets, n_features), dtype=bool)
     coef = np.zeros((n_targets, n_features))
     pattern = np.ones_like(ind)
@@ -248,10 +302,11 @@ def _stls_core(cache, threshold, alpha, max_iter, normalize_columns, unbias):
         for i in np.flatnonzero(~ind.any(axis=1)):
             coef[i] = 0.0
         rows = np.flatnonzero(todo & ind.any(axis=1))
-        for i, (support, w) in _solve_groups(a, c, ind, rows, alpha).items():
+        for i, (support, w) in _solve_groups(a, c, ind, rows, alpha, units).items():
             full = np.zeros(n_features)
             full[support] = w
-            big = np.abs(full) >= threshold
+            with np.errstate(over="ignore"):  # an overflowing coefficient is reported at the end
+                big = np.abs(full * (y_scale[i] / units)) >= threshold
             full[~big] = 0.0
             coef[i] = full
             new_ind[i] = big
@@ -273,10 +328,16 @@ def _stls_core(cache, threshold, alpha, max_iter, normalize_columns, unbias):
         support = np.abs(coef) > _SUPPORT_TOL
         rows = np.flatnonzero(support.any(axis=1))
         coef = np.zeros_like(coef)
-        for i, (cols, w) in _solve_groups(a, c, support, rows, 0.0).items():
+        for i, (cols, w) in _solve_groups(a, c, support, rows, 0.0, units).items():
             coef[i, cols] = w
-    if normalize_columns:
-        coef = coef / norms
+    with np.errstate(over="ignore"):
+        coef = coef / norms * (y_scale[:, None] / t_scale)
+    if not np.all(np.isfinite(coef)):
+        raise ValueError(
+            "the STLS coefficients overflow: the magnitudes of theta and target are too far apart "
+            f"(theta's column norms span {np.min(cache.col_norms):.3g} to {np.max(cache.col_norms):.3g}, "
+            f"the target's scale is {np.max(y_scale):.3g}); expected data whose coefficients fit in a float."
+        )
     return coef, n_iter
 
 
@@ -430,7 +491,8 @@ class STLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
             self.threshold, self.alpha, self.max_iter, self.normalize_columns, self.unbias
         )
         check_bool(self.cache, "cache")
-        X, y = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=float)
+        X, y = validate_named(self, X, y, multi_output=True, y_numeric=True, dtype=float)
+        y = check_signal(y, "y", ensure_2d=False)  # strings pass validate_data as they are
         target_1d = y.ndim == 1
         y2 = y.reshape(-1, 1) if target_1d else y
         gram = _shared_cache(X, y2) if self.cache else GramCache._from_checked(X, y2)
@@ -452,7 +514,7 @@ class STLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
         ndarray of shape (n_samples,) or (n_samples, n_targets)
         """
         check_is_fitted(self)
-        X = validate_data(self, X, reset=False, dtype=float)
+        X = validate_named(self, X, reset=False, dtype=float)
         return X @ self.coef_.T
 
     def __sklearn_tags__(self):

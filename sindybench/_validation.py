@@ -14,6 +14,7 @@ __all__ = [
     "check_bool",
     "check_bounds",
     "check_dt",
+    "check_estimator_param",
     "check_inputs_outputs",
     "check_integer",
     "check_model_inputs",
@@ -23,6 +24,7 @@ __all__ = [
     "check_signal",
     "check_time",
     "uniform_step",
+    "validate_named",
 ]
 
 # Relative spread of the sampling steps below which sample times count as uniform.
@@ -108,7 +110,10 @@ def check_array_like(a, name):
         return
     if sp.issparse(a):
         raise ValueError(f"{name} is a sparse matrix; sparse input is not supported, expected a dense array.")
-    arr = np.asarray(a)
+    try:
+        arr = np.asarray(a)
+    except ValueError as exc:  # ragged nested lists
+        raise ValueError(f"{name} could not be converted to an array: {exc}") from exc
     if np.iscomplexobj(arr):
         raise ValueError(f"{name} is complex. Complex data not supported; expected real values.")
     if name == "X" and arr.ndim == 1:
@@ -233,6 +238,8 @@ def check_integer(value, name, *, low=1, high=None):
         else:
             expected = f" <= {high}" if low is None else f" in [{low}, {high}]"
         raise ValueError(f"{name} must be an integer{expected}; got {value!r}.")
+    if abs(int(value)) >= 2**63:  # would overflow the compiled code's 64-bit integers
+        raise ValueError(f"{name} = {value!r} does not fit in a 64-bit integer; expected a smaller count.")
     return int(value)
 
 
@@ -375,3 +382,59 @@ def check_bounds(bounds, n_states, *, name="bounds"):
         i = int(np.argmax(lo >= hi))
         raise ValueError(f"{name}: lower bound {lo[i]:g} >= upper bound {hi[i]:g} for state {i}; expected lower < upper.")
     return lo, hi
+
+
+def validate_named(estimator, X, y="no_validation", **kwargs):
+    """scikit-learn's ``validate_data``, with the argument at fault named in its errors.
+
+    scikit-learn's messages ("Expected 2D array, got 1D array instead") do not say
+    which argument they are about; this prefixes ``X:``, ``y:`` or ``X and y:``
+    and keeps the rest of the text (the common estimator checks match it).
+
+    Examples
+    --------
+    >>> from sklearn.linear_model import LinearRegression
+    >>> validate_named(LinearRegression(), [1.0, 2.0], [1.0, 2.0])
+    Traceback (most recent call last):
+    ...
+    ValueError: X: Expected 2D array, got 1D array instead: ...
+    """
+    from sklearn.utils import check_array
+    from sklearn.utils.validation import validate_data
+
+    for a, name in ((X, "X"), (y, "y")):  # scikit-learn raises TypeError for a scalar y
+        if a is None or isinstance(a, str):
+            continue
+        try:
+            ndim = np.ndim(a)
+        except ValueError as exc:  # ragged nested lists
+            raise ValueError(f"{name} could not be converted to an array: {exc}") from exc
+        if ndim == 0:
+            raise ValueError(f"{name} is a scalar ({a!r}); expected an array with one row per sample.")
+    try:
+        return validate_data(estimator, X, y, **kwargs)
+    except ValueError as exc:
+        culprit = "X"
+        if not (isinstance(y, str) and y == "no_validation"):
+            try:
+                check_array(X, dtype=kwargs.get("dtype", "numeric"), ensure_2d=True)
+            except ValueError:
+                culprit = "X"
+            else:
+                culprit = "X and y" if "inconsistent numbers of samples" in str(exc) else "y"
+        raise ValueError(f"{culprit}: {exc}") from exc
+
+
+def check_estimator_param(value, name, expected):
+    """Check that a parameter holding an estimator is one (``fit`` and ``get_params``) or None.
+
+    Examples
+    --------
+    >>> check_estimator_param("stls", "optimizer", "a regressor such as STLS()")
+    Traceback (most recent call last):
+    ...
+    ValueError: optimizer must be a regressor such as STLS() or None; got 'stls'.
+    """
+    if value is not None and not all(callable(getattr(value, m, None)) for m in ("fit", "get_params")):
+        raise ValueError(f"{name} must be {expected} or None; got {value!r}.")
+    return value

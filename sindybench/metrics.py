@@ -15,10 +15,26 @@ __all__ = ["fit_index", "make_simulation_scorer", "nrmse", "r2", "rmse"]
 _MULTIOUTPUT = ("uniform_average", "raw_values")
 
 
+def _real_array(a, name):
+    """``a`` as an array of real numbers; a complex or non-numeric ``a`` is a ``ValueError`` naming ``name``."""
+    try:
+        arr = np.asarray(a)
+    except ValueError as exc:  # ragged nested sequences
+        raise ValueError(f"{name} could not be converted to an array: {exc}") from exc
+    if np.iscomplexobj(arr) or (arr.dtype == object and any(isinstance(v, complex) for v in arr.ravel())):
+        raise ValueError(f"{name} has complex values; expected real numbers (take .real or abs() first if meant).")
+    if arr.dtype.kind not in "biuf":
+        try:
+            arr = arr.astype(float)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{name} could not be converted to a float array: {exc}") from exc
+    return arr
+
+
 def _prepare(y_true, y_pred, skip, multioutput):
     check_option(multioutput, "multioutput", _MULTIOUTPUT)
-    y_true = check_signal(y_true, "y_true")
-    y_pred = np.asarray(y_pred, dtype=float)
+    y_true = check_signal(_real_array(y_true, "y_true"), "y_true")
+    y_pred = np.asarray(_real_array(y_pred, "y_pred"), dtype=float)
     if y_pred.ndim == 1:
         y_pred = y_pred.reshape(-1, 1)
     if y_pred.shape != y_true.shape:

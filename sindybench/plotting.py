@@ -88,7 +88,7 @@ import numpy as np
 
 from ._validation import check_integer, check_signal
 from .hidden._estimator import _PENALTY as _SEARCH_PENALTY  # the inner search's score of a failed candidate
-from .metrics import r2
+from .metrics import fit_index, r2
 
 __all__ = [
     "coefficient_table",
@@ -186,7 +186,7 @@ def _predictions(models, X, y, n_init):
 def _score_label(label, y_true, y_pred):
     if not np.all(np.isfinite(y_pred)):
         return f"{label} (diverged)"
-    return f"{label} (R^2 {r2(y_true, y_pred):.2f})"
+    return f"{label} (R^2 {r2(y_true, y_pred):.2f}, fit {fit_index(y_true, y_pred):.1f} %)"
 
 
 def _signals(X, y):
@@ -211,7 +211,8 @@ def plot_simulation(X, y, models=None, *, n_init=1, dt=None, output=0, input=0, 
         Simulations to compare: fitted estimators (simulated here with
         ``predict(X, y_init=y[:n_init])``) or arrays of simulated outputs
         shaped like ``y``; a dict gives the legend labels. Each label carries
-        the simulation's R^2 (or "diverged").
+        the simulation's R^2 and fit index (or "diverged"): R^2 = 0.9999 and
+        0.999 both read "1.00", their fit indices 99.0 % and 96.8 % do not.
     n_init : int, default=1
         Samples of ``y`` handed to the estimators as ``y_init``.
     dt : float, optional
@@ -241,7 +242,7 @@ def plot_simulation(X, y, models=None, *, n_init=1, dt=None, output=0, input=0, 
     >>> u, y = np.sin(t)[:, None], np.cos(t)[:, None]
     >>> out_ax, in_ax = plot_simulation(u, y, {"close": y + 0.1}, dt=t[1])
     >>> [line.get_label() for line in out_ax.get_lines()]
-    ['measured', 'close (R^2 0.98)']
+    ['measured', 'close (R^2 0.98, fit 86.2 %)']
     """
     X, y = _signals(X, y)
     y_col = _column(y, output, "output")
@@ -377,7 +378,25 @@ def plot_hysteresis(X, y, models=None, *, n_init=1, output=0, input=0, hidden=No
 
 
 # ------------------------------------------------------------ hidden states
-def plot_hidden_states(model, X=None, y=None, *, n_init=1, states=None, max_points=MAX_POINTS, ax=None):
+def _per_state(values, names, what):
+    """One entry per drawn state from None, a sequence (in order) or a dict ``name -> value``."""
+    if values is None:
+        return [None] * len(names)
+    if isinstance(values, str):
+        values = [values]
+    if isinstance(values, dict):
+        unknown = sorted(set(values) - set(names))
+        if unknown:
+            raise ValueError(f"{what} names {unknown}, not drawn states; expected keys among {names}.")
+        return [values.get(n) for n in names]
+    values = list(values)
+    if len(values) != len(names):
+        raise ValueError(f"{what} has {len(values)} entries; expected {len(names)}, one per drawn state {names}.")
+    return values
+
+
+def plot_hidden_states(model, X=None, y=None, *, n_init=1, states=None, labels=None, units=None,
+                       max_points=MAX_POINTS, ax=None):
     """The hidden states of a fitted :class:`~sindybench.HiddenStateSINDy` over time.
 
     Without data, the states the strategy reconstructed on the training data
@@ -394,6 +413,11 @@ def plot_hidden_states(model, X=None, y=None, *, n_init=1, states=None, max_poin
     n_init : int, default=1
     states : list of str, optional
         Names of the hidden states to draw (default: all).
+    labels : list of str or dict, optional
+        Axis labels of the drawn states, in order or as ``state name ->
+        label`` (default: the state names), e.g. ``{"h0": "friction force"}``.
+    units : list of str or dict, optional
+        Units, likewise, appended to the labels in brackets: ``"z [N]"``.
     max_points : int, default=6000
     ax : Axes or sequence of Axes, optional
         One Axes per drawn state.
@@ -412,6 +436,8 @@ def plot_hidden_states(model, X=None, y=None, *, n_init=1, states=None, max_poin
     >>> (ax,) = plot_hidden_states(model)
     >>> ax.get_ylabel(), np.array_equal(ax.get_lines()[0].get_ydata(), model.hidden_states_[:, 0])
     ("y0'", True)
+    >>> plot_hidden_states(model, labels={"y0'": "velocity"}, units=["m/s"])[0].get_ylabel()
+    'velocity [m/s]'
     """
     if isinstance(states, str):
         states = [states]
@@ -420,6 +446,12 @@ def plot_hidden_states(model, X=None, y=None, *, n_init=1, states=None, max_poin
         raise ValueError("no hidden state to draw; expected a model with hidden states or names in states.")
     if (X is None) != (y is None):
         raise ValueError("give both X and y (a record to simulate) or neither (the training reconstruction).")
+    names = [model.state_names_[i] for i in index]
+    labels = [lab if lab is not None else n for lab, n in zip(_per_state(labels, names, "labels"), names)]
+    units = _per_state(units, names, "units")
+    for what, values in (("labels", labels), ("units", units)):
+        if any(v is not None and not isinstance(v, str) for v in values):
+            raise ValueError(f"{what} = {values!r}; expected strings (or None).")
     if X is None:
         trajectory = np.asarray(model.states_, dtype=float)
         what = "reconstructed on the training data"
@@ -430,9 +462,9 @@ def plot_hidden_states(model, X=None, y=None, *, n_init=1, states=None, max_poin
     axes = _check_axes(ax, len(index)) or _new_axes(len(index), figsize=(10, 1.2 + 1.8 * len(index)))
     t, t_label = _time(len(trajectory), getattr(model, "dt_", None))
     k = _stride(len(trajectory), check_integer(max_points, "max_points"))
-    for a, i in zip(axes, index):
+    for a, i, label, unit in zip(axes, index, labels, units):
         a.plot(t[::k], trajectory[::k, i], lw=1.0, label=f"{model.state_names_[i]}, {what}")
-        a.set_ylabel(model.state_names_[i])
+        a.set_ylabel(label if not unit else f"{label} [{unit}]")
         a.legend(fontsize=7, loc="upper right")
     axes[-1].set_xlabel(t_label)
     return axes

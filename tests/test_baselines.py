@@ -141,6 +141,40 @@ def test_bad_settings_and_data(rng):
         ARX().fit(u[:, 0], y)
 
 
+@pytest.mark.parametrize("Model", [ARX, NNARX])
+@pytest.mark.parametrize("n, params", [(1, dict(na=0, nb=1, nk=5)), (3, dict(na=1, nb=1, nk=5)),
+                                       (10, dict(na=20, nb=0)), (5, dict(na=40, nb=2))])
+def test_orders_longer_than_the_record(Model, n, params, rng):
+    # before: "negative dimensions are not allowed" or a numpy concatenation error
+    u, y = _arx_system(rng, n=50)
+    need = n_lags(params["na"], params["nb"], params.get("nk", 1)) + 1
+    with pytest.raises(ValueError, match=f"got {n} samples; {Model.__name__}.* needs at least {need}"):
+        Model(**params).fit(u[:n], y[:n])
+
+
+@pytest.mark.parametrize("Model", [ARX, NNARX])
+def test_inputs_none(Model, rng):
+    # before: scikit-learn's "Expected 2D array, got scalar array instead: array=None"
+    _, y = _arx_system(rng, n=50)
+    with pytest.raises(ValueError, match=f"X is None; {Model.__name__} expects the inputs"):
+        Model().fit(None, y)
+
+
+@pytest.mark.parametrize("sizes", [(), [], (0,), (8, -1), (2.5,), "32", None, (True,)])
+def test_nnarx_bad_hidden_layer_sizes(sizes, rng):
+    # before: () fitted, then predict failed with a matmul error
+    u, y = _arx_system(rng, n=50)
+    with pytest.raises(ValueError, match="hidden_layer_sizes = .*expected a non-empty tuple of integers >= 1"):
+        NNARX(hidden_layer_sizes=sizes).fit(u, y)
+
+
+@pytest.mark.parametrize("sizes", [4, (3, 2), [5], (np.int64(4),)])
+def test_nnarx_good_hidden_layer_sizes(sizes, rng):
+    u, y = _arx_system(rng, n=60)
+    model = NNARX(hidden_layer_sizes=sizes, max_iter=20, random_state=0).fit(u, y)
+    assert np.isfinite(model.predict(u, y_init=y)).all()
+
+
 def test_nnarx_beats_arx_on_a_nonlinear_system(rng):
     u, y = _nonlinear_system(rng, n=400)
     u_test, y_test = _nonlinear_system(np.random.default_rng(3), n=300)

@@ -375,3 +375,18 @@ def test_method_specific_errors(nonuniform_t):
         SavitzkyGolay().derivative(np.arange(5.0), dt=0.1)
     with pytest.raises(ValueError, match="y contains NaN or inf"):
         Kalman().derivative(np.r_[1.0, np.nan, 2.0], dt=0.1)
+
+
+@pytest.mark.parametrize("dt", [1e-300, 1e-200])
+def test_a_step_the_stencil_cannot_resolve_is_a_value_error(dt):
+    # before: numpy's LinAlgError "Singular matrix" from inside pysindy's finite differences (issue 18, case 15)
+    from sindybench import SINDy
+
+    rng = np.random.default_rng(0)
+    u, y = rng.normal(size=(10, 1)), rng.normal(size=(10, 1))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # pysindy's overflow in the stencil's powers
+        with pytest.raises(ValueError, match=f"FiniteDifference could not differentiate y with dt = {dt:g}"):
+            FiniteDifference().derivative(y, dt=dt)
+        with pytest.raises(ValueError, match="rescale the time unit"):
+            SINDy(dt=dt).fit(u, y)

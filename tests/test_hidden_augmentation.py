@@ -95,3 +95,27 @@ def test_pick_and_place_with_inner_search(data_home):
                                        "optimizer__threshold": (1e-2, 1e2, True)},
     ).fit(np.vstack([train.u, val.u]), np.vstack([train.y, val.y]))
     assert r2(test.y, model.predict(test.u, y_init=test.y)) >= 0.90
+
+
+def _wide_window_model(rng):
+    u = _excitation(rng, 600)
+    y = simulate(TermsRHS.from_equations([{V: 1.0}, {Y: -4.0, V: -0.5, A: 2.0}]), [0.5, 0.0], u, dt=DT,
+                 n_substeps=4, input_hold="linear")[:, :1]
+    model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=1),
+                             optimizer=STLS(threshold=0.05), differentiation=SavitzkyGolay(window_length=21),
+                             dt=DT).fit(u, y)
+    return model, u, y
+
+
+def test_initial_derivatives_use_what_the_differentiation_needs(rng):
+    # before: y_init was cut to init_size=20 samples, and the 21-sample window could not predict at all
+    model, u, y = _wide_window_model(rng)
+    assert r2(y, model.predict(u, y_init=y[:100])) > 0.99
+    assert r2(y, model.predict(u, y_init=y[:21])) > 0.99
+
+
+def test_short_y_init_is_named_with_the_samples_needed(rng):
+    # before: "y has 10 samples; SavitzkyGolay needs at least 21 for order=1 with these parameters."
+    model, u, y = _wide_window_model(rng)
+    with pytest.raises(ValueError, match="y_init has 10 samples; too short .* SavitzkyGolay: expected at least 21"):
+        model.predict(u, y_init=y[:10])

@@ -97,3 +97,49 @@ def test_bad_parameters(lag_data, hidden_kw, match):
         model.hidden.set_params(rhs=rhs)
     with pytest.raises(ValueError, match=match):
         model.fit(u, y)
+
+
+def _two_values(xh, y, u, *, a, b):
+    return np.r_[-a * xh, b]
+
+
+def _needs_c(xh, y, u, *, a, b, c):
+    return -a * xh + b * c * u[:1]
+
+
+def _no_keywords(xh, y, u):
+    return -xh
+
+
+@pytest.mark.parametrize("rhs, match", [
+    # before: "all 25 candidates of the inner search diverged or failed on the validation block"
+    (_two_values, r"rhs _two_values returned shape \(2,\) for the first sample .*expected 1 value"),
+    # before: the user's own TypeError "missing 1 required keyword-only argument: 'c'"
+    (_needs_c, r"rhs _needs_c\(xh, y, u, \*, a, b, c\) cannot be called as rhs\(x_h, y, u, a=..., b=...\) "
+               r"\(missing a required argument: 'c'\)"),
+    (_no_keywords, r"rhs _no_keywords\(xh, y, u\) cannot be called .*unexpected keyword argument 'a'"),
+    (lambda xh, y, u, *, a, b: "fast", r"rhs .*<lambda> returned 'fast' for the first sample; expected 1 numbers"),
+])
+def test_user_rhs_checked_once_before_the_search(lag_data, rhs, match):
+    u, y, _ = lag_data
+    model = _model()
+    model.hidden.rhs = rhs
+    with pytest.raises(ValueError, match=match):
+        model.fit(u, y)
+
+
+def test_rhs_check_calls_it_once_at_the_middle_of_the_ranges(lag_data):
+    u, y, _ = lag_data
+    calls = []
+
+    def spy(xh, y, u, *, a, b):
+        calls.append((xh.copy(), a, b))
+        raise RuntimeError("stop after the check")
+
+    model = _model(params={"a": (0.5, 8.0, True), "b": 1.0})
+    model.hidden.rhs = spy
+    with pytest.raises(RuntimeError, match="stop after the check"):
+        model.fit(u, y)
+    assert len(calls) == 1
+    np.testing.assert_allclose(calls[0][0], [0.0])
+    assert calls[0][1] == pytest.approx(2.0) and calls[0][2] == 1.0

@@ -14,6 +14,7 @@ from sindybench.libraries import (
     ConcatLibrary,
     CustomLibrary,
     ExternalLibrary,
+    FrictionLibrary,
     PolynomialLibrary,
     ProductLibrary,
     SqrtLibrary,
@@ -143,6 +144,78 @@ def test_concat_with_custom_is_not_compilable(Z):
     lib = ConcatLibrary([PolynomialLibrary(degree=1), CustomLibrary(functions=[np.cos])]).fit(Z)
     assert lib.terms_ is None
     assert_allclose(lib.transform(Z)[:, 4:], np.cos(Z))
+
+
+def test_concat_drops_repeated_terms(Z):
+    # before: x0, x1, x2 twice (two collinear columns, a coefficient split between them; issue 18, case 18)
+    lib = (PolynomialLibrary(degree=1) + PolynomialLibrary(degree=3, include_bias=False)).fit(Z)
+    names = lib.get_feature_names_out().tolist()
+    assert names == PolynomialLibrary(degree=3).fit(Z).get_feature_names_out().tolist()
+    assert len(names) == len(set(names)) == lib.n_output_features_ == len(lib.terms_) == 20
+    assert_allclose(lib.transform(Z), PolynomialLibrary(degree=3).fit_transform(Z))
+    # a repeat in canonical form (x0 x0 is x0^2) is a repeat too; the first occurrence stays
+    lib = ConcatLibrary([PolynomialLibrary(degree=2, variables=[0]),
+                         TermsLibrary(terms=[[[0, POW, 1.0, 0.0], [0, POW, 1.0, 0.0]], [[1, SIGN, 0, 0]]])]).fit(Z)
+    assert lib.get_feature_names_out().tolist() == ["1", "x0", "x0^2", "sign(x1)"]
+    assert lib.terms_[2] == ((0, POW, 2.0, 0.0),)
+
+
+def test_concat_without_repeats_keeps_every_column(Z):
+    # the libraries of the benchmark experiments have no repeated term: their columns are unchanged
+    parts = [PolynomialLibrary(degree=2), SqrtLibrary(variables=[0, 1]), TermsLibrary(terms=[[[1, SIGN, 0, 0]]])]
+    lib = ConcatLibrary(parts).fit(Z)
+    assert lib.terms_ == [t for p in parts for t in clone(p).fit(Z).terms_]
+
+
+def test_sindy_with_repeated_terms_gets_one_coefficient():
+    from sindybench import STLS, SINDy
+    from sindybench.simulate import simulate
+
+    u = np.sin(np.arange(0, 10, 0.01))[:, None]
+    y = simulate(lambda x, u: np.array([-2.0 * x[0] + u[0]]), [0.5], u, dt=0.01, input_hold="linear")
+    library = PolynomialLibrary(degree=1) + PolynomialLibrary(degree=2, include_bias=False)
+    model = SINDy(library=library, optimizer=STLS(threshold=0.1), dt=0.01).fit(u, y)
+    assert model.equations(precision=1) == ["y0' = -2.0 y0 + 1.0 u0"]
+
+
+def test_friction_library_values_and_names():
+    Z = np.array([[2.0, -0.5], [-1.0, 0.0], [0.0, 3.0]])
+    lib = FrictionLibrary(powers=[1.0, 2.0]).fit(Z)
+    assert lib.get_feature_names_out(["x", "v"]).tolist() == [
+        "sign(x)", "sign(v)", "sign(x) |x|", "sign(v) |v|", "sign(x) |x|^2", "sign(v) |v|^2"]
+    assert_allclose(lib.transform(Z), np.column_stack([np.sign(Z), Z, np.sign(Z) * Z**2]))
+    assert FrictionLibrary(variables=[1]).fit(Z).get_feature_names_out(["x", "v"]).tolist() == ["sign(v)"]
+
+
+@pytest.mark.parametrize("powers, match", [("2", "powers must be a sequence of numbers > 0"),
+                                           (3.0, "powers must be a sequence of numbers > 0"),
+                                           ([0.0], "powers must be a finite number > 0"),
+                                           ([np.nan], "powers must be a finite number > 0")])
+def test_friction_library_bad_powers(powers, match):
+    with pytest.raises(ValueError, match=match):
+        FrictionLibrary(powers=powers).fit(np.zeros((2, 1)))
+
+
+def test_sindy_finds_coulomb_friction(tmp_path):
+    # a velocity v' = u - 0.5 v - 0.3 sign(v), simulated and identified with polynomial + friction terms
+    from sindybench import STLS, SINDy, load_model
+    from sindybench.io import save_model
+    from sindybench.simulate import simulate
+
+    t = np.arange(0, 40, 0.01)
+    u = (np.sin(0.7 * t) + 0.5 * np.sin(2.3 * t))[:, None]
+    y = simulate(lambda x, u: np.array([u[0] - 0.5 * x[0] - 0.3 * np.sign(x[0])]), [0.2], u, dt=0.01,
+                 input_hold="linear")
+    library = PolynomialLibrary(degree=1) + FrictionLibrary(variables=[0])
+    model = SINDy(library=library, optimizer=STLS(threshold=0.05), dt=0.01).fit(u, y)
+    coef = dict(zip(model.library_.get_feature_names_out(["y0", "u0"]), model.coef_[0]))
+    assert {k for k, c in coef.items() if c != 0} == {"y0", "u0", "sign(y0)"}
+    assert coef["y0"] == pytest.approx(-0.5, rel=0.06) and coef["u0"] == pytest.approx(1.0, rel=0.01)
+    assert coef["sign(y0)"] == pytest.approx(-0.3, rel=0.06)  # the differentiated kinks cost a few percent
+    assert model.score(u, y) > 0.99
+    save_model(model, tmp_path / "friction.json")
+    loaded = load_model(tmp_path / "friction.json")
+    np.testing.assert_array_equal(loaded.predict(u, y_init=y), model.predict(u, y_init=y))
 
 
 def test_concat_nested_params():

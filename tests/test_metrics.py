@@ -75,6 +75,30 @@ def test_bad_arguments(pair, kwargs, match):
         rmse(y, p, **kwargs)
 
 
+@pytest.mark.parametrize("metric", [rmse, nrmse, r2, fit_index])
+@pytest.mark.parametrize("which", ["y_true", "y_pred"])
+def test_complex_input_is_refused(pair, metric, which):
+    # before: the imaginary part was dropped with only a ComplexWarning (issue 18, case 22)
+    y_true, y_pred = pair
+    args = {"y_true": y_true, "y_pred": y_pred}
+    args[which] = args[which] + 1e-3j
+    with pytest.raises(ValueError, match=f"{which} has complex values; expected real numbers"):
+        metric(args["y_true"], args["y_pred"])
+    args[which] = list(np.ravel(args[which]))  # a list of Python complex numbers too
+    args["y_true" if which == "y_pred" else "y_pred"] = np.ravel(args["y_true" if which == "y_pred" else "y_pred"])
+    with pytest.raises(ValueError, match=f"{which} has complex values"):
+        metric(args["y_true"], args["y_pred"])
+
+
+@pytest.mark.parametrize("bad", ["abc", ["a", "b", "c"], [1.0, [2.0], 3.0]])
+def test_non_numeric_prediction_names_the_argument(bad):
+    # before: "could not convert string to float: 'abc'", naming no argument
+    with pytest.raises(ValueError, match="y_pred could not be converted to"):
+        r2([1.0, 2.0, 4.0], bad)
+    with pytest.raises(ValueError, match="y_true could not be converted to"):
+        rmse(bad, [1.0, 2.0, 4.0])
+
+
 def test_bad_predictions(pair):
     y, p = pair
     bad = p.copy()

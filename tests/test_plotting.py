@@ -12,7 +12,7 @@ from sindybench import STLS, HiddenStateSINDy, SINDy  # noqa: E402
 from sindybench.baselines import ARX  # noqa: E402
 from sindybench.hidden import DerivativeHiddenState  # noqa: E402
 from sindybench.libraries import PolynomialLibrary  # noqa: E402
-from sindybench.metrics import r2  # noqa: E402
+from sindybench.metrics import fit_index, r2  # noqa: E402
 from sindybench.plotting import (  # noqa: E402
     coefficient_table,
     plot_coefficients,
@@ -76,10 +76,21 @@ def test_simulation_lines_hold_the_given_arrays(oscillator):
         np.testing.assert_array_equal(line.get_xdata(), t)
         np.testing.assert_array_equal(line.get_ydata(), expected[:, 0])
     labels = [line.get_label() for line in lines]
-    assert labels == ["measured", f"a (R^2 {r2(y, a):.2f})", f"b (R^2 {r2(y, b):.2f})"]
+    assert labels == ["measured", f"a (R^2 {r2(y, a):.2f}, fit {fit_index(y, a):.1f} %)",
+                      f"b (R^2 {r2(y, b):.2f}, fit {fit_index(y, b):.1f} %)"]
     assert [t.get_text() for t in out_ax.get_legend().get_texts()] == labels
     np.testing.assert_array_equal(in_ax.get_lines()[0].get_ydata(), u[:, 0])
     assert out_ax.get_ylabel() == "position" and in_ax.get_xlabel() == "time [s]"
+
+
+def test_simulation_label_tells_close_fits_apart(oscillator):
+    # before: R^2 to two decimals only, "1.00" for both (every refined model read 1.00; issue 18, case 23)
+    u, y = oscillator
+    noise = np.random.default_rng(0).normal(size=y.shape) * y.std()
+    close, closer = y + 0.03 * noise, y + 0.01 * noise
+    out_ax, _ = plot_simulation(u, y, {"close": close, "closer": closer})
+    labels = [line.get_label() for line in out_ax.get_lines()[1:]]
+    assert labels[0].startswith("close (R^2 1.00, fit 97.") and labels[1].startswith("closer (R^2 1.00, fit 99.")
 
 
 def test_simulation_of_a_fitted_model_is_its_prediction(oscillator, hidden_model):
@@ -199,6 +210,19 @@ def test_hidden_states_of_a_simulation(oscillator, hidden_model):
     (got,) = plot_hidden_states(hidden_model, u[:300], y[:300], n_init=20, states="y0'", ax=ax)
     assert got is ax
     np.testing.assert_allclose(ax.get_lines()[0].get_ydata(), hidden_model.simulate(u[:300], y_init=y[:20])[:, 1])
+
+
+def test_hidden_states_labels_and_units(hidden_model):
+    # before: plot_hidden_states took no labels or units
+    assert plot_hidden_states(hidden_model, labels=["velocity"], units=["m/s"])[0].get_ylabel() == "velocity [m/s]"
+    assert plot_hidden_states(hidden_model, units={"y0'": "m/s"})[0].get_ylabel() == "y0' [m/s]"
+    assert plot_hidden_states(hidden_model, labels="speed")[0].get_ylabel() == "speed"
+    with pytest.raises(ValueError, match="labels has 2 entries; expected 1, one per drawn state"):
+        plot_hidden_states(hidden_model, labels=["a", "b"])
+    with pytest.raises(ValueError, match=r"units names \['h0'\], not drawn states"):
+        plot_hidden_states(hidden_model, units={"h0": "N"})
+    with pytest.raises(ValueError, match="units = .*expected strings"):
+        plot_hidden_states(hidden_model, units=[3])
 
 
 def test_hidden_states_bad_input(oscillator, hidden_model, sindy_model):

@@ -204,3 +204,78 @@ def test_function_bad_data(rng):
         stls(X, y[1:], threshold=0.1)
     with pytest.raises(ValueError, match="theta has 3 dimensions"):
         stls(X[:, :, None], y, threshold=0.1)
+
+
+# --- data far from unit magnitude (issue 18, case 6) ---------------------------------------------
+
+def _with_constant(rng, n=200):
+    theta = rng.normal(size=(n, 3))
+    theta[:, 0] = 1.0
+    return theta, theta @ np.array([0.3, 2.0, -0.5])
+
+
+@pytest.mark.parametrize("scale", [1e-16, 1e-20, 1e-200, 1e-300])
+@pytest.mark.parametrize("threshold", [0.0, 0.1])
+def test_tiny_columns_beside_a_constant_are_not_dropped(rng, scale, threshold):
+    # before: lstsq's rank cut-off treated the tiny columns as zero, and every coefficient was 0
+    theta, target = _with_constant(rng)
+    theta[:, 1:] *= scale
+    coef, _ = stls(theta, target, threshold=threshold)
+    np.testing.assert_allclose(coef, [0.3, 2.0 / scale, -0.5 / scale], rtol=1e-10)
+
+
+@pytest.mark.parametrize("scale", [1e150, 1e300, 1e307])
+@pytest.mark.parametrize("normalize_columns", [False, True])
+def test_huge_library_matrix(rng, scale, normalize_columns):
+    # before: the coefficients ~1/scale fell under the unbias support cut (all zero), and with
+    # normalize_columns the column norms overflowed
+    theta, target = _with_constant(rng)
+    coef, _ = stls(theta * scale, target, threshold=0.0, normalize_columns=normalize_columns)
+    np.testing.assert_allclose(coef * scale, [0.3, 2.0, -0.5], rtol=1e-10)
+    coef, _ = stls(theta * scale, target * scale, threshold=0.1, alpha=1e-3, normalize_columns=normalize_columns)
+    np.testing.assert_allclose(coef, [0.3, 2.0, -0.5], rtol=1e-3)
+
+
+def test_threshold_and_ridge_stay_in_original_units(rng):
+    theta, target = _with_constant(rng)
+    theta[:, 1:] *= 1e-20
+    # the true coefficients are 0.3, 2e20 and -5e19: a threshold of 1.0 removes only the constant's
+    coef, _ = stls(theta, target, threshold=1.0)
+    assert coef[0] == 0.0 and coef[1] != 0.0 and coef[2] != 0.0
+    # the ridge penalty alpha ||coef||^2 is on the coefficients of about 1e20: negligible for alpha = 1e-46
+    # (n_samples = 200 against alpha * 4e40), dominant for alpha = 1e-30
+    ridge, _ = stls(theta, target, threshold=0.0, alpha=1e-46, unbias=False)
+    np.testing.assert_allclose(ridge, [0.3, 2e20, -5e19], rtol=1e-6)
+    ridge, _ = stls(theta, target, threshold=0.0, alpha=1e-30, unbias=False)
+    assert np.all(np.abs(ridge[1:]) < 1e-3 * np.array([2e20, 5e19]))
+
+
+def test_rescaling_leaves_ordinary_data_bit_identical(rng):
+    # column magnitudes within 2**40 of each other are not touched: the same arithmetic as before
+    X, y = _problem(rng, "scaled")
+    cache = GramCache(X, y)
+    assert np.all(cache._theta_scale == 1.0) and np.all(cache._target_scale == 1.0)
+    ref = np.linalg.qr(np.hstack([X, y]), mode="r")
+    np.testing.assert_array_equal(cache._a, ref[: X.shape[1], : X.shape[1]])
+
+
+def test_overflowing_coefficients_are_refused(rng):
+    theta, target = _with_constant(rng)
+    with pytest.raises(ValueError, match="STLS coefficients overflow"):
+        stls(theta * 1e-300, target * 1e300, threshold=0.0)
+
+
+@pytest.mark.parametrize("scale", [1e-16, 1e-100])
+def test_sindy_on_tiny_data(scale):
+    from sindybench import SINDy
+    from sindybench.libraries import PolynomialLibrary
+    from sindybench.simulate import simulate
+
+    t = np.arange(0, 10, 0.01)
+    u = np.sin(t)[:, None]
+    y = simulate(lambda x, u: np.array([-2.0 * x[0] + u[0]]), [0.5], u, dt=0.01, input_hold="linear")
+    ref = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.0), dt=0.01).fit(u, y)
+    model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.0), dt=0.01)
+    model.fit(u * scale, y * scale)  # before: an all-zero model
+    np.testing.assert_allclose(model.coef_[0, 1:], ref.coef_[0, 1:], rtol=1e-9)
+    np.testing.assert_allclose(model.coef_[0, 1:], [-2.0, 1.0], rtol=1e-4)

@@ -2,9 +2,9 @@
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
-from sklearn.utils.validation import check_is_fitted, validate_data
+from sklearn.utils.validation import check_is_fitted
 
-from .._validation import check_integer, check_signal
+from .._validation import check_integer, check_signal, validate_named
 from ..metrics import make_simulation_scorer
 from ._lags import lagged_regressors, n_lags
 
@@ -32,7 +32,11 @@ class LagModel(RegressorMixin, BaseEstimator):
     def _fit_lags(self, X, y):
         """Validate, set the common fitted attributes, return ``(phi, target)``."""
         na, nb, nk = self._check_orders()
-        u, y = validate_data(self, X, y, multi_output=True, y_numeric=True)
+        if X is None:
+            raise ValueError(
+                f"X is None; {type(self).__name__} expects the inputs, an array of shape (n_samples, n_inputs)."
+            )
+        u, y = validate_named(self, X, y, multi_output=True, y_numeric=True)
         y = np.asarray(y, dtype=float)
         self.y_ndim_ = y.ndim
         y = y.reshape(-1, 1) if y.ndim == 1 else y
@@ -40,13 +44,12 @@ class LagModel(RegressorMixin, BaseEstimator):
         self.n_outputs_ = y.shape[1]
         self.n_lags_ = n_lags(na, nb, nk)
         self.y_mean_ = y.mean(axis=0)
-        phi, target = lagged_regressors(u, y, na, nb, nk)
-        if target.shape[0] < 1:
+        if y.shape[0] <= self.n_lags_:
             raise ValueError(
                 f"got {y.shape[0]} samples; {type(self).__name__}(na={na}, nb={nb}, nk={nk}) needs at least "
                 f"{self.n_lags_ + 1} (the {self.n_lags_} first samples only start the lags)."
             )
-        return phi, target
+        return lagged_regressors(u, y, na, nb, nk)
 
     def _initial_outputs(self, y_init, n_samples):
         n0 = min(self.n_lags_, n_samples)
@@ -81,7 +84,7 @@ class LagModel(RegressorMixin, BaseEstimator):
             unstable model gives inf or NaN, never an exception.
         """
         check_is_fitted(self)
-        u = np.asarray(validate_data(self, X, reset=False), dtype=float)
+        u = np.asarray(validate_named(self, X, reset=False), dtype=float)
         y_start = self._initial_outputs(y_init, u.shape[0])
         with np.errstate(over="ignore", invalid="ignore"):
             y = self._simulate(u, y_start) if u.shape[0] > y_start.shape[0] else y_start.copy()

@@ -1,5 +1,7 @@
 """NN-ARX: the ARX lags feeding multilayer perceptrons, simulated in free run."""
 
+import numbers
+
 import numpy as np
 from scipy.linalg import block_diag
 from sklearn.neural_network import MLPRegressor
@@ -171,6 +173,19 @@ class NNARX(SaveLoadMixin, LagModel):
         self.random_state = random_state
 
     def _check_settings(self):
+        sizes = self.hidden_layer_sizes
+        if isinstance(sizes, numbers.Integral) and not isinstance(sizes, bool):
+            sizes = (sizes,)
+        try:
+            sizes = tuple(sizes)
+        except TypeError:
+            sizes = None
+        if not sizes or not all(isinstance(k, numbers.Integral) and not isinstance(k, bool) and k >= 1
+                                for k in sizes):
+            raise ValueError(
+                f"hidden_layer_sizes = {self.hidden_layer_sizes!r}; expected a non-empty tuple of integers >= 1 "
+                "(one size per hidden layer; for a model without hidden layer use ARX)."
+            )
         check_option(self.activation, "activation", sorted(_ACTIVATIONS))
         check_bool(self.residual, "residual")
         check_integer(self.n_estimators, "n_estimators")
@@ -205,7 +220,11 @@ class NNARX(SaveLoadMixin, LagModel):
         else:
             self.linear_coef_ = np.zeros((features.shape[1], z.shape[1]))
             self.linear_intercept_ = np.zeros(z.shape[1])
-        rng = check_random_state(self.random_state)
+        try:
+            rng = check_random_state(self.random_state)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"random_state = {self.random_state!r}: {exc}; expected None, an integer in "
+                             "[0, 2**32 - 1] or a numpy RandomState.") from exc
         seeds = rng.randint(np.iinfo(np.int32).max, size=int(self.n_estimators))
         # one BLAS thread: the products are (n_samples x a few dozen), where threads only add overhead (tens of
         # times slower on a busy machine), and a thread count would change the rounding, hence the networks

@@ -63,7 +63,14 @@ class BaseDifferentiation(BaseEstimator):
                 f"y has {y.shape[0]} samples; {type(self).__name__} needs at least {need} "
                 f"for order={order} with these parameters."
             )
-        out = self._derivative(y, t, step, order)
+        try:
+            out = self._derivative(y, t, step, order)
+        except np.linalg.LinAlgError as exc:  # e.g. a stencil of powers of dt = 1e-300 underflows to zero
+            spacing = f"dt = {step:g}" if step is not None else f"the smallest step {np.min(np.diff(t)):g}"
+            raise ValueError(
+                f"{type(self).__name__} could not differentiate y with {spacing} ({exc}); expected sample "
+                "times on a scale the method can resolve (rescale the time unit)."
+            ) from exc
         return out.reshape(shape)
 
     def _validate_params(self):

@@ -16,7 +16,8 @@ class DerivativeHiddenState(HiddenStrategy):
     hold by construction; nothing is overwritten after the fit); the library
     learns the highest derivative from ``Z = [y, y', ..., u]``. On new data the
     initial derivatives come from the first ``init_size`` output samples with
-    the estimator's differentiation method.
+    the estimator's differentiation method (more when the method needs more:
+    a ``SavitzkyGolay(window_length=21)`` uses 21).
 
     States are ordered derivative by derivative: for outputs ``y0, y1`` and
     ``order=2`` they are ``(y0, y1, y0', y1')``.
@@ -26,7 +27,8 @@ class DerivativeHiddenState(HiddenStrategy):
     order : int, default=2
         Order of the learned derivative (1 = plain SINDy on the outputs).
     init_size : int, default=20
-        Output samples used to estimate the initial derivatives on new data.
+        Output samples used to estimate the initial derivatives on new data,
+        or as many as the differentiation method needs if that is more.
 
     Examples
     --------
@@ -65,8 +67,34 @@ class DerivativeHiddenState(HiddenStrategy):
         return Design(states=states, targets=derivative(y, self.order))
 
     def initial_state(self, u, y_init, dt, *, derivative, params, model):
-        y_init = y_init[: self.init_size]
+        need = samples_needed(derivative, self.order - 1)
+        if y_init.shape[0] < need:
+            method = type(getattr(derivative, "differentiation", derivative)).__name__
+            raise ValueError(
+                f"y_init has {y_init.shape[0]} samples; too short to estimate the initial derivatives up to order "
+                f"{self.order - 1} with {method}: expected at least {need} samples."
+            )
+        y_init = y_init[: max(self.init_size, need)]
         return np.concatenate([derivative(y_init, k)[0] for k in range(self.order)])
+
+
+def samples_needed(derivative, order):
+    """Samples the differentiation behind ``derivative`` needs for derivatives up to ``order`` (1 if unknown).
+
+    Orders above 2 chain second and first derivatives, so they need what orders 1 and 2 need.
+
+    Examples
+    --------
+    >>> from sindybench.differentiation import SavitzkyGolay
+    >>> class Bound:  # a derivative callable bound to a method, as HiddenStateSINDy passes it
+    ...     differentiation = SavitzkyGolay(window_length=21)
+    >>> samples_needed(Bound(), 1), samples_needed(Bound(), 0)
+    (21, 1)
+    """
+    need = getattr(getattr(derivative, "differentiation", None), "_min_samples", None)
+    if need is None or order < 1:
+        return 1
+    return max(int(need(k)) for k in range(1, min(order, 2) + 1))
 
 
 register_model(DerivativeHiddenState)

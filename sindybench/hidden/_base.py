@@ -41,8 +41,10 @@ only stores keyword arguments; physical guesses are constructor parameters,
 Optionally override ``default_library()`` (the library used when the estimator's
 ``library=None``), ``search_space()`` and ``resolve_params(values)`` (defaults
 below use ``_physical`` and ``bounds``), ``refinable(params)`` (the physical
-parameters that a simulation-error refinement may move) and ``_validate()``
-(parameter checks, called at the start of ``fit``; raise ``ValueError``).
+parameters that a simulation-error refinement may move), ``_validate()``
+(parameter checks, called at the start of ``fit``; raise ``ValueError``) and
+``_validate_data(u, y)`` (checks that need the training data, e.g. a call of a
+user function on the first sample; called right after ``_validate()``).
 
 ``derivative(a, order=1)`` is a callable bound to the estimator's fitted
 differentiation method and ``dt``: it returns the ``order``-th time derivative of
@@ -193,6 +195,9 @@ class HiddenStrategy(BaseEstimator):
         for name, (low, high, _) in space.items():
             if not low < high:
                 raise ValueError(f"bounds[{name!r}] = ({low!r}, {high!r}); expected low < high.")
+
+    def _validate_data(self, u, y):
+        """Checks that need the training inputs ``u`` and outputs ``y`` (2-D); raise ``ValueError``."""
 
     def search_space(self):
         """Searched physical parameters: ``name -> (low, high, log)``.

@@ -16,6 +16,7 @@ from .._validation import (
     check_array_like,
     check_bool,
     check_dt,
+    check_estimator_param,
     check_inputs_outputs,
     check_integer,
     check_model_inputs,
@@ -333,6 +334,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
             raise ValueError(
                 f"hidden must be a HiddenStrategy (e.g. DerivativeHiddenState()); got {type(self.hidden).__name__}."
             )
+        check_estimator_param(self.optimizer, "optimizer", "a regressor with coef_ such as STLS()")
         n_trials = check_integer(self.n_trials, "n_trials")
         check_integer(self.n_substeps, "n_substeps")
         check_integer(self.local_trials, "local_trials", low=0, high=n_trials - 1)
@@ -394,6 +396,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         dt, est_space = self._check_params(dt)
         hidden = clone(self.hidden) if self.hidden is not None else _default_strategy()
         hidden._validate()
+        hidden._validate_data(X, y1)
         space = {_HIDDEN_PREFIX + k: ("float", lo, hi, log) for k, (lo, hi, log) in hidden.search_space().items()}
         space.update(est_space)
         n = y1.shape[0]

@@ -1,5 +1,6 @@
 """A hidden state with user-supplied parametric dynamics ``x_h' = rhs(x_h, y, u, **params)``."""
 
+import inspect
 import itertools
 import numbers
 
@@ -32,6 +33,12 @@ def _check_range(spec, name):
     if log and low <= 0:
         raise ValueError(f"{name} = {spec!r} is log-scaled; expected low > 0.")
     return low, high, log
+
+
+def _middle(spec):
+    """The middle of a searched range ``(low, high, log)`` (geometric for log ranges)."""
+    low, high, log = spec
+    return float(np.sqrt(low * high)) if log else 0.5 * (low + high)
 
 
 class _HiddenRows:
@@ -153,6 +160,43 @@ class ParametricHiddenState(HiddenStrategy):
         if self.hidden_names is not None and len(self.hidden_names) != n_hidden:
             raise ValueError(f"hidden_names has {len(self.hidden_names)} names; expected {n_hidden}.")
         self.search_space()
+
+    def _validate_data(self, u, y):
+        """Call the hidden dynamics once, on the first sample, before any search.
+
+        A signature that does not take ``(x_h, y, u, **params)`` or a result
+        that is not one value per hidden state would otherwise fail every
+        candidate of the search alike.
+        """
+        rhs = self._hidden_rhs()
+        name = getattr(rhs, "__qualname__", None) or repr(rhs)
+        params, x_h = self._split(self.resolve_params({k: _middle(s) for k, s in self.search_space().items()}))
+        q = x_h.shape[0]
+        call = f"rhs(x_h, y, u{''.join(f', {k}=...' for k in params)})"
+        try:
+            signature = inspect.signature(rhs)
+        except (TypeError, ValueError):  # no signature to read (a builtin): the call below tells
+            signature = None
+        if signature is not None:
+            try:
+                signature.bind(x_h, y[0], u[0], **params)
+            except TypeError as exc:
+                raise ValueError(
+                    f"rhs {name}{signature} cannot be called as {call} ({exc}); expected a function of the hidden "
+                    f"states, outputs and inputs taking the parameters {sorted(params)} as keywords."
+                ) from exc
+        out = rhs(x_h, y[0], u[0], **params)
+        try:
+            shape = np.shape(out)
+            out = np.asarray(out, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"rhs {name} returned {out!r} for the first sample; expected {q} numbers.") from exc
+        if out.size != q:
+            raise ValueError(
+                f"rhs {name} returned shape {shape} for the first sample (x_h of shape ({q},), y of shape "
+                f"({y.shape[1]},), u of shape ({u.shape[1]},)); expected {q} value{'s' * (q > 1)}, the derivative "
+                f"of each hidden state (x0_bounds gives {q})."
+            )
 
     def _hidden_bounds(self, n_hidden):
         return check_bounds(self.bounds, n_hidden)

@@ -1,7 +1,14 @@
 """Feature libraries: scikit-learn transformers applied to ``Z = [states, inputs]``."""
 
 from ._base import BaseLibrary
-from ._builtin import AbsProductLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
+from ._builtin import (
+    AbsProductLibrary,
+    FrictionLibrary,
+    IndicatorLibrary,
+    PolynomialLibrary,
+    SqrtLibrary,
+    TermsLibrary,
+)
 from ._compose import ConcatLibrary, ProductLibrary
 from ._custom import CustomLibrary, ExternalLibrary, as_library
 from ._spec import fitted_library_from_dict, fitted_library_to_dict, library_from_spec, library_to_spec
@@ -30,6 +37,7 @@ __all__ = [
     "ConcatLibrary",
     "CustomLibrary",
     "ExternalLibrary",
+    "FrictionLibrary",
     "IndicatorLibrary",
     "POW",
     "PolynomialLibrary",

@@ -1,5 +1,5 @@
 """Built-in, compilable libraries: polynomial, thresholded square root,
-absolute-value products, and a fixed list of terms."""
+absolute-value products, Coulomb friction, and a fixed list of terms."""
 
 from collections import Counter
 from itertools import combinations, combinations_with_replacement
@@ -9,9 +9,16 @@ import numpy as np
 from .._validation import check_bool, check_integer, check_positive
 from ..io import register_model
 from ._base import BaseLibrary, canonical_term, check_variables
-from ._terms import ABS_POW, POW, SQRT, STEP, check_terms
+from ._terms import ABS_POW, POW, SIGN, SQRT, STEP, check_terms
 
-__all__ = ["AbsProductLibrary", "IndicatorLibrary", "PolynomialLibrary", "SqrtLibrary", "TermsLibrary"]
+__all__ = [
+    "AbsProductLibrary",
+    "FrictionLibrary",
+    "IndicatorLibrary",
+    "PolynomialLibrary",
+    "SqrtLibrary",
+    "TermsLibrary",
+]
 
 
 def _per_variable(value, n, name):
@@ -262,6 +269,52 @@ class AbsProductLibrary(BaseLibrary):
         return terms
 
 
+class FrictionLibrary(BaseLibrary):
+    """Coulomb friction ``sign(v)`` of the selected columns (velocities), optionally times ``|v|^p``.
+
+    Dry friction opposes the motion with a force of constant size:
+    ``F = -F_c sign(v)``. Viscous friction ``-b v`` is a linear term (in
+    :class:`PolynomialLibrary`); join both with ``+`` (a term already held by an
+    earlier library is dropped). ``powers`` adds the terms
+    ``sign(v) |v|^p``, a velocity-dependent friction (``p = 2``: quadratic
+    drag ``v |v|``). ``sign(0) = 0``, and the simulators treat ``sign`` as a
+    function of the state like any other (no stick phase is modelled).
+
+    Parameters
+    ----------
+    variables : sequence of int, optional
+        Columns of ``Z = [states, inputs]`` holding velocities; default all.
+    powers : sequence of float > 0, default=()
+        Exponents ``p`` of the extra terms ``sign(v) |v|^p``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> lib = FrictionLibrary(variables=[1], powers=[2.0]).fit(np.zeros((1, 3)))
+    >>> lib.get_feature_names_out(["y", "v", "u"]).tolist()
+    ['sign(v)', 'sign(v) |v|^2']
+    >>> lib.transform([[0.0, -3.0, 1.0], [0.0, 0.0, 1.0]])
+    array([[-1., -9.],
+           [ 0.,  0.]])
+    """
+
+    def __init__(self, *, variables=None, powers=()):
+        self.variables = variables
+        self.powers = powers
+
+    def _make_terms(self, n_features):
+        cols = check_variables(self.variables, n_features)
+        if isinstance(self.powers, str):
+            raise ValueError(f"powers must be a sequence of numbers > 0; got {self.powers!r}.")
+        try:
+            powers = [check_positive(p, "powers") for p in self.powers]
+        except TypeError as exc:
+            raise ValueError(f"powers must be a sequence of numbers > 0; got {self.powers!r}.") from exc
+        terms = [((c, SIGN, 0.0, 0.0),) for c in cols]
+        terms += [((c, SIGN, 0.0, 0.0), (c, ABS_POW, float(p), 0.0)) for p in powers for c in cols]
+        return terms
+
+
 class TermsLibrary(BaseLibrary):
     """A library made of a given list of terms (e.g. a fitted model's ``terms_``).
 
@@ -293,3 +346,4 @@ register_model(SqrtLibrary)
 register_model(AbsProductLibrary)
 register_model(TermsLibrary)
 register_model(IndicatorLibrary)
+register_model(FrictionLibrary)

@@ -23,17 +23,25 @@ class ConcatLibrary(BaseLibrary):
     ----------
     libraries : sequence of library
         Fitted as clones, in order; pysindy libraries are accepted (see
-        :func:`as_library`). No deduplication of repeated terms.
+        :func:`as_library`).
 
     Attributes
     ----------
     libraries_ : list
         The fitted clones.
     terms_ : list of tuple or None
-        The concatenated terms when every part is compilable, else None.
+        The concatenated terms when every part is compilable (each term once),
+        else None.
 
     Notes
     -----
+    A term that an earlier part already holds is dropped (as in
+    :class:`AbsProductLibrary`): ``PolynomialLibrary(degree=3) +
+    PolynomialLibrary(degree=1)`` has ``x0`` once, not two collinear
+    columns whose coefficient a regression would split between them. Terms
+    are compared in canonical form (``x0 x0`` is ``x0^2``). When a part is
+    not compilable (``terms_`` is None) the columns are kept as they are.
+
     Parameters of the parts are reachable as ``libraries__<i>__<param>``
     (e.g. ``library__libraries__0__degree`` inside a ``SINDy``).
 
@@ -46,6 +54,8 @@ class ConcatLibrary(BaseLibrary):
     ['1', 'x0', 'x1', 'sqrt(x0)', 'sqrt(x1)']
     >>> lib.set_params(libraries__0__degree=2).libraries[0].degree
     2
+    >>> (PolynomialLibrary(degree=2) + PolynomialLibrary(degree=1)).fit(np.zeros((1, 1))).get_feature_names_out()
+    array(['1', 'x0', 'x0^2'], dtype=object)
     """
 
     def __init__(self, libraries=None):
@@ -58,8 +68,19 @@ class ConcatLibrary(BaseLibrary):
             raise ValueError(f"libraries must be a non-empty sequence of libraries; got {self.libraries!r}.")
         self.libraries_ = [_fit_clone(lib, Z, f"libraries[{i}]") for i, lib in enumerate(self.libraries)]
         parts = [lib.terms_ for lib in self.libraries_]
-        self.terms_ = None if any(p is None for p in parts) else [t for p in parts for t in p]
-        self.n_output_features_ = sum(lib.n_output_features_ for lib in self.libraries_)
+        if any(p is None for p in parts):
+            self.terms_, self._kept = None, None
+            self.n_output_features_ = sum(lib.n_output_features_ for lib in self.libraries_)
+            return self
+        terms, seen, self._kept = [], set(), []
+        for i, term in enumerate(t for p in parts for t in p):
+            key = canonical_term(term)
+            if key not in seen:
+                seen.add(key)
+                terms.append(term)
+                self._kept.append(i)
+        self.terms_ = terms
+        self.n_output_features_ = len(terms)
         return self
 
     def _transform(self, Z):
@@ -68,7 +89,8 @@ class ConcatLibrary(BaseLibrary):
         return np.hstack([lib._transform(Z) for lib in self.libraries_])
 
     def _feature_names(self, names):
-        return [n for lib in self.libraries_ for n in lib.get_feature_names_out(names)]
+        out = [n for lib in self.libraries_ for n in lib.get_feature_names_out(names)]
+        return out if self._kept is None else [out[i] for i in self._kept]
 
     def get_params(self, deep=True):
         """Parameters, with those of the parts as ``libraries__<i>__<param>``."""

@@ -290,4 +290,4 @@ class ParametricHiddenState(HiddenStrategy):
         return best
 
 
-register_model(ParametricHiddenState)
+register_model(ParametricHiddenState, functions=("rhs",))

@@ -26,10 +26,22 @@ Stored ``fitted`` entries (add a new fitted attribute to both functions):
     ``refine``; the refined coefficients and first state are ``coef`` and ``x0``).
 """
 
-from .io import check_params, encode_array, encode_value, fitted_from_dict, fitted_to_dict
-from .libraries import fitted_library_from_dict, fitted_library_to_dict
+import math
 
-__all__ = ["sindy_from_dict", "sindy_to_dict"]
+from .differentiation import BaseDifferentiation, as_differentiation
+from .io import (
+    check_fitted_kind,
+    check_limit,
+    check_params,
+    encode_array,
+    encode_value,
+    fitted_from_dict,
+    fitted_to_dict,
+)
+from .libraries import fitted_library_from_dict, fitted_library_to_dict
+from ._stls import STLS
+
+__all__ = ["fitted_parts", "sindy_from_dict", "sindy_to_dict"]
 
 
 def sindy_to_dict(model):
@@ -51,21 +63,39 @@ def sindy_to_dict(model):
     }
 
 
+def fitted_parts(model, fitted, default_optimizer):
+    """The fitted optimizer and differentiation method, each of the class the parameters name.
+
+    ``default_optimizer`` is the class fitted when the ``optimizer`` parameter is None.
+    """
+    expected = type(model.optimizer) if model.optimizer is not None else default_optimizer
+    optimizer = check_fitted_kind(fitted_from_dict(fitted.fields("optimizer")), expected, "fitted.optimizer")
+    expected = type(check_params(as_differentiation, model.differentiation))
+    differentiation = fitted.value("differentiation")
+    if not isinstance(differentiation, BaseDifferentiation):
+        raise ValueError(f"fitted.differentiation: expected a differentiation method; "
+                         f"got {type(differentiation).__name__}.")
+    return optimizer, check_fitted_kind(differentiation, expected, "fitted.differentiation")
+
+
 def sindy_from_dict(model, fitted):
     """Set the fitted attributes of ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
+    # the cheap checks first: the names bound the sizes (a file cannot ask for more states than it names)
     n_states, n_inputs = fitted.int("n_states", low=1), fitted.int("n_inputs")
+    model.output_names_ = fitted.strings("output_names", n_states)
+    model.input_names_ = fitted.strings("input_names", n_inputs)
     check_params(model._check_params, n_states)
+    check_limit(model.n_substeps, "params.n_substeps")
     model.library_ = fitted_library_from_dict(fitted.fields("library"), n_states + n_inputs)
     model.terms_ = model.library_.terms_
     n_terms = len(model.terms_)
-    model.coef_ = fitted.array("coef", (n_states, n_terms))
-    model.optimizer_ = fitted_from_dict(fitted.fields("optimizer"))
-    model.differentiation_ = fitted.value("differentiation")
+    model.coef_ = fitted.array("coef", (n_states, n_terms), finite=True)
+    model.optimizer_, model.differentiation_ = fitted_parts(model, fitted, STLS)
     model.feature_names_ = fitted.strings("feature_names", n_terms)
-    model.output_names_ = fitted.strings("output_names", n_states)
-    model.input_names_ = fitted.strings("input_names", n_inputs)
     model.n_states_, model.n_inputs_, model.n_features_in_ = n_states, n_inputs, n_inputs
     model.dt_ = fitted.float("dt", allow_none=True)
-    model.x0_ = fitted.array("x0", (n_states,))
+    if model.dt_ is not None and not (math.isfinite(model.dt_) and model.dt_ > 0):
+        raise ValueError(f"fitted.dt: expected a finite number > 0 or null; got {model.dt_!r}.")
+    model.x0_ = fitted.array("x0", (n_states,), finite=True)
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)

@@ -13,6 +13,7 @@ and ``intercepts`` (lists of arrays, layer by layer).
 import numpy as np
 
 from ..io import check_params, encode_array
+from ._lags import n_lags
 
 __all__ = ["arx_from_dict", "arx_to_dict", "nnarx_from_dict", "nnarx_to_dict"]
 
@@ -31,14 +32,19 @@ def _lags_to_dict(model):
 
 def _lags_from_dict(model, fitted):
     """Set the attributes every lag model has; return ``(n_regressors, n_outputs)``."""
+    na, nb, nk = check_params(model._check_orders)
     model.n_features_in_ = fitted.int("n_features_in")
     model.n_outputs_ = n_outputs = fitted.int("n_outputs", low=1)
     model.n_lags_ = fitted.int("n_lags")
-    model.y_ndim_ = fitted.int("y_ndim", low=1)
-    model.y_mean_ = fitted.array("y_mean", (n_outputs,))
+    if model.n_lags_ != n_lags(na, nb, nk):
+        raise ValueError(f"fitted.n_lags: expected {n_lags(na, nb, nk)} (na={na}, nb={nb}, nk={nk}); "
+                         f"got {model.n_lags_}.")
+    model.y_ndim_ = fitted.int("y_ndim", low=1, high=2)
+    if model.y_ndim_ == 1 and n_outputs != 1:
+        raise ValueError(f"fitted.y_ndim: 1 (a 1-D y) but n_outputs = {n_outputs}; expected 2.")
+    model.y_mean_ = fitted.array("y_mean", (n_outputs,), finite=True)
     if fitted.get("feature_names_in", allow_none=True) is not None:
         model.feature_names_in_ = np.asarray(fitted.strings("feature_names_in", model.n_features_in_), dtype=object)
-    na, nb, _ = check_params(model._check_orders)
     return na * n_outputs + nb * model.n_features_in_, n_outputs
 
 
@@ -50,8 +56,8 @@ def arx_to_dict(model):
 def arx_from_dict(model, fitted):
     """Set the fitted attributes of an ARX ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
     n_reg, n_out = _lags_from_dict(model, fitted)
-    model.coef_ = fitted.array("coef", (n_reg, n_out))
-    model.intercept_ = fitted.array("intercept", (n_out,))
+    model.coef_ = fitted.array("coef", (n_reg, n_out), finite=True)
+    model.intercept_ = fitted.array("intercept", (n_out,), finite=True)
 
 
 def nnarx_to_dict(model):
@@ -73,11 +79,19 @@ def nnarx_to_dict(model):
     }
 
 
+def _finite(fitted, name, shapes):
+    arrays = fitted.arrays(name, shapes)
+    for i, a in enumerate(arrays):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"{fitted.where(name)}[{i}]: expected finite weights; got NaN or inf.")
+    return arrays
+
+
 def _network_from_dict(model, fitted, widths):
     layers = range(len(widths) - 1)
     net = model._network(fitted.int("seed"))
-    net.coefs_ = fitted.arrays("coefs", [(widths[i], widths[i + 1]) for i in layers])
-    net.intercepts_ = fitted.arrays("intercepts", [(widths[i + 1],) for i in layers])
+    net.coefs_ = _finite(fitted, "coefs", [(widths[i], widths[i + 1]) for i in layers])
+    net.intercepts_ = _finite(fitted, "intercepts", [(widths[i + 1],) for i in layers])
     net.n_iter_ = fitted.int("n_iter")
     net.n_layers_, net.n_outputs_, net.n_features_in_ = len(widths), widths[-1], widths[0]
     net.out_activation_ = "identity"
@@ -88,11 +102,11 @@ def nnarx_from_dict(model, fitted):
     """Set the fitted attributes of an NNARX ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
     check_params(model._check_settings)
     n_reg, n_out = _lags_from_dict(model, fitted)
-    model.u_mean_ = fitted.array("u_mean", (model.n_features_in_,))
-    model.u_scale_ = fitted.array("u_scale", (model.n_features_in_,))
-    model.y_scale_ = fitted.array("y_scale", (n_out,))
-    model.linear_coef_ = fitted.array("linear_coef", (n_reg, n_out))
-    model.linear_intercept_ = fitted.array("linear_intercept", (n_out,))
+    model.u_mean_ = fitted.array("u_mean", (model.n_features_in_,), finite=True)
+    model.u_scale_ = fitted.array("u_scale", (model.n_features_in_,), positive=True)  # divides the inputs
+    model.y_scale_ = fitted.array("y_scale", (n_out,), positive=True)
+    model.linear_coef_ = fitted.array("linear_coef", (n_reg, n_out), finite=True)
+    model.linear_intercept_ = fitted.array("linear_intercept", (n_out,), finite=True)
     model.n_iter_ = fitted.int("n_iter")
     sizes = model.hidden_layer_sizes
     widths = [n_reg, *(int(h) for h in (sizes if hasattr(sizes, "__iter__") else [sizes])), n_out]

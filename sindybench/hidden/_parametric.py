@@ -334,4 +334,4 @@ class ParametricHiddenState(HiddenStrategy):
         return best
 
 
-register_model(ParametricHiddenState)
+register_model(ParametricHiddenState, functions=("rhs",))

@@ -32,9 +32,18 @@ Stored ``fitted`` entries (a new fitted attribute goes into both functions;
     ``structure.fixed_coef`` and ``x0``).
 """
 
-from ..io import check_params, encode_array, encode_value, fitted_from_dict, fitted_to_dict
+import math
+
+from sklearn.base import clone
+
+from .._sindy_persist import fitted_parts
+from .._stls import STLS
+from ..io import check_limit, check_params, encode_array, encode_value, fitted_to_dict
 from ..libraries import check_terms, fitted_library_from_dict, fitted_library_to_dict, terms_to_json
+from ..libraries._spec import MAX_COLUMNS
 from ._base import HiddenStrategy, Structure
+
+MAX_GRID = 10_000  # grid points of a strategy's initial-state search a file may ask for (run at every predict)
 
 __all__ = ["hidden_sindy_from_dict", "hidden_sindy_to_dict"]
 
@@ -54,6 +63,7 @@ def _structure_to_dict(s):
 
 def _structure_from_dict(f, hidden, params, n_outputs, n_inputs):
     n_states = f.int("n_states", low=1)
+    state_names = f.strings("state_names", n_states)  # the cheap check first: bounds n_states by the file
     learned = f.ints("learned", high=n_states)
     output_index = f.ints("output_index", high=n_states)
     if len(output_index) != n_outputs:
@@ -71,8 +81,8 @@ def _structure_from_dict(f, hidden, params, n_outputs, n_inputs):
         learned=tuple(learned),
         output_index=tuple(output_index),
         fixed_terms=fixed_terms,
-        fixed_coef=f.array("fixed_coef", (len(fixed_terms), n_states)),
-        state_names=f.strings("state_names", n_states),
+        fixed_coef=f.array("fixed_coef", (len(fixed_terms), n_states), finite=True),
+        state_names=state_names,
         bounds=f.value("bounds", allow_none=True),
         fixed_rhs=fixed_rhs,
     )
@@ -100,14 +110,47 @@ def hidden_sindy_to_dict(model):
     }
 
 
+def _check_strategy(hidden, field):
+    """The strategy's own checks (``_validate``) and the limits of what it runs at every ``predict``."""
+    try:
+        hidden._validate()
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"{field}: {type(hidden).__name__} refused its parameters: {exc}") from exc
+    params = hidden.get_params(deep=False)
+    check_limit(params.get("n_substeps"), f"{field}.estimator.params.n_substeps")
+    check_limit(params.get("grid_size"), f"{field}.estimator.params.grid_size", MAX_GRID)
+
+
+def _check_physical(hidden, params):
+    """The fitted physical parameters (``params_``) pass the strategy's checks of its constructor values."""
+    bad = [k for k, v in params.items()
+           if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v)]
+    if bad:
+        raise ValueError(f"fitted.params[{bad[0]!r}]: expected a finite number; got {params[bad[0]]!r}.")
+    try:
+        names = hidden.refinable(params)
+        own = {k: params[k] for k in names if k in hidden._get_param_names()}
+        clone(hidden).set_params(**own)._validate()
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ValueError(f"fitted.params: the {type(hidden).__name__} parameters {params} are refused: {exc}") from exc
+
+
 def hidden_sindy_from_dict(model, fitted):
     """Set the fitted attributes of ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
+    model.dt_ = fitted.float("dt")
+    check_params(model._check_params, model.dt_)
+    check_limit(model.n_substeps, "params.n_substeps")
+    if model.hidden is not None:
+        _check_strategy(model.hidden, "params.hidden")
     hidden = fitted.value("hidden")
     if not isinstance(hidden, HiddenStrategy):
         raise ValueError(f"fitted.hidden: expected a hidden-state strategy; got {type(hidden).__name__}.")
-    n_inputs, n_outputs = fitted.int("n_features_in"), fitted.int("n_outputs", low=1)
+    _check_strategy(hidden, "fitted.hidden")
+    n_inputs = fitted.int("n_features_in", high=MAX_COLUMNS)
+    n_outputs = fitted.int("n_outputs", low=1, high=MAX_COLUMNS)
     model.hidden_ = hidden
     model.params_ = fitted.mapping("params")
+    _check_physical(hidden, model.params_)
     model.best_params_ = fitted.mapping("best_params")
     results = fitted.value("search_results")
     if not isinstance(results, list):
@@ -116,13 +159,13 @@ def hidden_sindy_from_dict(model, fitted):
     s = _structure_from_dict(fitted.fields("structure"), hidden, model.params_, n_outputs, n_inputs)
     model.structure_ = s
     model.library_ = fitted_library_from_dict(fitted.fields("library"), s.n_states + n_inputs)
-    model.coef_ = fitted.array("coef", (len(s.learned), len(model.library_.terms_)))
-    model.optimizer_ = fitted_from_dict(fitted.fields("optimizer"))
-    model.differentiation_ = fitted.value("differentiation")
+    model.coef_ = fitted.array("coef", (len(s.learned), len(model.library_.terms_)), finite=True)
+    model.optimizer_, model.differentiation_ = fitted_parts(model, fitted, STLS)
     model.states_ = fitted.array("states", (None, s.n_states))
-    model.x0_ = fitted.array("x0", (s.n_states,))
-    model.dt_ = fitted.float("dt")
-    check_params(model._check_params, model.dt_)
+    if model.states_.shape[0] == 0:
+        raise ValueError(f"fitted.states: expected the training trajectory (at least one sample of {s.n_states} "
+                         "states); got 0 samples.")
+    model.x0_ = fitted.array("x0", (s.n_states,), finite=True)
     model.n_features_in_, model.n_outputs_ = n_inputs, n_outputs
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)

@@ -9,7 +9,7 @@ import numpy as np  # noqa: F401  (used by the doctests)
 from sklearn.utils.validation import check_is_fitted
 
 from ._registry import _REGISTRY, _lookup, _registered
-from ._values import Fields, _construct, _encode_params
+from ._values import Fields, _construct, _encode_params, check_plain
 
 __all__ = ["SaveLoadMixin", "load_model", "model_from_dict", "model_to_dict", "save_model", "write_text_atomic"]
 
@@ -103,6 +103,7 @@ def model_from_dict(data, *, allow_import=False):
     version = data.get("format_version")
     if version != FORMAT_VERSION:
         raise ValueError(f"format_version: model file version {version!r} is not supported; expected {FORMAT_VERSION}.")
+    check_plain(data)  # bounded nesting and integers before any recursive reading
     envelope = Fields(data, "", allow_import=allow_import)  # top-level fields are named bare: "fitted.coef"
     entry = _lookup(data.get("class"), "class", model=True)
     model = _construct(entry.cls, envelope.get("params", "an object"), "params", allow_import)
@@ -140,30 +141,46 @@ def save_model(model, path):
     write_text_atomic(json.dumps(model_to_dict(model), allow_nan=False), path)
 
 
-def _file_mode():
-    """Permissions of a new file as ``open`` would create it (0o666 less the umask)."""
-    umask = os.umask(0)
-    os.umask(umask)
-    return 0o666 & ~umask
+def _file_mode(path):
+    """Permissions for ``path``: those of the file it replaces, else as ``open`` would create it."""
+    try:
+        return os.stat(path).st_mode & 0o7777
+    except OSError:  # no such file (yet): 0o666 less the umask
+        umask = os.umask(0)
+        os.umask(umask)
+        return 0o666 & ~umask
 
 
 def write_text_atomic(text, path):
     """Write ``text`` to ``path`` through a temporary file in the same folder (no partial file).
 
-    The file gets the permissions ``open(path, "w")`` would give it (the
-    temporary file's are owner-only).
+    A new file gets the permissions ``open(path, "w")`` would give it, a
+    replaced file keeps its own (the temporary file's are owner-only). An
+    ``OSError`` (missing or read-only folder, full disk) names ``path``, not
+    the temporary file.
+
+    Examples
+    --------
+    >>> write_text_atomic("{}", "/no/such/folder/model.json")
+    Traceback (most recent call last):
+    ...
+    FileNotFoundError: [Errno 2] cannot write the file (No such file or directory): '/no/such/folder/model.json'
     """
     path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    tmp = None
     try:
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
             f.flush()
             os.fsync(f.fileno())
-        os.chmod(tmp, _file_mode())
+        os.chmod(tmp, _file_mode(path))
         os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
+    except BaseException as exc:
+        if tmp is not None:
+            Path(tmp).unlink(missing_ok=True)
+        if isinstance(exc, OSError) and exc.errno is not None:
+            raise type(exc)(exc.errno, f"cannot write the file ({exc.strerror})", str(path)) from exc
         raise
 
 
@@ -207,10 +224,17 @@ def load_model(path, *, allow_import=False):
     """
     with open(path, encoding="utf-8") as f:
         try:
-            data = json.load(f)
-        except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+            data = json.load(f, parse_constant=_refuse_constant)
+        except RecursionError:  # the parser's own recursion: thousands of nested brackets
+            raise ValueError(f"{path} is not a model file: its JSON is nested thousands of levels deep; expected "
+                             "a model file (about 15 levels).") from None
+        except ValueError as exc:  # JSONDecodeError, UnicodeDecodeError, integers beyond 4300 digits
             raise ValueError(f"{path} is not valid JSON: {exc}") from exc
     return model_from_dict(data, allow_import=allow_import)
+
+
+def _refuse_constant(name):
+    raise ValueError(f"the bare constant {name} (model files write {{\"float\": \"nan\"}}, {{\"float\": \"inf\"}})")
 
 
 class SaveLoadMixin:

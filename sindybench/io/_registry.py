@@ -11,12 +11,13 @@ class _Entry(NamedTuple):
     cls: type
     to_dict: Callable
     from_dict: Callable
+    functions: tuple = ()
 
 
 _REGISTRY = {}
 
 
-def register_model(cls, *, to_dict=None, from_dict=None):
+def register_model(cls, *, to_dict=None, from_dict=None, functions=()):
     """Let instances of ``cls`` be stored in model files.
 
     Every class whose instances appear in a file (as the saved model or inside
@@ -39,6 +40,10 @@ def register_model(cls, *, to_dict=None, from_dict=None):
         ``from_dict(model, fitted)``: set the fitted attributes of ``model``
         (constructed from the stored parameters) from ``fitted``, a
         :class:`Fields` view of the stored dict.
+    functions : tuple of str, default=()
+        The constructor parameters that may hold a module-level Python
+        function (stored by its import path). A file that names a function
+        anywhere else is refused before anything is imported.
 
     Returns
     -------
@@ -73,13 +78,20 @@ def register_model(cls, *, to_dict=None, from_dict=None):
             f"another class named {name!r} is registered ({old.cls.__module__}.{old.cls.__qualname__}); "
             "expected one class per name."
         )
-    _REGISTRY[name] = _Entry(cls, to_dict, from_dict)
+    valid = cls._get_param_names() if hasattr(cls, "_get_param_names") else []
+    if isinstance(functions, str) or any(f not in valid for f in functions):
+        raise ValueError(f"functions = {functions!r}; expected a tuple of constructor parameters of {name} {valid}.")
+    _REGISTRY[name] = _Entry(cls, to_dict, from_dict, tuple(functions))
     return cls
 
 
 def _registered(models_only=False):
     return sorted(n for n, e in _REGISTRY.items() if not models_only or e.to_dict is not None)
 
+
+def _function_params():
+    """Where a model file may name a function: ``['ParametricHiddenState.rhs']``."""
+    return sorted(f"{n}.{p}" for n, e in _REGISTRY.items() for p in e.functions)
 
 
 def _lookup(name, field, *, model=False):

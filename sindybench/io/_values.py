@@ -6,11 +6,14 @@ import types
 
 import numpy as np
 
-from ._registry import _REGISTRY, _lookup, _registered
+from ._registry import _REGISTRY, _function_params, _lookup, _registered
 
 __all__ = [
     "Fields",
+    "check_fitted_kind",
+    "check_limit",
     "check_params",
+    "check_plain",
     "decode_array",
     "decode_value",
     "encode_array",
@@ -20,8 +23,19 @@ __all__ = [
 ]
 
 _TAGS = ("array", "dict", "estimator", "float", "function", "tuple")
+MAX_DEPTH = 100  # nesting of JSON lists and objects in a model file (real files: about 15)
+MAX_NDIM, MAX_DIM = 32, 2**31  # array dimensions a file may declare
+MAX_SUBSTEPS = 1000  # integration sub-steps per sample a file may ask for (each one costs a step of every run)
 _DTYPES = {"float64": np.float64, "float32": np.float32, "int64": np.int64, "bool": bool}
 _SPECIAL = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
+
+
+def _repr(value):
+    """``repr(value)``, or ``<module.Class>`` when its ``repr`` fails (pysindy's CustomLibrary)."""
+    try:
+        return repr(value)
+    except Exception:  # noqa: BLE001 - a foreign object's repr may raise anything; the message must not
+        return f"<{type(value).__module__}.{type(value).__qualname__} object>"
 
 
 def _kind(value):
@@ -82,19 +96,22 @@ def decode_array(value, field, shape=None):
     dtype, dims, data = value["dtype"], value["shape"], value["data"]
     if dtype not in _DTYPES:
         raise ValueError(f"{field}.dtype: expected one of {sorted(_DTYPES)}; got {dtype!r}.")
-    if not isinstance(dims, list) or not all(isinstance(d, int) and not isinstance(d, bool) and d >= 0 for d in dims):
-        raise ValueError(f"{field}.shape: expected a list of integers >= 0; got {dims!r}.")
+    if (not isinstance(dims, list) or len(dims) > MAX_NDIM
+            or not all(isinstance(d, int) and not isinstance(d, bool) and 0 <= d < MAX_DIM for d in dims)):
+        raise ValueError(f"{field}.shape: expected a list of at most {MAX_NDIM} integers in [0, {MAX_DIM}); "
+                         f"got {_kind(dims)}.")
     if not isinstance(data, list) or len(data) != math.prod(dims):
         raise ValueError(f"{field}.data: expected a list of {math.prod(dims)} values (shape {dims}); got {_kind(data)}.")
     if dtype in ("float64", "float32"):
         ok = all((isinstance(v, (int, float)) and not isinstance(v, bool)) or v in _SPECIAL for v in data)
         values = [_SPECIAL.get(v, v) if isinstance(v, str) else v for v in data] if ok else None
     elif dtype == "int64":
-        ok, values = all(isinstance(v, int) and not isinstance(v, bool) for v in data), data
+        ok = all(isinstance(v, int) and not isinstance(v, bool) and -2**63 <= v < 2**63 for v in data)
+        values = data
     else:
         ok, values = all(isinstance(v, bool) for v in data), data
     if not ok:
-        raise ValueError(f"{field}.data: expected {dtype} values; got {[v for v in data][:5]}...")
+        raise ValueError(f"{field}.data: expected {dtype} values; got {[_kind(v) for v in data[:5]]}...")
     a = np.array(values, dtype=_DTYPES[dtype]).reshape(dims)
     if shape is not None and (a.ndim != len(shape) or any(s is not None and s != d for s, d in zip(shape, a.shape))):
         want = "(" + ", ".join("n" if s is None else str(s) for s in shape) + ("," if len(shape) == 1 else "") + ")"
@@ -140,7 +157,7 @@ def _import_function(path, field):
     return obj
 
 
-def encode_value(value, field="value"):
+def encode_value(value, field="value", *, function_ok=True):
     """A parameter value as JSON-able data; see :func:`decode_value`.
 
     ``None``, bool, int, str, finite floats and lists stay as they are; every
@@ -152,7 +169,10 @@ def encode_value(value, field="value"):
     "module:qualname"}`` for a module-level function.
 
     Raises ``ValueError`` naming ``field`` for anything else (lambdas, local
-    functions, unregistered classes, foreign objects).
+    functions, unregistered classes, foreign objects). A function is stored
+    only as ``value`` itself with ``function_ok=True`` or as a constructor
+    parameter that its class declares (``register_model(..., functions=...)``),
+    never inside a list, tuple or dict: the places where loading accepts one.
 
     Examples
     --------
@@ -176,33 +196,67 @@ def encode_value(value, field="value"):
         v = float(value)
         return v if math.isfinite(v) else {"float": repr(v)}
     if isinstance(value, list):
-        return [encode_value(v, f"{field}[{i}]") for i, v in enumerate(value)]
+        return [encode_value(v, f"{field}[{i}]", function_ok=False) for i, v in enumerate(value)]
     if isinstance(value, tuple):
-        return {"tuple": [encode_value(v, f"{field}[{i}]") for i, v in enumerate(value)]}
+        return {"tuple": [encode_value(v, f"{field}[{i}]", function_ok=False) for i, v in enumerate(value)]}
     if isinstance(value, dict):
         bad = [k for k in value if not isinstance(k, str)]
         if bad:
             raise ValueError(f"{field} has the key {bad[0]!r}; expected string keys only.")
-        return {"dict": {k: encode_value(v, f"{field}[{k!r}]") for k, v in value.items()}}
+        return {"dict": {k: encode_value(v, f"{field}[{k!r}]", function_ok=False) for k, v in value.items()}}
     if isinstance(value, np.ndarray):
         return {"array": encode_array(value)}
     if isinstance(value, types.FunctionType):
+        if not function_ok:
+            raise ValueError(f"{field} = {value!r} cannot be stored: a Python function is stored only as one of "
+                             f"{_function_params()}.")
         return {"function": _function_path(value, field)}
     name = type(value).__name__
     entry = _REGISTRY.get(name)
     if entry is not None and type(value) is entry.cls:
         return {"estimator": {"class": name, "params": _encode_params(value, field)}}
-    raise ValueError(
-        f"{field} = {value!r} cannot be stored as JSON: {name} is not a registered class (custom Python "
-        f"functions or foreign objects); expected plain values or one of {_registered()}."
-    )
+    raise ValueError(_unstorable(value, field))
+
+
+# pysindy classes and the sindybench classes that store the same thing
+_PYSINDY_EQUIVALENTS = {
+    "PolynomialLibrary": "sindybench.libraries.PolynomialLibrary",
+    "ConcatLibrary": "sindybench.libraries.ConcatLibrary (lib1 + lib2 of sindybench libraries)",
+    "GeneralizedLibrary": "sindybench.libraries.ConcatLibrary (lib1 + lib2 of sindybench libraries)",
+    "TensoredLibrary": "sindybench.libraries.ProductLibrary (lib1 * lib2 of sindybench libraries)",
+    "STLSQ": "sindybench.STLS",
+    "FiniteDifference": "sindybench.differentiation.FiniteDifference",
+    "SmoothedFiniteDifference": "sindybench.differentiation.SavitzkyGolay",
+    "SpectralDerivative": "sindybench.differentiation.Spectral",
+}
+
+
+def _unstorable(value, field):
+    """The message for a value that cannot be stored, with the sindybench class to use where there is one."""
+    cls = type(value)
+    name, module = cls.__name__, cls.__module__
+    if module.partition(".")[0] == "pysindy":
+        hint = _PYSINDY_EQUIVALENTS.get(name)
+        use = (f"use {hint} instead" if hint else
+               "sindybench has no equivalent to store; use the sindybench classes (sindybench.libraries, "
+               "sindybench.differentiation, sindybench.STLS) to save the model")
+        return (f"{field} = {_repr(value)} cannot be stored as JSON: it is pysindy's {name} ({module}.{name}), "
+                f"not a sindybench class; {use}.")
+    if name in _REGISTRY:
+        known = _REGISTRY[name].cls
+        return (f"{field} = {_repr(value)} cannot be stored as JSON: it is {module}.{cls.__qualname__}, not the "
+                f"registered {known.__module__}.{known.__qualname__}; expected the registered class.")
+    return (f"{field} = {_repr(value)} cannot be stored as JSON: {name} is not a registered class (custom Python "
+            f"functions or foreign objects); expected plain values or one of {_registered()}.")
 
 
 def _encode_params(estimator, field):
-    return {k: encode_value(v, f"{field}.{k}") for k, v in estimator.get_params(deep=False).items()}
+    functions = _REGISTRY[type(estimator).__name__].functions if type(estimator).__name__ in _REGISTRY else ()
+    return {k: encode_value(v, f"{field}.{k}", function_ok=k in functions)
+            for k, v in estimator.get_params(deep=False).items()}
 
 
-def decode_value(value, field="value", *, allow_import=False):
+def decode_value(value, field="value", *, allow_import=False, function_ok=True):
     """Inverse of :func:`encode_value`; ``ValueError`` naming ``field`` for malformed data.
 
     Parameters
@@ -213,6 +267,11 @@ def decode_value(value, field="value", *, allow_import=False):
     allow_import : bool, default=False
         Import the module-level functions the data names (``{"function":
         "module:qualname"}``); otherwise such a value is refused.
+    function_ok : bool, default=True
+        Whether ``value`` itself may name a function. Inside lists, tuples
+        and dicts, and in the parameters of an estimator other than those its
+        class declares (``register_model(..., functions=...)``), a function
+        is refused before anything is imported.
 
     Examples
     --------
@@ -226,7 +285,8 @@ def decode_value(value, field="value", *, allow_import=False):
     if value is None or isinstance(value, (bool, int, float, str)):
         return value
     if isinstance(value, list):
-        return [decode_value(v, f"{field}[{i}]", allow_import=allow_import) for i, v in enumerate(value)]
+        return [decode_value(v, f"{field}[{i}]", allow_import=allow_import, function_ok=False)
+                for i, v in enumerate(value)]
     if not isinstance(value, dict) or len(value) != 1 or next(iter(value)) not in _TAGS:
         raise ValueError(f"{field}: expected a plain value or a one-key object tagged {list(_TAGS)}; got {_kind(value)}.")
     tag, inner = next(iter(value.items()))
@@ -237,16 +297,21 @@ def decode_value(value, field="value", *, allow_import=False):
     if tag == "tuple":
         if not isinstance(inner, list):
             raise ValueError(f"{field}.tuple: expected a list; got {_kind(inner)}.")
-        return tuple(decode_value(v, f"{field}[{i}]", allow_import=allow_import) for i, v in enumerate(inner))
+        return tuple(decode_value(v, f"{field}[{i}]", allow_import=allow_import, function_ok=False)
+                     for i, v in enumerate(inner))
     if tag == "dict":
         if not isinstance(inner, dict):
             raise ValueError(f"{field}.dict: expected an object; got {_kind(inner)}.")
-        return {k: decode_value(v, f"{field}[{k!r}]", allow_import=allow_import) for k, v in inner.items()}
+        return {k: decode_value(v, f"{field}[{k!r}]", allow_import=allow_import, function_ok=False)
+                for k, v in inner.items()}
     if tag == "array":
         return decode_array(inner, f"{field}.array")
     if tag == "function":
         if not isinstance(inner, str):
             raise ValueError(f"{field}.function: expected 'module:name'; got {_kind(inner)}.")
+        if not function_ok:  # checked before anything is imported
+            raise ValueError(f"{field} names the Python function {inner[:80]!r}, which is not expected here; a "
+                             f"model file may name a function only as one of {_function_params()}.")
         if not allow_import:
             raise ValueError(
                 f"{field} is the Python function {inner!r}; loading it imports that module: pass "
@@ -263,7 +328,9 @@ def _construct(cls, params, field, allow_import):
     unknown = sorted(set(params.data) - set(valid))
     if unknown:
         raise ValueError(f"{field}: unknown parameter(s) {unknown} of {cls.__name__}; expected some of {valid}.")
-    kwargs = {k: decode_value(v, f"{field}.{k}", allow_import=allow_import) for k, v in params.data.items()}
+    functions = _REGISTRY[cls.__name__].functions if cls.__name__ in _REGISTRY else ()
+    kwargs = {k: decode_value(v, f"{field}.{k}", allow_import=allow_import, function_ok=k in functions)
+              for k, v in params.data.items()}
     try:
         return cls(**kwargs)
     except (TypeError, ValueError) as exc:
@@ -328,10 +395,11 @@ class Fields:
             return value
         raise ValueError(f"{self.where(name)}: expected {expected}; got {_kind(value)}.")
 
-    def int(self, name, *, low=0):
-        """An integer ``>= low``."""
-        return self._typed(name, f"an integer >= {low}",
-                           lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= low, False)
+    def int(self, name, *, low=0, high=None):
+        """An integer ``>= low`` (and ``<= high`` when given)."""
+        expected = f"an integer >= {low}" if high is None else f"an integer in [{low}, {high}]"
+        return self._typed(name, expected, lambda v: isinstance(v, int) and not isinstance(v, bool) and v >= low
+                           and (high is None or v <= high), False)
 
     def float(self, name, *, allow_none=False):
         """A number (``{"float": "inf"}`` for non-finite values)."""
@@ -339,7 +407,10 @@ class Fields:
         if value is None:
             return None
         if isinstance(value, dict):
-            return float(decode_value(value, self.where(name)))
+            value = decode_value(value, self.where(name), function_ok=False)
+            if not isinstance(value, float):
+                raise ValueError(f"{self.where(name)}: expected a number; got {_kind(value)}.")
+            return value
         return float(self._typed(name, "a number", lambda v: isinstance(v, (int, float)) and not isinstance(v, bool),
                                  False))
 
@@ -365,9 +436,18 @@ class Fields:
                 isinstance(i, int) and not isinstance(i, bool) and 0 <= i and (high is None or i < high) for i in v),
             False)]
 
-    def array(self, name, shape=None):
-        """An array stored by :func:`encode_array`, of ``shape`` (``None`` = any length)."""
-        return decode_array(self.get(name, "an array"), self.where(name), shape)
+    def array(self, name, shape=None, *, finite=False, positive=False):
+        """An array stored by :func:`encode_array`, of ``shape`` (``None`` = any length).
+
+        With ``finite`` every entry must be finite, with ``positive`` finite and > 0.
+        """
+        a = decode_array(self.get(name, "an array"), self.where(name), shape)
+        bad = ~(np.isfinite(a) & (a > 0)) if positive else ~np.isfinite(a) if finite else None
+        if bad is not None and bad.any():
+            i = tuple(int(k) for k in np.argwhere(bad)[0])
+            want = "finite values > 0" if positive else "finite values"
+            raise ValueError(f"{self.where(name)}: expected {want}; got {a[i].item()!r} at index {list(i)}.")
+        return a
 
     def _list(self, name, n, what):
         value = self.get(name, f"a list of {n} {what}")
@@ -395,11 +475,105 @@ class Fields:
     def value(self, name, *, allow_none=False):
         """A value stored by :func:`encode_value` (estimators, dicts, tuples ...)."""
         raw = self.get(name, "a value", allow_none=allow_none)
-        return decode_value(raw, self.where(name), allow_import=self.allow_import)
+        return decode_value(raw, self.where(name), allow_import=self.allow_import, function_ok=False)
 
     def fields(self, name):
         """The nested object ``name`` as :class:`Fields`."""
         return Fields(self.get(name, "an object"), self.where(name), allow_import=self.allow_import)
+
+
+def check_plain(data, field=""):
+    """Check that JSON ``data`` is plain and bounded: nesting and integers.
+
+    Lists and objects may nest at most ``MAX_DEPTH`` (100) levels and
+    integers must fit in 64 bits; a deeper or larger value (a file built to
+    exhaust the recursion limit or the float conversion) is refused with a
+    ``ValueError`` naming where it sits. Runs without recursion, in one pass.
+
+    Examples
+    --------
+    >>> check_plain({"a": [1, 2.5, "x", None]})
+    >>> nested = []
+    >>> for _ in range(200):
+    ...     nested = [nested]
+    >>> check_plain({"params": {"bounds": nested}})
+    Traceback (most recent call last):
+    ...
+    ValueError: params.bounds[0][0]...: nested more than 100 levels deep; expected a model file (about 15 levels).
+    >>> check_plain({"fitted": {"n_states": 10**30}})
+    Traceback (most recent call last):
+    ...
+    ValueError: fitted.n_states: an integer of 31 digits; expected a 64-bit integer.
+    """
+    stack = [(data, 0, field)]
+    while stack:
+        value, depth, where = stack.pop()
+        if depth > MAX_DEPTH:
+            raise ValueError(f"{where[:60]}...: nested more than {MAX_DEPTH} levels deep; expected a model file "
+                             "(about 15 levels).")
+        items = value.items() if isinstance(value, dict) else enumerate(value)
+        for key, v in items:
+            if isinstance(v, (dict, list)):
+                stack.append((v, depth + 1, _child(where, key)))
+            elif isinstance(v, int) and not -2**63 <= v < 2**63:
+                digits = int(v.bit_length() * 0.30103)  # str(v) itself is refused beyond 4300 digits
+                digits += abs(v) >= 10**digits
+                raise ValueError(f"{_child(where, key)}: an integer of {digits} digits; expected a 64-bit integer.")
+            elif not isinstance(v, (int, float, str)) and v is not None:
+                raise ValueError(f"{_child(where, key)}: a {type(v).__name__}; expected JSON data.")
+
+
+def _child(where, key):
+    if isinstance(key, str):
+        return f"{where}.{key}" if where else key
+    return f"{where}[{key}]"
+
+
+def check_fitted_kind(value, expected, field):
+    """Refuse a fitted part (optimizer, differentiation) of another class than the parameters give.
+
+    Returns ``value``.
+
+    Examples
+    --------
+    >>> from sindybench import STLS
+    >>> check_fitted_kind(STLS(), STLS, "fitted.optimizer")
+    STLS()
+    >>> check_fitted_kind([], STLS, "fitted.optimizer")
+    Traceback (most recent call last):
+    ...
+    ValueError: fitted.optimizer: expected a fitted STLS (the class the parameters name); got list.
+    """
+    if type(value) is not expected:
+        raise ValueError(f"{field}: expected a fitted {expected.__name__} (the class the parameters name); "
+                         f"got {type(value).__name__}.")
+    return value
+
+
+def check_limit(value, field, high=MAX_SUBSTEPS):
+    """Refuse a stored count (sub-steps, grid points) larger than a model file may ask for.
+
+    A setting such as ``n_substeps = 10**9`` loads in no time and then makes
+    every simulation hang; such a file is refused at loading instead.
+
+    Parameters
+    ----------
+    value : int
+        The (already validated) setting.
+    field : str
+        Where it sits in the file, for the message.
+    high : int, default=1000
+
+    Examples
+    --------
+    >>> check_limit(4, "params.n_substeps")
+    >>> check_limit(10**9, "params.n_substeps")
+    Traceback (most recent call last):
+    ...
+    ValueError: params.n_substeps = 1000000000; a model file may ask for at most 1000.
+    """
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value > high:
+        raise ValueError(f"{field} = {value}; a model file may ask for at most {high}.")
 
 
 def check_params(check, *args):

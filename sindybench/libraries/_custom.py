@@ -164,6 +164,22 @@ class ExternalLibrary(BaseLibrary):
         return list(self.library_.get_feature_names_out(names))
 
 
+def _check_clonable(obj):
+    """A library is cloned at every fit; one whose ``get_params`` fails cannot be (pysindy's CustomLibrary)."""
+    try:
+        if hasattr(obj, "get_params"):
+            obj.get_params(deep=False)
+    except AttributeError as exc:
+        name = f"{type(obj).__module__}.{type(obj).__qualname__}"
+        hint = ("; use sindybench.libraries.CustomLibrary(functions=[...]), which holds the same functions"
+                if type(obj).__name__ == "CustomLibrary" else "")
+        raise ValueError(
+            f"library {name} cannot be used: its get_params() fails ({exc}), so it cannot be cloned as "
+            f"scikit-learn estimators are at every fit (its constructor arguments are not kept as attributes of "
+            f"the same name){hint}."
+        ) from exc
+
+
 def as_library(obj):
     """Return ``obj`` as a sindybench library.
 
@@ -189,6 +205,7 @@ def as_library(obj):
     if isinstance(obj, BaseLibrary):
         return obj
     if hasattr(obj, "fit") and hasattr(obj, "transform"):
+        _check_clonable(obj)
         return ExternalLibrary(obj)
     raise ValueError(
         f"library must be a sindybench library, a pysindy feature library or a transformer; got {obj!r}."

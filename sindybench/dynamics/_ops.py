@@ -1,0 +1,145 @@
+"""Term operations: each one's value and derivative, defined once and compiled by numba.
+
+A *term* is a product of *factors* ``(col, op, a, b)``; a factor applies one
+operation ``op`` to column ``col`` of ``Z = [states, inputs]``. The operations
+and their derivatives with respect to the column:
+
+========  =================================  =========================================
+op        value                              derivative
+========  =================================  =========================================
+POW       ``z ** a``                         ``a z^(a-1)`` (0 for ``a = 0``)
+ABS_POW   ``|z| ** a``                       ``a |z|^(a-1) sign(z)``, 0 at ``z = 0``
+SQRT      ``sqrt(clip(z, a, b))``            ``1 / (2 sqrt(z))`` inside ``(a, b)``, else 0
+SIGN      ``sign(z)``                        0
+STEP      ``1`` if ``a <= z <= b``, else 0   0
+user      ``f(z)`` (a registered function)   the given derivative, a rule, or differences
+========  =================================  =========================================
+
+At ``z = 0`` the derivative of ``|z|^a`` is taken as 0 (``sign(0) = 0``, also
+for ``a < 1``), so that a product such as ``z |z|^0.5``, whose derivative is 0
+there, gets 0 by the product rule rather than ``0 * inf``.
+
+:func:`op_value`, :func:`op_derivative` and :func:`apply_factor` are numba
+functions, inlined into every compiled user of the terms: the NumPy
+evaluation (:func:`evaluate_terms`, :func:`evaluate_terms_jacobian`), the
+simulator and the sensitivity kernel. Each takes ``user``, the compiled table
+of user operations (:func:`~sindybench.dynamics.user_table`), which they call
+for a code ``>= USER``.
+"""
+
+import numpy as np
+from numba import cfunc, njit, types
+
+__all__ = [
+    "ABS_POW",
+    "BUILTIN_OPS",
+    "POW",
+    "SIGN",
+    "SQRT",
+    "STEP",
+    "USER",
+    "USER_SIGNATURE",
+    "apply_factor",
+    "evaluate_jacobian_kernel",
+    "evaluate_kernel",
+    "no_user_ops",
+    "op_derivative",
+    "op_value",
+    "power",
+]
+
+POW, ABS_POW, SQRT, SIGN, STEP = 0, 1, 2, 3, 4
+BUILTIN_OPS = (POW, ABS_POW, SQRT, SIGN, STEP)
+USER = 16
+"""First code of the user operations (:func:`~sindybench.dynamics.register_op`)."""
+
+USER_SIGNATURE = types.float64(types.int64, types.int64, types.float64)
+"""``user(code, which, z)``: the value (``which = 0``) or derivative (``which = 1``) of user op ``code``."""
+
+
+@cfunc(USER_SIGNATURE, cache=True)
+def no_user_ops(code, which, z):
+    """The user table of a model without user operations."""
+    return np.nan
+
+
+@njit(cache=True, inline="always")
+def power(v, p):
+    """``v ** p``, with the small integer powers as products."""
+    if p == 1.0:
+        return v
+    if p == 2.0:
+        return v * v
+    if p == 3.0:
+        return v * v * v
+    return v**p
+
+
+@njit(cache=True, inline="always")
+def op_value(o, v, a, b, user):
+    """Value of the factor ``op(v)``."""
+    if o == POW:
+        return power(v, a)
+    if o == ABS_POW:
+        return power(abs(v), a)
+    if o == SQRT:
+        return np.sqrt(min(max(v, a), b))
+    if o == SIGN:
+        if v > 0.0:
+            return 1.0
+        if v < 0.0:
+            return -1.0
+        return v  # sign(0) = 0 (with the sign of the zero), sign(nan) = nan
+    if o == STEP:
+        return 1.0 if a <= v <= b else 0.0
+    return user(o, 0, v)
+
+
+@njit(cache=True, inline="always")
+def apply_factor(value, o, fv):
+    """``value`` times a factor of value ``fv``; outside a ``STEP`` the product is 0 whatever ``value`` is."""
+    if o == STEP:
+        return value if fv != 0.0 else 0.0
+    return value * fv
+
+
+@njit(cache=True, inline="always")
+def op_derivative(o, v, a, b, user):
+    """Derivative of the factor ``op(v)`` with respect to ``v``."""
+    if o == POW:
+        return 0.0 if a == 0.0 else a * power(v, a - 1.0)
+    if o == ABS_POW:
+        if a == 0.0 or v == 0.0:
+            return 0.0
+        return a * power(abs(v), a - 1.0) * (1.0 if v > 0.0 else -1.0)
+    if o == SQRT:
+        if a < v < b:
+            return 0.5 / np.sqrt(v)
+        return 0.0
+    if o == SIGN or o == STEP:
+        return 0.0
+    return user(o, 1, v)
+
+
+@njit(cache=True)
+def evaluate_kernel(Z, ptr, col, op, a, b, user, out):
+    for k in range(Z.shape[0]):
+        for j in range(ptr.shape[0] - 1):
+            value = 1.0
+            for f in range(ptr[j], ptr[j + 1]):
+                value = apply_factor(value, op[f], op_value(op[f], Z[k, col[f]], a[f], b[f], user))
+            out[k, j] = value
+
+
+@njit(cache=True)
+def evaluate_jacobian_kernel(Z, ptr, col, op, a, b, user, fv, out):
+    for k in range(Z.shape[0]):
+        for f in range(col.shape[0]):
+            fv[f] = op_value(op[f], Z[k, col[f]], a[f], b[f], user)
+        for j in range(ptr.shape[0] - 1):
+            for f in range(ptr[j], ptr[j + 1]):
+                d = op_derivative(op[f], Z[k, col[f]], a[f], b[f], user)
+                for g in range(ptr[j], ptr[j + 1]):
+                    if g != f:
+                        d *= fv[g]
+                out[k, j, col[f]] += d

@@ -112,6 +112,11 @@ class StepModel(NamedTuple):
     user: object  # the compiled table of user operations
 
 
+def _check_rhs(rhs):
+    if not isinstance(rhs, TermsRHS):
+        raise ValueError(f"rhs must be a TermsRHS (a compiled model); got {type(rhs).__name__}.")
+
+
 def step_model(rhs, *, directions=None, n_substeps=1, method="rk4", input_hold="zoh", bounds=None, max_abs=np.inf):
     """Flatten ``rhs`` and its settings into a :class:`StepModel` for the numba-callable kernels.
 
@@ -124,8 +129,7 @@ def step_model(rhs, *, directions=None, n_substeps=1, method="rk4", input_hold="
     n_substeps, method, input_hold, bounds, max_abs
         As in :func:`~sindybench.simulate.simulate`.
     """
-    if not isinstance(rhs, TermsRHS):
-        raise ValueError(f"rhs must be a TermsRHS (a compiled model); got {type(rhs).__name__}.")
+    _check_rhs(rhs)
     st, _, _ = simulation_settings(rhs.n_states, np.zeros((2, 0)), None, 1.0, n_substeps=n_substeps, method=method,
                                    input_hold=input_hold, bounds=bounds, max_abs=max_abs)
     terms, coef, par = sensitivity_arrays(rhs, coefficient_directions(rhs) if directions is None else directions)
@@ -244,6 +248,7 @@ def step(rhs, x, u0, u1=None, dt=None, *, n_substeps=1, method="rk4", input_hold
     >>> bool(np.all(step(rhs, x[1], u[1], u[2], 0.1, input_hold="linear") == x[2]))
     True
     """
+    _check_rhs(rhs)
     m = step_model(rhs, directions=np.zeros((0, *rhs.coef.shape)), n_substeps=n_substeps, method=method,
                    input_hold=input_hold, bounds=bounds, max_abs=max_abs)
     x, u0, u1, dt = _check_point(m, x, u0, u1, dt, _n_inputs(rhs, u0))

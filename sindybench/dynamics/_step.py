@@ -109,7 +109,7 @@ class StepModel(NamedTuple):
     terms: tuple  # (ptr, col, op, a, b) of the terms the sensitivities need
     coef: np.ndarray  # their dense coefficients (n_kept, n_states)
     par: tuple  # the coefficient directions (ppar, pterm, pstate, pw)
-    user: object  # the compiled table of user operations
+    user: int  # the address of the compiled table of user operations
 
 
 def _check_rhs(rhs):

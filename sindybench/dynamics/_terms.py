@@ -88,15 +88,29 @@ def user_ops_of(terms):
     return no_user_ops
 
 
+_FLAT = {}  # terms -> (checked terms, flattened arrays, highest column): evaluation is often per sample
+
+
 def _arrays(terms, Z):
-    terms = check_terms(terms)
-    Z = np.ascontiguousarray(Z, dtype=float)
+    try:
+        key = tuple(terms)
+        hit = _FLAT.get(key)
+    except TypeError:  # the JSON form (lists)
+        key = hit = None
+    if hit is None:
+        checked = check_terms(terms)
+        hit = (checked, terms_to_arrays(checked), max((f[0] for t in checked for f in t), default=-1))
+        if key is not None:
+            if len(_FLAT) >= 256:
+                _FLAT.clear()
+            _FLAT[key] = hit
+    terms, arrays, used = hit
+    Z = np.asarray(Z, dtype=float)
     if Z.ndim != 2:
         raise ValueError(f"Z has shape {Z.shape}; expected (n_samples, n_variables).")
-    used = max((f[0] for t in terms for f in t), default=-1)
     if used >= Z.shape[1]:
         raise ValueError(f"terms use column {used} of Z, which has {Z.shape[1]} columns.")
-    return terms, Z, terms_to_arrays(terms), user_ops_of(terms)
+    return terms, Z, arrays, user_ops_of(terms)
 
 
 def evaluate_terms(terms, Z):
@@ -118,9 +132,9 @@ def evaluate_terms(terms, Z):
     array([[1., 4., 6.]])
     """
     terms, Z, arrays, user = _arrays(terms, Z)
-    out = np.empty((Z.shape[0], len(terms)))
-    evaluate_kernel(Z, *arrays, user, out)
-    return out
+    out = np.empty((len(terms), Z.shape[0]))
+    evaluate_kernel(np.ascontiguousarray(Z.T), *arrays, user, out)
+    return np.ascontiguousarray(out.T)
 
 
 def evaluate_terms_jacobian(terms, Z):

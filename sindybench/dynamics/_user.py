@@ -10,7 +10,7 @@ rule (NumPy's ``sign``, ``tanh``, ``sin``, ``cos``, ``exp``, ``arctan``, ``abs``
 else a central difference.
 
 The compiled kernels reach the user functions through one table,
-:func:`user_table`, a numba ``cfunc`` of signature
+:func:`user_table` (its address), a numba ``cfunc`` of signature
 ``user(code, which, z) -> float64`` (``which = 0`` value, ``1`` derivative),
 rebuilt when an operation is added. Codes are valid in this process only: a
 ``UserOp`` pickles as its function and is registered again on unpickling;
@@ -59,7 +59,7 @@ class UserOp(int):
 _OPS = {}  # (function, derivative, name) -> UserOp
 _BY_CODE = []  # UserOp by code - USER
 _COMPILED = []  # (value, derivative) compiled, by code - USER
-_TABLE = [no_user_ops, 0]  # the table and how many ops it covers
+_TABLE = [no_user_ops, 0, None]  # the table's address, how many ops it covers, the cfunc (kept alive)
 
 _RULES = {np.sign: "0.0 * v", np.tanh: "1.0 - np.tanh(v) ** 2", np.sin: "np.cos(v)", np.cos: "-np.sin(v)",
           np.exp: "np.exp(v)", np.arctan: "1.0 / (1.0 + v * v)", np.abs: "np.sign(v)",
@@ -86,12 +86,12 @@ def _compile_scalar(function, what):
         first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise OpCompileError(
             f"{what} {getattr(function, '__name__', function)!r} cannot be compiled by numba as a scalar "
-            f"function f(z) -> float ({type(exc).__name__}: {first}); it runs on the (slower) Python path."
+            f"function f(z) -> float ({type(exc).__name__}: {first})"
         ) from exc
     if not (np.isscalar(value) and str(rtype).startswith(("float", "int", "uint", "bool"))):
         raise OpCompileError(
             f"{what} {getattr(function, '__name__', function)!r} returns {rtype} for a scalar argument; "
-            "expected a number (a function of one value); it runs on the (slower) Python path."
+            "expected a number (a function of one value)"
         )
     return jitted
 
@@ -172,10 +172,10 @@ def user_op(code):
 
 
 def user_table():
-    """The compiled table of every registered user operation (a numba ``cfunc``).
+    """The address of the compiled table of every registered user operation (a numba ``cfunc``).
 
-    Passed as the ``user`` argument of the compiled kernels; calling it from
-    numba is an indirect call (about 10 ns) plus the function itself.
+    Passed as the ``user`` argument (an int) of the compiled kernels; calling it
+    from numba is an indirect call (a few ns) plus the function itself.
     """
     if _TABLE[1] == len(_COMPILED):
         return _TABLE[0]
@@ -189,5 +189,6 @@ def user_table():
         lines.append(f"        return 1.0 * D{i}(v)")
     lines.append("    return np.nan")
     exec("\n".join(lines), names)  # noqa: S102 - generated from fixed templates
-    _TABLE[:] = [cfunc(USER_SIGNATURE)(names["table"]), len(_COMPILED)]
+    table = cfunc(USER_SIGNATURE)(names["table"])
+    _TABLE[:] = [table.address, len(_COMPILED), table]
     return _TABLE[0]

@@ -16,7 +16,7 @@ the same arithmetic (the exact derivative of the discrete map).
 import numpy as np
 from numba import njit
 
-from ._ops import apply_factor, op_derivative, op_value
+from ._ops import apply_factor, call_rows, op_derivative, op_value
 
 __all__ = ["run_sensitivity", "run_state", "sensitivity_work", "step_sensitivity", "step_state"]
 
@@ -24,8 +24,12 @@ __all__ = ["run_sensitivity", "run_state", "sensitivity_work", "step_sensitivity
 # ------------------------------------------------------------------ state only
 @njit(cache=True, inline="always")
 def _terms_rhs(z, model, user, theta, K, s):
-    """K[s, i] = sum_k theta[rows[k]] vals[k] over k in rptr[i]:rptr[i+1], theta = terms(z)."""
-    ptr, col, op, a, b, rptr, rows, vals = model
+    """K[s, i] = sum_k theta[rows[k]] vals[k] over k in rptr[i]:rptr[i+1], theta = terms(z).
+
+    With a compiled rows function (``fn`` nonzero), ``K[s, first + r] += out[r]``
+    for ``out = fn(z, par)`` (:mod:`._rows`).
+    """
+    ptr, col, op, a, b, rptr, rows, vals, fn, par, out, first = model
     for j in range(ptr.shape[0] - 1):
         value = 1.0
         for f in range(ptr[j], ptr[j + 1]):
@@ -37,6 +41,10 @@ def _terms_rhs(z, model, user, theta, K, s):
         for k in range(rptr[i], rptr[i + 1]):
             acc += theta[rows[k]] * vals[k]
         K[s, i] = acc
+    if fn != 0:
+        call_rows(fn, z, par, out)
+        for r in range(out.shape[0]):
+            K[s, first + r] += out[r]
 
 
 @njit(cache=True, inline="always")

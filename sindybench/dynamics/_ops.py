@@ -41,6 +41,7 @@ __all__ = [
     "STEP",
     "USER",
     "USER_SIGNATURE",
+    "call_rows",
     "call_user",
     "apply_factor",
     "evaluate_jacobian_kernel",
@@ -82,6 +83,24 @@ def call_user(typingctx, address, code, which, z):
         fnty = ir.FunctionType(ir.DoubleType(), [ir.IntType(64), ir.IntType(64), ir.DoubleType()])
         fn = builder.inttoptr(args[0], fnty.as_pointer())
         return builder.call(fn, [args[1], args[2], args[3]])
+
+    return sig, codegen
+
+
+@intrinsic
+def call_rows(typingctx, address, z, par, out):
+    """Call the compiled rows function at ``address``: ``out = rows(z, par)`` (C arrays with lengths)."""
+    sig = types.void(types.int64, z, par, out)
+
+    def codegen(context, builder, signature, args):
+        pointers = []
+        for ty, value in zip(signature.args[1:], args[1:]):
+            array = context.make_array(ty)(context, builder, value=value)
+            pointers += [array.data, builder.extract_value(array.shape, 0)]
+        dbl, i64 = ir.DoubleType().as_pointer(), ir.IntType(64)
+        fnty = ir.FunctionType(ir.VoidType(), [dbl, i64, dbl, i64, dbl, i64])
+        builder.call(builder.inttoptr(args[0], fnty.as_pointer()), pointers)
+        return context.get_dummy_value()
 
     return sig, codegen
 

@@ -112,7 +112,8 @@ class TermsRHS:
         rptr[1:] = np.cumsum(np.count_nonzero(sub, axis=0))
         rows, cols = np.nonzero(sub.T)  # grouped by state
         # compiled evaluation: flattened active terms + per-state sparse coefficients
-        self._arrays = (*terms_to_arrays([terms[j] for j in active]), rptr, cols.astype(np.int64), sub[cols, rows])
+        self._arrays = (*terms_to_arrays([terms[j] for j in active]), rptr, cols.astype(np.int64), sub[cols, rows],
+                        *NO_ROWS)
         self.n_active = len(active)
 
     @classmethod
@@ -140,6 +141,8 @@ class TermsRHS:
                 coef[index[term], i] += c
         return cls(coef, terms, len(equations))
 
+    _compiled = True  # simulated by the compiled kernel
+
     def __reduce__(self):  # the flattened arrays hold process-local user op codes: rebuild them
         return (type(self), (self.coef, self.terms, self.n_states))
 
@@ -154,6 +157,10 @@ class TermsRHS:
 
     def __repr__(self):
         return f"TermsRHS(n_terms={len(self.terms)}, n_active={self.n_active}, n_states={self.n_states})"
+
+
+NO_ROWS = (0, np.zeros(0), np.zeros(0), 0)
+"""The rows part of a model without a compiled rows function (see :mod:`._rows`)."""
 
 
 def make_rhs(library, coef, n_states):
@@ -335,7 +342,8 @@ def simulate(rhs, x0, u, dt=None, *, t=None, n_substeps=1, method="rk4", input_h
     >>> round(float(x[-1, 0]), 6), round(float(np.exp(-1.0)), 6)
     (0.367879, 0.367879)
     """
-    if isinstance(rhs, TermsRHS):
+    compiled = getattr(type(rhs), "_compiled", False)  # a TermsRHS or a RowsRHS
+    if compiled:
         n_states = rhs.n_states
     elif callable(rhs):
         n_states = np.asarray(x0).reshape(-1).shape[0]
@@ -343,11 +351,11 @@ def simulate(rhs, x0, u, dt=None, *, t=None, n_substeps=1, method="rk4", input_h
         raise ValueError(f"rhs must be a TermsRHS or a callable f(x, u); got {rhs!r}.")
     st, u, x0 = simulation_settings(n_states, u, x0, dt, t=t, n_substeps=n_substeps, method=method,
                                     input_hold=input_hold, bounds=bounds, max_abs=max_abs, on_divergence=on_divergence)
-    if isinstance(rhs, TermsRHS):
+    if compiled:
         _check_columns(rhs, u)
     h, t, n_samples = st.h, st.t, u.shape[0]
     out = np.empty((n_samples, n_states))
-    if isinstance(rhs, TermsRHS):
+    if compiled:
         step = run_state(x0, u, h, st.n_sub, st.offsets, st.weights, st.linear, st.lo, st.hi, st.max_abs,
                          rhs._arrays, rhs.user, out)
     else:

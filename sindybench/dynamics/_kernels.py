@@ -26,7 +26,7 @@ __all__ = ["run_sensitivity", "run_state", "sensitivity_work", "step_sensitivity
 def _terms_rhs(z, model, user, theta, K, s):
     """K[s, i] = sum_k theta[rows[k]] vals[k] over k in rptr[i]:rptr[i+1], theta = terms(z).
 
-    With a compiled rows function (``fn`` nonzero), ``K[s, first + r] += out[r]``
+    With a compiled rows function (``fn`` an address, else None), ``K[s, first + r] += out[r]``
     for ``out = fn(z, par)`` (:mod:`._rows`).
     """
     ptr, col, op, a, b, rptr, rows, vals, fn, par, out, first = model
@@ -41,10 +41,9 @@ def _terms_rhs(z, model, user, theta, K, s):
         for k in range(rptr[i], rptr[i + 1]):
             acc += theta[rows[k]] * vals[k]
         K[s, i] = acc
-    if fn != 0:
-        call_rows(fn, z, par, out)
-        for r in range(out.shape[0]):
-            K[s, first + r] += out[r]
+    call_rows(fn, z, par, out)  # nothing without rows (fn None, out empty)
+    for r in range(out.shape[0]):
+        K[s, first + r] += out[r]
 
 
 @njit(cache=True, inline="always")
@@ -81,7 +80,7 @@ def _stage(x, K, s, c, hs, u, k, k1, frac, z, lo, hi, model, user, theta):
             K[s, i] = 0.0
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def step_state(x, u, k, k1, h, n_sub, offsets, weights, lo, hi, max_abs, model, user, z, theta, K):
     """Advance ``x`` in place over one output sample of length ``h`` (``n_sub`` sub-steps).
 

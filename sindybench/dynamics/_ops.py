@@ -29,7 +29,7 @@ which they call for a code ``>= USER``.
 
 import numpy as np
 from llvmlite import ir
-from numba import cfunc, njit, types
+from numba import njit, types
 from numba.extending import intrinsic
 
 __all__ = [
@@ -61,23 +61,22 @@ USER_SIGNATURE = types.float64(types.int64, types.int64, types.float64)
 """``user(code, which, z)``: the value (``which = 0``) or derivative (``which = 1``) of user op ``code``."""
 
 
-@cfunc(USER_SIGNATURE, cache=True)
-def _no_user_ops(code, which, z):
-    return np.nan
-
-
-no_user_ops = _no_user_ops.address
-"""The user table of a model without user operations (its address; returns NaN)."""
+no_user_ops = None
+"""The user table of a model without user operations: the kernels are compiled without the indirect call."""
 
 
 @intrinsic
 def call_user(typingctx, address, code, which, z):
-    """Call the user table at ``address`` (an int: a ``cfunc`` of :data:`USER_SIGNATURE`).
+    """Call the user table at ``address`` (an int: a ``cfunc`` of :data:`USER_SIGNATURE`); NaN for None.
 
     The table goes into the kernels as a plain integer, which numba passes
-    without the cost of boxing a function object (about 40 us per call).
+    without the cost of boxing a function object (about 40 us per call); for
+    models without user operations it is None, and the kernels are compiled
+    without the indirect call (which would keep LLVM from optimizing the loops).
     """
-    sig = types.float64(types.int64, types.int64, types.int64, types.float64)
+    sig = types.float64(address, types.int64, types.int64, types.float64)
+    if isinstance(address, types.NoneType):
+        return sig, lambda context, builder, signature, args: context.get_constant(types.float64, np.nan)
 
     def codegen(context, builder, signature, args):
         fnty = ir.FunctionType(ir.DoubleType(), [ir.IntType(64), ir.IntType(64), ir.DoubleType()])
@@ -89,8 +88,10 @@ def call_user(typingctx, address, code, which, z):
 
 @intrinsic
 def call_rows(typingctx, address, z, par, out):
-    """Call the compiled rows function at ``address``: ``out = rows(z, par)`` (C arrays with lengths)."""
-    sig = types.void(types.int64, z, par, out)
+    """Call the compiled rows function at ``address``: ``out = rows(z, par)`` (nothing for None)."""
+    sig = types.void(address, z, par, out)
+    if isinstance(address, types.NoneType):
+        return sig, lambda context, builder, signature, args: context.get_dummy_value()
 
     def codegen(context, builder, signature, args):
         pointers = []

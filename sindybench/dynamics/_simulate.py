@@ -159,7 +159,7 @@ class TermsRHS:
         return f"TermsRHS(n_terms={len(self.terms)}, n_active={self.n_active}, n_states={self.n_states})"
 
 
-NO_ROWS = (0, np.zeros(0), np.zeros(0), 0)
+NO_ROWS = (None, np.zeros(0), np.zeros(0), 0)
 """The rows part of a model without a compiled rows function (see :mod:`._rows`)."""
 
 

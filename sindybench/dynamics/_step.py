@@ -109,7 +109,7 @@ class StepModel(NamedTuple):
     terms: tuple  # (ptr, col, op, a, b) of the terms the sensitivities need
     coef: np.ndarray  # their dense coefficients (n_kept, n_states)
     par: tuple  # the coefficient directions (ppar, pterm, pstate, pw)
-    user: int  # the address of the compiled table of user operations
+    user: object  # the address (int) of the compiled table of user operations, None without
 
 
 def _check_rhs(rhs):

@@ -14,14 +14,32 @@ the same arithmetic (the exact derivative of the discrete map).
 """
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.extending import overload
 
-from ._ops import apply_factor, call_rows, op_derivative, op_value
+from ._ops import apply_factor, apply_op, call_rows, op_derivative, op_value
 
 __all__ = ["run_sensitivity", "run_state", "sensitivity_work", "step_sensitivity", "step_state"]
 
 
 # ------------------------------------------------------------------ state only
+def _add_rows(fn, z, par, out, K, s, first):
+    """``K[s, first + r] += fn(z, par)[r]``; compiled away for a model without rows (``fn`` None)."""
+
+
+@overload(_add_rows, inline="always")
+def _add_rows_impl(fn, z, par, out, K, s, first):
+    if isinstance(fn, types.NoneType):
+        return lambda fn, z, par, out, K, s, first: None
+
+    def add(fn, z, par, out, K, s, first):
+        call_rows(fn, z, par, out)
+        for r in range(out.shape[0]):
+            K[s, first + r] += out[r]
+
+    return add
+
+
 @njit(cache=True, inline="always")
 def _terms_rhs(z, model, user, theta, K, s):
     """K[s, i] = sum_k theta[rows[k]] vals[k] over k in rptr[i]:rptr[i+1], theta = terms(z).
@@ -33,17 +51,14 @@ def _terms_rhs(z, model, user, theta, K, s):
     for j in range(ptr.shape[0] - 1):
         value = 1.0
         for f in range(ptr[j], ptr[j + 1]):
-            o = op[f]
-            value = apply_factor(value, o, op_value(o, z[col[f]], a[f], b[f], user))
+            value = apply_op(value, op[f], z[col[f]], a[f], b[f], user)
         theta[j] = value
     for i in range(rptr.shape[0] - 1):
         acc = 0.0
         for k in range(rptr[i], rptr[i + 1]):
             acc += theta[rows[k]] * vals[k]
         K[s, i] = acc
-    call_rows(fn, z, par, out)  # nothing without rows (fn None, out empty)
-    for r in range(out.shape[0]):
-        K[s, first + r] += out[r]
+    _add_rows(fn, z, par, out, K, s, first)
 
 
 @njit(cache=True, inline="always")
@@ -144,7 +159,7 @@ def _eval(z, n, terms, coef, user, par, work, s, lo, hi):
     for f in range(col.shape[0]):  # every factor once: value and derivative
         v = z[col[f]]
         fv[f] = op_value(op[f], v, a[f], b[f], user)
-        fd[f] = op_derivative(op[f], v, a[f], b[f], user) if n_par > 0 else 0.0
+        fd[f] = op_derivative(op[f], v, fv[f], a[f], b[f], user) if n_par > 0 else 0.0
     for j in range(n_terms):
         value = 1.0
         for f in range(ptr[j], ptr[j + 1]):
@@ -184,13 +199,14 @@ def _eval(z, n, terms, coef, user, par, work, s, lo, hi):
                 dK[s, i, p] = 0.0
 
 
+@njit(cache=True, inline="always")
 def sensitivity_work(n, n_inputs, n_terms, n_factors, n_stages, q):
     """Work arrays of :func:`step_sensitivity`: ``(z, (dz, theta, fv, fd, jac, K, dK))``."""
     return np.empty(n + n_inputs), (np.zeros((n, q)), np.empty(n_terms), np.empty(n_factors), np.empty(n_factors),
                                     np.zeros((n, n)), np.zeros((n_stages, n)), np.zeros((n_stages, n, q)))
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def step_sensitivity(x, S, u, k, k1, h, n_sub, offsets, weights, lo, hi, max_abs, terms, coef, par, user, z, work):
     """Advance ``x`` and ``S = dx/dp`` in place over one output sample; True if the state diverged.
 
@@ -259,10 +275,11 @@ def step_sensitivity(x, S, u, k, k1, h, n_sub, offsets, weights, lo, hi, max_abs
 
 @njit(cache=True)
 def run_sensitivity(x0, S0, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, terms, coef, par, user, oidx,
-                    z, work, out_x, out_s, s_end):
+                    out_x, out_s, s_end):
     """Integrate state and sensitivities; return the first invalid step or -1."""
     n = x0.shape[0]
     q = S0.shape[1]
+    z, work = sensitivity_work(n, u.shape[1], coef.shape[0], terms[1].shape[0], offsets.shape[0], q)
     x = x0.copy()
     S = S0.copy()
     for i in range(n):

@@ -44,6 +44,7 @@ __all__ = [
     "call_rows",
     "call_user",
     "apply_factor",
+    "apply_op",
     "evaluate_jacobian_kernel",
     "evaluate_kernel",
     "no_user_ops",
@@ -147,8 +148,16 @@ def apply_factor(value, o, fv):
 
 
 @njit(cache=True, inline="always")
-def op_derivative(o, v, a, b, user):
-    """Derivative of the factor ``op(v)`` with respect to ``v``."""
+def apply_op(value, o, v, a, b, user):
+    """``apply_factor(value, o, op_value(o, v, a, b, user))`` without evaluating a ``STEP`` twice."""
+    if o == STEP:
+        return value if a <= v <= b else 0.0
+    return value * op_value(o, v, a, b, user)
+
+
+@njit(cache=True, inline="always")
+def op_derivative(o, v, value, a, b, user):
+    """Derivative of the factor ``op(v)`` with respect to ``v``; ``value`` is :func:`op_value`'s."""
     if o == POW:
         return 0.0 if a == 0.0 else a * power(v, a - 1.0)
     if o == ABS_POW:
@@ -157,7 +166,7 @@ def op_derivative(o, v, a, b, user):
         return a * power(abs(v), a - 1.0) * (1.0 if v > 0.0 else -1.0)
     if o == SQRT:
         if a < v < b:
-            return 0.5 / np.sqrt(v)
+            return 0.5 / value  # value = sqrt(v) inside the clip
         return 0.0
     if o == SIGN or o == STEP:
         return 0.0
@@ -173,7 +182,7 @@ def evaluate_kernel(ZT, ptr, col, op, a, b, user, out):
         for f in range(ptr[j], ptr[j + 1]):
             o, z, af, bf = op[f], ZT[col[f]], a[f], b[f]
             for k in range(ZT.shape[1]):
-                out[j, k] = apply_factor(out[j, k], o, op_value(o, z[k], af, bf, user))
+                out[j, k] = apply_op(out[j, k], o, z[k], af, bf, user)
 
 
 @njit(cache=True)
@@ -183,7 +192,7 @@ def evaluate_jacobian_kernel(Z, ptr, col, op, a, b, user, fv, out):
             fv[f] = op_value(op[f], Z[k, col[f]], a[f], b[f], user)
         for j in range(ptr.shape[0] - 1):
             for f in range(ptr[j], ptr[j + 1]):
-                d = op_derivative(op[f], Z[k, col[f]], a[f], b[f], user)
+                d = op_derivative(op[f], Z[k, col[f]], fv[f], a[f], b[f], user)
                 for g in range(ptr[j], ptr[j + 1]):
                     if g != f:
                         d *= fv[g]

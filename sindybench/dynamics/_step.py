@@ -170,11 +170,9 @@ def step_jacobian_kernel(m, x, u0, u1, dt):
     S = np.zeros((n, n + n_par))
     for i in range(n):
         S[i, i] = 1.0
-    z = np.empty(n + u.shape[1])
+    z, work = sensitivity_work(n, u.shape[1], m.terms[0].shape[0] - 1, m.terms[1].shape[0], m.offsets.shape[0],
+                               n + n_par)
     q = n + n_par
-    n_st = m.offsets.shape[0]
-    work = (np.zeros((n, q)), np.empty(m.terms[0].shape[0] - 1), np.empty(m.terms[1].shape[0]),
-            np.empty(m.terms[1].shape[0]), np.zeros((n, n)), np.zeros((n_st, n)), np.zeros((n_st, n, q)))
     # parameter p of the kernel is column n + p of S: shift the directions' parameter index
     ppar = np.zeros(q + 1, dtype=np.int64)
     for p in range(n_par + 1):

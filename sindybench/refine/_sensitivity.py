@@ -14,7 +14,7 @@ derivative points outward, has zero sensitivity through that step.
 import numpy as np
 
 from ..dynamics import SimulationError, TermsRHS, sensitivity_arrays, simulation_settings
-from ..dynamics._kernels import run_sensitivity, sensitivity_work
+from ..dynamics._kernels import run_sensitivity
 
 __all__ = ["simulate_sensitivity"]
 
@@ -92,10 +92,9 @@ def simulate_sensitivity(rhs, x0, u, dt, *, directions=None, free_x0=None, outpu
     out_x = np.empty((u.shape[0], n))
     out_s = np.zeros((u.shape[0], oidx.size, q))
     s_end = np.zeros((n, q))
-    z, work = sensitivity_work(n, u.shape[1], coef.shape[0], terms[1].shape[0], settings.offsets.shape[0], q)
     h, n_sub, offsets, weights, linear, lo, hi, max_abs = settings[:8]
     step = run_sensitivity(x0, S0, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, terms, coef, par,
-                           rhs.user, oidx, z, work, out_x, out_s, s_end)
+                           rhs.user, oidx, out_x, out_s, s_end)
     if step >= 0:
         if on_divergence == "raise":
             raise SimulationError(

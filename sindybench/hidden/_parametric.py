@@ -86,7 +86,9 @@ class ParametricHiddenState(HiddenStrategy):
     ----------
     rhs : callable
         ``rhs(x_h, y, u, **params) -> dx_h/dt`` with 1-D arrays ``x_h`` (q,),
-        ``y`` (p,), ``u`` (n_inputs,).
+        ``y`` (p,), ``u`` (n_inputs,). Written with NumPy, it is compiled by
+        numba (the model then simulates on the compiled path); a function numba
+        cannot compile runs on the Python path, with a warning.
     params : dict, optional
         ``name -> value`` (fixed) or ``name -> (low, high[, log])`` (searched).
     x0_bounds : (low, high) or sequence of (low, high)

@@ -9,6 +9,7 @@ MODULES = (
     ("sindybench.libraries", "Feature libraries"),
     ("sindybench.differentiation", "Derivative estimation"),
     ("sindybench.simulate", "Simulation"),
+    ("sindybench.dynamics", "Dynamics: term operations, one-step map and its Jacobians"),
     ("sindybench.refine", "Fitting by simulation error"),
     ("sindybench.estimation", "State estimation, prediction, linearization"),
     ("sindybench.export", "Export (CasADi)"),

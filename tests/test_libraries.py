@@ -25,7 +25,16 @@ from sindybench.libraries import (
     terms_from_json,
     terms_to_json,
 )
-from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT, check_terms, evaluate_terms
+from sindybench.libraries._terms import (
+    ABS_POW,
+    POW,
+    SIGN,
+    SQRT,
+    check_terms,
+    evaluate_terms,
+    evaluate_terms_jacobian,
+    term_name,
+)
 
 
 @pytest.fixture
@@ -118,7 +127,9 @@ def test_custom_library_names_and_values(Z):
         functions=[np.sin, lambda a, b: a * np.tanh(b)],
         names=["sin({})", lambda a, b: f"{a} tanh({b})"],
         variables=[0, 2],
-    ).fit(Z)
+    )
+    with pytest.warns(UserWarning, match=r"functions\[1\] takes 2 arguments; only functions of one column"):
+        lib.fit(Z)
     assert lib.terms_ is None
     assert lib.get_feature_names_out(["y", "v", "u"]).tolist() == ["sin(y)", "sin(u)", "y tanh(u)"]
     assert_allclose(lib.transform(Z), np.column_stack([np.sin(Z[:, 0]), np.sin(Z[:, 2]), Z[:, 0] * np.tanh(Z[:, 2])]))
@@ -140,10 +151,62 @@ def test_concat_equals_hstack_and_operator(Z):
     assert lib.get_feature_names_out()[-1] == "sqrt(x0)"
 
 
-def test_concat_with_custom_is_not_compilable(Z):
+def test_concat_with_custom_compiles_and_without_is_python(Z):
     lib = ConcatLibrary([PolynomialLibrary(degree=1), CustomLibrary(functions=[np.cos])]).fit(Z)
+    assert len(lib.terms_) == 7
+    assert_allclose(lib.transform(Z)[:, 4:], np.cos(Z), rtol=1e-14)
+    python = ConcatLibrary([PolynomialLibrary(degree=1), CustomLibrary(functions=[np.cos], compile=False)]).fit(Z)
+    assert python.terms_ is None
+    assert_allclose(python.transform(Z), lib.transform(Z), rtol=1e-14)
+
+
+def test_custom_library_compiles_one_column_functions(Z):
+    """np.sign and a tanh of a scaled column become user operations: compiled values, derivatives, names."""
+    lib = CustomLibrary(functions=[np.sign, lambda v: np.tanh(v / 0.02)], names=["sign({})", "tanh({}/0.02)"],
+                        variables=[1]).fit(Z)
+    assert [int(t[0][1]) >= 16 for t in lib.terms_] == [True, True]
+    assert lib.get_feature_names_out(["y", "v", "u"]).tolist() == ["sign(v)", "tanh(v/0.02)"]
+    assert term_name(lib.terms_[1], ["y", "v", "u"]) == "tanh(v/0.02)"
+    assert_allclose(lib.transform(Z), np.column_stack([np.sign(Z[:, 1]), np.tanh(Z[:, 1] / 0.02)]), rtol=1e-14)
+    jac = evaluate_terms_jacobian(lib.terms_, Z)
+    assert_allclose(jac[:, 0, 1], 0.0)  # the rule for np.sign
+    assert_allclose(jac[:, 1, 1], (1 - np.tanh(Z[:, 1] / 0.02) ** 2) / 0.02, rtol=1e-5, atol=1e-6)  # differences
+    assert_allclose(jac[:, :, [0, 2]], 0.0)
+    with pytest.raises(ValueError, match="cannot be saved as JSON"):
+        terms_to_json(lib.terms_)
+
+
+def _twice_cos(v):
+    return 2.0 * np.cos(v)
+
+
+def test_custom_library_derivative_and_pickle(Z):
+    import pickle
+
+    lib = CustomLibrary(functions=[np.sin], derivatives=[_twice_cos]).fit(Z)  # a wrong one, to see it is used
+    assert_allclose(evaluate_terms_jacobian(lib.terms_, Z)[:, 0, 0], 2.0 * np.cos(Z[:, 0]), rtol=1e-14)
+    again = pickle.loads(pickle.dumps(lib))
+    assert again.terms_ == lib.terms_
+    assert_allclose(again.transform(Z), lib.transform(Z), rtol=0)
+
+
+@pytest.mark.parametrize(
+    "function, match",
+    [(lambda v: np.array([v, v]), "returns array"), (lambda v: {"a": v}["a"] + "x", "cannot be compiled by numba")],
+    ids=["array", "untypable"],
+)
+def test_custom_library_that_cannot_compile_warns_and_runs_in_python(Z, function, match):
+    lib = CustomLibrary(functions=[function])
+    with pytest.warns(UserWarning, match=match):
+        lib.fit(Z)
     assert lib.terms_ is None
-    assert_allclose(lib.transform(Z)[:, 4:], np.cos(Z))
+
+
+def test_custom_library_bad_derivatives(Z):
+    with pytest.raises(ValueError, match="one entry"):
+        CustomLibrary(functions=[np.sin], derivatives=[None, None]).fit(Z)
+    with pytest.raises(ValueError, match=r"derivatives\[0\] is not callable"):
+        CustomLibrary(functions=[np.sin], derivatives=[1.0]).fit(Z)
 
 
 def test_concat_drops_repeated_terms(Z):
@@ -362,7 +425,7 @@ def test_bad_input_names_length(Z):
 
 
 def test_custom_bad_output_shape(Z):
-    lib = CustomLibrary(functions=[lambda x: np.ones(3)]).fit(Z)
+    lib = CustomLibrary(functions=[lambda x: np.ones(3)], compile=False).fit(Z)
     with pytest.raises(ValueError, match=r"returned shape \(3,\); expected \(50,\)"):
         lib.transform(Z)
 

@@ -156,10 +156,12 @@ def test_make_rhs_custom_library_equals_compiled(rng):
     Z = rng.normal(size=(5, 2))
     coef = np.array([[-1.0], [0.5]])
     compiled = make_rhs(PolynomialLibrary(degree=1, include_bias=False).fit(Z), coef, 1)
-    custom = make_rhs(CustomLibrary(functions=[lambda z: z]).fit(Z), coef, 1)
-    assert isinstance(compiled, TermsRHS) and not isinstance(custom, TermsRHS)
+    custom = make_rhs(CustomLibrary(functions=[lambda z: z], compile=False).fit(Z), coef, 1)
+    user = make_rhs(CustomLibrary(functions=[lambda z: z]).fit(Z), coef, 1)
+    assert isinstance(compiled, TermsRHS) and not isinstance(custom, TermsRHS) and isinstance(user, TermsRHS)
     u = rng.normal(size=(200, 1))
     assert_allclose(simulate(compiled, [1.0], u, 0.01), simulate(custom, [1.0], u, 0.01), rtol=1e-12)
+    assert np.array_equal(simulate(compiled, [1.0], u, 0.01), simulate(user, [1.0], u, 0.01))
 
 
 def test_from_equations_equals_matrix():
@@ -299,6 +301,6 @@ def test_bad_from_equations():
 
 
 def test_bad_make_rhs_shape(rng):
-    lib = CustomLibrary(functions=[np.sin]).fit(rng.normal(size=(4, 2)))
+    lib = CustomLibrary(functions=[np.sin], compile=False).fit(rng.normal(size=(4, 2)))
     with pytest.raises(ValueError, match=r"coef has shape \(3, 1\); expected \(2, 1\)"):
         make_rhs(lib, np.ones((3, 1)), 1)

@@ -95,7 +95,7 @@ def test_simulation_settings_reach_the_simulator(data, settings):
 
 def test_custom_library_simulates_on_python_path(data):
     u, y = data
-    lib = CustomLibrary(functions=[lambda a: a, lambda a: a**2], names=["{}", "{}^2"])
+    lib = CustomLibrary(functions=[lambda a: a, lambda a: a**2], names=["{}", "{}^2"], compile=False)
     model = _model(library=lib).fit(u[:800], y[:800])
     assert model.terms_ is None
     reference = _model(library=PolynomialLibrary(degree=2, include_bias=False, interaction_only=False)).fit(u[:800], y[:800])

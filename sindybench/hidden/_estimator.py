@@ -103,11 +103,16 @@ def _build_rhs(structure, library, coef):
     fixed_coef = structure.fixed_coef.copy()
     fixed_coef[:, learned] = 0.0
     lib_terms = getattr(library, "terms_", None)
-    if lib_terms is not None and structure.fixed_rhs is None:
+    compiled = getattr(structure.fixed_rhs, "compiled", None)  # Python fixed rows that numba may compile
+    if lib_terms is not None and (structure.fixed_rhs is None or compiled is not None):
         full = np.zeros((len(lib_terms) + len(structure.fixed_terms), n_states))
         full[: len(lib_terms), learned] = coef
         full[len(lib_terms) :] = fixed_coef
-        return TermsRHS(full, list(lib_terms) + list(structure.fixed_terms), n_states)
+        if structure.fixed_rhs is None:
+            return TermsRHS(full, list(lib_terms) + list(structure.fixed_terms), n_states)
+        rhs = compiled(full[: len(lib_terms)], list(lib_terms), n_states)  # the Python fixed rows replace the terms
+        if rhs is not None:
+            return rhs
     return _PythonRHS(structure, library, coef, fixed_coef)
 
 

@@ -3,6 +3,7 @@
 import inspect
 import itertools
 import numbers
+import warnings
 
 import numpy as np
 from scipy.optimize import minimize as scipy_minimize
@@ -10,6 +11,8 @@ from scipy.optimize import minimize_scalar
 
 from .._validation import check_bounds, check_integer, check_option
 from ..io import register_model
+from ..dynamics._rows import RowsRHS
+from ..dynamics._user import OpCompileError
 from ..simulate import simulate
 from ._base import Design, HiddenStrategy, Structure
 
@@ -47,10 +50,27 @@ class _HiddenRows:
     def __init__(self, rhs, params, n_outputs, n_hidden):
         self.rhs, self.params, self.p, self.q = rhs, params, n_outputs, n_hidden
 
+    def compiled(self, coef, terms, n_states):
+        """The whole model, terms plus these rows, as a compiled :class:`RowsRHS` (None if ``rhs`` does not compile)."""
+        p, q = self.p, self.q
+        return _compiled(coef, terms, n_states, self.rhs, self.params, ((p, p + q), (0, p), (p + q, None)), p)
+
     def __call__(self, x, u):
         dx = np.zeros(self.p + self.q)
         dx[self.p :] = np.asarray(self.rhs(x[self.p :], x[: self.p], u, **self.params), dtype=float).reshape(self.q)
         return dx
+
+
+def _compiled(coef, terms, n_states, rhs, params, layout, first):
+    """A :class:`RowsRHS`, or None with a warning when numba cannot compile ``rhs``."""
+    n_variables = max([n_states] + [f[0] + 1 for t in terms for f in t])
+    layout = tuple((a, n_variables if b is None else b) for a, b in layout)
+    try:
+        return RowsRHS(coef, terms, n_states, rhs, params, layout, first)
+    except OpCompileError as exc:
+        warnings.warn(f"ParametricHiddenState: {exc}; the model runs on the Python path (about 100x slower).",
+                      UserWarning, stacklevel=3)
+        return None
 
 
 class ParametricHiddenState(HiddenStrategy):
@@ -73,7 +93,9 @@ class ParametricHiddenState(HiddenStrategy):
     ----------
     rhs : callable
         ``rhs(x_h, y, u, **params) -> dx_h/dt`` with 1-D arrays ``x_h`` (q,),
-        ``y`` (p,), ``u`` (n_inputs,).
+        ``y`` (p,), ``u`` (n_inputs,). Written with NumPy, it is compiled by
+        numba (the model then simulates on the compiled path); a function numba
+        cannot compile runs on the Python path, with a warning.
     params : dict, optional
         ``name -> value`` (fixed) or ``name -> (low, high[, log])`` (searched).
     x0_bounds : (low, high) or sequence of (low, high)
@@ -272,6 +294,11 @@ class ParametricHiddenState(HiddenStrategy):
         """Hidden trajectory driven by the inputs and the measured outputs."""
         phys, x0 = self._split(params)
         rhs, q = self._hidden_rhs(), len(x0)
+        n_u, n_y = u.shape[1], y.shape[1]
+        f = _compiled(np.zeros((0, q)), [], q, rhs, phys, ((0, q), (q + n_u, q + n_u + n_y), (q, q + n_u)), 0)
+        if f is not None:
+            return simulate(f, x0, np.hstack([u, y]), dt, n_substeps=self.n_substeps, input_hold="linear",
+                            bounds=self._hidden_bounds(q))
 
         def f(xh, uy):
             return np.asarray(rhs(xh, uy[u.shape[1]:], uy[: u.shape[1]], **phys), dtype=float).reshape(q)

@@ -1,16 +1,23 @@
 """Libraries of Python functions and adapters for external libraries.
 
-These cannot be compiled: their ``terms_`` is ``None`` and a model built on
-them simulates through the slower Python path.
+A :class:`CustomLibrary` of functions of one column that numba can compile
+(``np.sign``, ``lambda v: np.tanh(v / 0.02)``) gets symbolic terms made of user
+operations (:func:`sindybench.dynamics.register_op`): it fits, simulates,
+refines and predicts on the compiled path like a built-in library. Other
+functions, and :class:`ExternalLibrary`, have ``terms_ = None`` and run on the
+Python path (about 100-1000x slower; see the docs' architecture page).
 """
 
 import inspect
+import warnings
 from itertools import combinations
 
 import numpy as np
 from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
+from ..dynamics._terms import evaluate_terms
+from ..dynamics._user import OpCompileError, register_op
 from ._base import BaseLibrary, check_variables
 
 __all__ = ["CustomLibrary", "ExternalLibrary", "as_library"]
@@ -47,11 +54,19 @@ class CustomLibrary(BaseLibrary):
         ``"f0(x0)"``-style names.
     variables : sequence of int, optional
         Columns of ``Z`` to use; default all.
+    derivatives : sequence of (callable or None), optional
+        One per function: its derivative, used by the sensitivities of the
+        refinement. Default: a known rule for NumPy ufuncs (``np.tanh``,
+        ``np.sign``, ...), else central differences.
+    compile : bool, default=True
+        Compile functions of one column with numba (a warning says why when
+        one cannot be); False keeps every function on the Python path.
 
     Attributes
     ----------
-    terms_ : None
-        Custom features are not compilable.
+    terms_ : list of tuple or None
+        One user-operation factor per feature when every function compiled
+        (then the model runs on the compiled path), else None.
     n_output_features_ : int
 
     Examples
@@ -64,10 +79,12 @@ class CustomLibrary(BaseLibrary):
     [[0.0, 0.964, 0.0]]
     """
 
-    def __init__(self, *, functions=None, names=None, variables=None):
+    def __init__(self, *, functions=None, names=None, variables=None, derivatives=None, compile=True):
         self.functions = functions
         self.names = names
         self.variables = variables
+        self.derivatives = derivatives
+        self.compile = compile
 
     def fit(self, Z, y=None):
         """Check the functions and list the (function, columns) pairs."""
@@ -85,11 +102,46 @@ class CustomLibrary(BaseLibrary):
         ]
         if not self.combinations_:
             raise ValueError("CustomLibrary has no features: every function takes more arguments than variables.")
+        if self.derivatives is not None and (callable(self.derivatives) or len(self.derivatives) != len(functions)):
+            raise ValueError(f"derivatives must be None or hold one entry (callable or None) per function "
+                             f"({len(functions)}); got {self.derivatives!r}.")
         self.terms_ = None
         self.n_output_features_ = len(self.combinations_)
+        if self.compile:
+            self.terms_ = self._compiled_terms(np.asarray(Z, dtype=float))
         return self
 
+    def _compiled_terms(self, Z):
+        """User-operation terms of the features, or None (with a warning saying why)."""
+        ops = []
+        for i, f in enumerate(self.functions):
+            if _arity(f, i) != 1:
+                return _python_path(f"functions[{i}] takes {_arity(f, i)} arguments; only functions of one "
+                                    "column are compiled")
+            derivative = None if self.derivatives is None else self.derivatives[i]
+            if derivative is not None and not callable(derivative):
+                raise ValueError(f"derivatives[{i}] is not callable; got {derivative!r}.")
+            name = f"f{i}({{}})" if self.names is None else self.names[i]
+            try:
+                ops.append(register_op(f, derivative, name))
+            except OpCompileError as exc:
+                return _python_path(f"functions[{i}]: {exc}")
+        terms = [((combo[0], ops[i], 0.0, 0.0),) for i, combo in self.combinations_]
+        reference = self._python_transform(Z)
+        compiled = evaluate_terms(terms, Z)
+        if not np.allclose(compiled, reference, rtol=1e-9, atol=1e-12, equal_nan=True):
+            k = int(np.argmax(np.any(~np.isclose(compiled, reference, rtol=1e-9, atol=1e-12, equal_nan=True),
+                                     axis=0)))
+            return _python_path(f"functions[{self.combinations_[k][0]}] compiled for one value differs from the "
+                                "function applied to arrays")
+        return terms
+
     def _transform(self, Z):
+        if self.terms_ is not None:
+            return evaluate_terms(self.terms_, Z)
+        return self._python_transform(Z)
+
+    def _python_transform(self, Z):
         out = np.empty((Z.shape[0], len(self.combinations_)))
         for k, (i, combo) in enumerate(self.combinations_):
             value = np.asarray(self.functions[i](*(Z[:, c] for c in combo)), dtype=float)
@@ -113,6 +165,11 @@ class CustomLibrary(BaseLibrary):
             else:
                 out.append(str(fmt).format(*args))
         return out
+
+
+def _python_path(reason):
+    warnings.warn(f"CustomLibrary: {reason}; the library runs on the Python path (about 100-1000x slower to "
+                  "simulate and refine; compile=False silences this).", UserWarning, stacklevel=4)
 
 
 class ExternalLibrary(BaseLibrary):

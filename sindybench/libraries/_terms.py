@@ -22,13 +22,14 @@ STEP      ``1`` if ``a <= z <= b``, else 0   ``[z>=a]``, ``[z<=b]``, ``[a<=z<=b]
 ``STEP`` marks a regime, e.g. an overflowing tank (``[x1>=10]``: the level at
 the top of its bounded range) or a saturated actuator.
 
-Each operation has its derivative with respect to its column
-(:func:`evaluate_terms_jacobian`): ``a z^(a-1)``, ``a |z|^(a-1) sign(z)``,
-``1 / (2 sqrt(z))`` strictly inside ``(a, b)`` and 0 where the clip is active,
-and 0 for ``sign`` and ``STEP``. At ``z = 0`` the derivative of ``|z|^a`` is taken as 0
-(``sign(0) = 0``, also for ``a < 1``), so that a product such as ``z |z|^0.5``, whose
-derivative is 0 there, gets 0 by the product rule rather than ``0 * inf``. The compiled sensitivity kernel
-(:mod:`sindybench.refine`) uses the same rules.
+The operations themselves, value and derivative, are defined once in
+:mod:`sindybench.dynamics` (``dynamics._ops``, compiled by numba); this module
+re-exports the op codes, :func:`check_terms`, :func:`terms_to_arrays`,
+:func:`evaluate_terms` and :func:`evaluate_terms_jacobian` from there and adds
+the names, LaTeX, SymPy and JSON forms. A user operation
+(:func:`sindybench.dynamics.register_op`, made by
+:class:`~sindybench.libraries.CustomLibrary`) is written with its own name and
+cannot be stored as JSON.
 
 An empty term ``()`` is the constant 1. :func:`term_name` writes a term as
 text, :func:`term_latex` as LaTeX (``\\sqrt{x_1}``, ``|v| z``) and
@@ -38,6 +39,10 @@ text, :func:`term_latex` as LaTeX (``\\sqrt{x_1}``, ``|v| z``) and
 import re
 
 import numpy as np
+
+from ..dynamics._ops import ABS_POW, BUILTIN_OPS, POW, SIGN, SQRT, STEP, USER
+from ..dynamics._terms import check_terms, evaluate_terms, evaluate_terms_jacobian, terms_to_arrays
+from ..dynamics._user import user_op
 
 __all__ = [
     "ABS_POW",
@@ -57,8 +62,7 @@ __all__ = [
     "terms_to_json",
 ]
 
-POW, ABS_POW, SQRT, SIGN, STEP = 0, 1, 2, 3, 4
-_OPS = (POW, ABS_POW, SQRT, SIGN, STEP)
+_OPS = BUILTIN_OPS
 
 
 def _fmt_power(base, a):
@@ -78,6 +82,8 @@ def _factor_name(factor, names):
         return f"sign({z})"
     if op == STEP:
         return _interval(z, a, b, ">=", "<=")
+    if op >= USER:
+        return user_op(op).label(z)
     raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
 
 
@@ -159,6 +165,8 @@ def _factor_latex(factor, symbols):
         return rf"\operatorname{{sign}}({z})"
     if op == STEP:
         return _interval(z, a, b, r" \geq ", r" \leq ")
+    if op >= USER:
+        return user_op(op).label(z)
     raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
 
 
@@ -212,173 +220,11 @@ def term_sympy(term, symbols):
         elif op == STEP:
             inside = sympy.And(*([z >= a] if np.isfinite(a) else []) + ([z <= b] if np.isfinite(b) else []))
             expr *= sympy.Piecewise((1, inside), (0, True))
+        elif op >= USER:
+            expr *= sympy.Function(getattr(user_op(op).function, "__name__", "f").strip("<>"))(z)
         else:
             raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
     return expr
-
-
-def _eval_factor(factor, Z):
-    col, op, a, b = factor
-    z = Z[:, col]
-    if op == POW:
-        return z**a if a != 1 else z
-    if op == ABS_POW:
-        return np.abs(z) ** a
-    if op == SQRT:
-        return np.sqrt(np.clip(z, a, b))
-    if op == SIGN:
-        return np.sign(z)
-    if op == STEP:
-        return ((z >= a) & (z <= b)).astype(float)
-    raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
-
-
-def evaluate_terms(terms, Z):
-    """Evaluate ``terms`` on the rows of ``Z``.
-
-    Parameters
-    ----------
-    terms : sequence of tuple of (col, op, a, b)
-    Z : ndarray of shape (n_samples, n_variables)
-
-    Returns
-    -------
-    ndarray of shape (n_samples, len(terms))
-
-    Examples
-    --------
-    >>> Z = np.array([[2.0, -3.0]])
-    >>> evaluate_terms([(), ((0, POW, 2, 0),), ((0, POW, 1, 0), (1, ABS_POW, 1, 0))], Z)
-    array([[1., 4., 6.]])
-    """
-    Z = np.asarray(Z, dtype=float)
-    out = np.ones((Z.shape[0], len(terms)))
-    for j, term in enumerate(terms):
-        for factor in term:
-            out[:, j] *= _eval_factor(factor, Z)
-    return out
-
-
-def _factor_derivative(factor, Z):
-    col, op, a, b = factor
-    z = Z[:, col]
-    if op == POW:
-        return np.ones_like(z) if a == 1 else (a * z ** (a - 1) if a != 0 else np.zeros_like(z))
-    if op == ABS_POW:  # at z = 0 the derivative is taken as 0 (sign(0) = 0, also for a < 1)
-        if a == 0:
-            return np.zeros_like(z)
-        nonzero = z != 0
-        return np.where(nonzero, a * np.abs(np.where(nonzero, z, 1.0)) ** (a - 1) * np.sign(z), 0.0)
-    if op == SQRT:
-        inside = (z > a) & (z < b)
-        return np.where(inside, 0.5 / np.sqrt(np.where(inside, z, 1.0)), 0.0)
-    if op in (SIGN, STEP):
-        return np.zeros_like(z)
-    raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
-
-
-def evaluate_terms_jacobian(terms, Z):
-    """Derivatives of ``terms`` with respect to the columns of ``Z``.
-
-    Parameters
-    ----------
-    terms : sequence of tuple of (col, op, a, b)
-    Z : ndarray of shape (n_samples, n_variables)
-
-    Returns
-    -------
-    ndarray of shape (n_samples, len(terms), n_variables)
-        ``out[k, j, c]`` is the derivative of term ``j`` with respect to
-        ``Z[:, c]`` at sample ``k`` (product rule over the term's factors).
-
-    Examples
-    --------
-    >>> Z = np.array([[2.0, -3.0]])
-    >>> evaluate_terms_jacobian([((0, POW, 2, 0), (1, ABS_POW, 1, 0))], Z)[0]
-    array([[12., -4.]])
-    >>> evaluate_terms_jacobian([((0, SQRT, 0.0, 1.0),)], np.array([[0.25], [4.0]]))[:, 0, 0]
-    array([1., 0.])
-    """
-    Z = np.asarray(Z, dtype=float)
-    out = np.zeros((Z.shape[0], len(terms), Z.shape[1]))
-    for j, term in enumerate(terms):
-        values = [_eval_factor(f, Z) for f in term]
-        for i, factor in enumerate(term):
-            d = _factor_derivative(factor, Z)
-            for k, v in enumerate(values):
-                if k != i:
-                    d = d * v
-            out[:, j, factor[0]] += d
-    return out
-
-
-def terms_to_arrays(terms):
-    """Flatten terms into arrays for compiled evaluation.
-
-    Returns
-    -------
-    ptr : ndarray of int64, shape (n_terms + 1,)
-        Factors of term ``j`` are ``ptr[j]:ptr[j + 1]``.
-    col, op : ndarray of int64
-    a, b : ndarray of float64
-
-    Examples
-    --------
-    >>> ptr, col, op, a, b = terms_to_arrays([(), ((1, POW, 2, 0),)])
-    >>> ptr.tolist(), col.tolist()
-    ([0, 0, 1], [1])
-    """
-    flat = [f for term in terms for f in term]
-    ptr = np.zeros(len(terms) + 1, dtype=np.int64)
-    ptr[1:] = np.cumsum([len(term) for term in terms])
-    col = np.array([f[0] for f in flat], dtype=np.int64)
-    op = np.array([f[1] for f in flat], dtype=np.int64)
-    a = np.array([f[2] for f in flat], dtype=float)
-    b = np.array([f[3] for f in flat], dtype=float)
-    return ptr, col, op, a, b
-
-
-def check_terms(terms, n_variables=None, *, name="terms"):
-    """Return ``terms`` as a list of tuples of ``(int, int, float, float)`` factors.
-
-    Accepts the JSON form too (lists; ``"inf"`` / ``"-inf"`` strings for
-    infinite clip values).
-
-    Parameters
-    ----------
-    terms : sequence of sequence of (col, op, a, b)
-    n_variables : int, optional
-        Number of columns of ``Z``; every ``col`` must be below it.
-
-    Examples
-    --------
-    >>> check_terms([[], [[1, 2, 0, "inf"]]])
-    [(), ((1, 2, 0.0, inf),)]
-    >>> check_terms([[[2, 0, 1, 0]]], 2)
-    Traceback (most recent call last):
-    ...
-    ValueError: terms[0] uses column 2 of Z; expected columns in [0, 1].
-    """
-    if isinstance(terms, (str, bytes)) or not hasattr(terms, "__iter__"):
-        raise ValueError(f"{name} must be a sequence of terms; got {terms!r}.")
-    out = []
-    for j, term in enumerate(terms):
-        factors = []
-        try:
-            for col, op, a, b in term:
-                factors.append((int(col), int(op), float(a), float(b)))
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{name}[{j}] = {term!r} is not a sequence of (col, op, a, b) factors.") from exc
-        for col, op, a, b in factors:
-            if op not in _OPS:
-                raise ValueError(f"{name}[{j}] has unknown operation {op}; expected one of {_OPS}.")
-            if col < 0 or (n_variables is not None and col >= n_variables):
-                hi = "" if n_variables is None else f" in [0, {n_variables - 1}]"
-                raise ValueError(f"{name}[{j}] uses column {col} of Z; expected columns{hi}.")
-            if np.isnan(a) or np.isnan(b):
-                raise ValueError(f"{name}[{j}] has a NaN parameter; expected numbers.")
-        out.append(tuple(factors))
-    return out
 
 
 def _json_float(v):
@@ -393,6 +239,13 @@ def terms_to_json(terms):
     >>> terms_to_json([(), ((0, SQRT, 0.0, float("inf")),)])
     [[], [[0, 2, 0.0, 'inf']]]
     """
+    for j, term in enumerate(terms):
+        for factor in term:
+            if int(factor[1]) >= USER:
+                raise ValueError(
+                    f"terms[{j}] uses the user operation {user_op(factor[1]).label('z')!r}, which cannot be "
+                    "saved as JSON (a Python function); use built-in terms to save models."
+                )
     return [[[int(c), int(o), _json_float(float(a)), _json_float(float(b))] for c, o, a, b in t] for t in terms]
 
 

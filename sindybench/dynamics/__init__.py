@@ -1,0 +1,54 @@
+"""The fitted dynamics: term operations, simulation, the one-step map and its Jacobians.
+
+The bottom layer of sindybench's numerical core. Term operations (value and
+derivative, built-in and user-registered) are defined once here and compiled
+by numba; the simulator, the one-step map and the sensitivity kernel share
+one integrator (:mod:`sindybench.dynamics._kernels`).
+"""
+
+from ._ops import ABS_POW, BUILTIN_OPS, POW, SIGN, SQRT, STEP, USER
+from ._simulate import Settings, SimulationError, TermsRHS, make_rhs, simulate, simulation_settings
+from ._step import (
+    StepModel,
+    coefficient_directions,
+    sensitivity_arrays,
+    step,
+    step_jacobian,
+    step_jacobian_kernel,
+    step_kernel,
+    step_model,
+)
+from ._terms import check_terms, evaluate_terms, evaluate_terms_jacobian, terms_to_arrays
+from ._user import OpCompileError, UserOp, register_op, user_table
+
+__all__ = [
+    "ABS_POW",
+    "BUILTIN_OPS",
+    "OpCompileError",
+    "POW",
+    "SIGN",
+    "SQRT",
+    "STEP",
+    "Settings",
+    "SimulationError",
+    "StepModel",
+    "TermsRHS",
+    "USER",
+    "UserOp",
+    "check_terms",
+    "coefficient_directions",
+    "evaluate_terms",
+    "evaluate_terms_jacobian",
+    "make_rhs",
+    "register_op",
+    "sensitivity_arrays",
+    "simulate",
+    "simulation_settings",
+    "step",
+    "step_jacobian",
+    "step_jacobian_kernel",
+    "step_kernel",
+    "step_model",
+    "terms_to_arrays",
+    "user_table",
+]

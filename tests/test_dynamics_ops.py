@@ -1,0 +1,63 @@
+"""dynamics: every term operation's derivative against central differences, user operations in the sensitivities."""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from sindybench.dynamics import (
+    ABS_POW,
+    POW,
+    SIGN,
+    SQRT,
+    STEP,
+    USER,
+    TermsRHS,
+    check_terms,
+    evaluate_terms,
+    evaluate_terms_jacobian,
+    register_op,
+    simulate,
+)
+from sindybench.refine import simulate_sensitivity
+
+FACTORS = [(0, POW, 1.0, 0.0), (0, POW, 2.0, 0.0), (0, POW, 3.0, 0.0), (0, POW, 2.5, 0.0), (0, ABS_POW, 1.0, 0.0),
+           (0, ABS_POW, 1.5, 0.0), (0, SQRT, 0.1, 2.0), (0, SIGN, 0.0, 0.0), (0, STEP, 0.5, 1.5)]
+
+
+@pytest.mark.parametrize("factor", FACTORS, ids=lambda f: f"op{f[1]}a{f[2]}")
+def test_derivative_of_each_operation_matches_central_differences(factor):
+    z = np.array([0.3, 0.7, 1.2, 1.9, 2.6])[:, None]  # away from kinks, clip ends and steps
+    term = ((factor[0], factor[1], factor[2], factor[3]), (1, POW, 1.0, 0.0))  # times a second column
+    Z = np.hstack([z, np.full_like(z, 1.5)])
+    eps = 1e-6
+    fd = (evaluate_terms([term], Z + [eps, 0.0]) - evaluate_terms([term], Z - [eps, 0.0])) / (2 * eps)
+    jac = evaluate_terms_jacobian([term], Z)
+    assert_allclose(jac[:, 0, 0], fd[:, 0], rtol=1e-6, atol=1e-8)
+    assert_allclose(jac[:, 0, 1], evaluate_terms([(factor,)], Z)[:, 0], rtol=1e-14)  # d/dz1 of f(z0) z1
+
+
+def test_user_operation_joins_the_sensitivities():
+    """A tanh user op: exact-sensitivity Jacobian of the simulation against differences of simulate."""
+    op = register_op(lambda v: np.tanh(v / 0.2), name="tanh({}/0.2)")
+    assert op >= USER and check_terms([[[0, op, 0, 0]]])[0][0][1] is op
+    terms = [((0, POW, 1, 0),), ((0, op, 0.0, 0.0),), ((1, POW, 1, 0),)]
+    rhs = TermsRHS([[-0.5], [-1.0], [2.0]], terms, 1)
+    u = np.sin(np.linspace(0, 6, 200))[:, None]
+    D = np.zeros((1, 3, 1))
+    D[0, 1, 0] = 1.0
+    x, S, _ = simulate_sensitivity(rhs, [0.2], u, 0.05, directions=D, free_x0=[0])
+    assert np.array_equal(x, simulate(rhs, [0.2], u, 0.05))
+    eps = 1e-6
+
+    def moved(dc, dx0):
+        return simulate(TermsRHS(rhs.coef + dc * D[0], terms, 1), [0.2 + dx0], u, 0.05)[:, 0]
+
+    assert_allclose(S[:, 0, 0], (moved(eps, 0) - moved(-eps, 0)) / (2 * eps), rtol=1e-5, atol=1e-8)
+    assert_allclose(S[:, 0, 1], (moved(0, eps) - moved(0, -eps)) / (2 * eps), rtol=1e-5, atol=1e-8)
+
+
+def test_unknown_operation_codes_are_rejected():
+    with pytest.raises(ValueError, match="unknown operation 7"):
+        check_terms([[[0, 7, 0, 0]]])
+    with pytest.raises(ValueError, match="not a built-in operation .* nor a user operation registered"):
+        check_terms([[[0, USER + 999, 0, 0]]])

@@ -56,6 +56,7 @@ _QR_CHUNK = 200_000  # rows factorized at a time (bounded memory for long record
 _SHARED_CACHE_SIZE = 8
 _SCALE_RATIO = 2.0**40  # column magnitudes further apart are equilibrated (lstsq's rank cut-off is ~1e-15)
 _SAFE_RANGE = (2.0**-400, 2.0**400)  # magnitudes whose squares and sums neither overflow nor underflow
+_MAX_WEIGHT = 2.0**500  # largest ridge row weight (its square still fits in a float)
 
 
 @lru_cache(maxsize=4)
@@ -265,9 +266,18 @@ def _solve_groups(a, c, ind, rows, alpha, units):
         lhs = a[:, support]
         rhs = c[:, members]
         if alpha > 0:
-            lhs = np.vstack([lhs, np.diag(np.sqrt(alpha) / units[support])])
+            with np.errstate(over="ignore"):
+                weights = np.sqrt(alpha) / units[support]
+            # a penalty beyond the float range pins its coefficient to zero as well as 2**500 does
+            lhs = np.vstack([lhs, np.diag(np.minimum(weights, _MAX_WEIGHT))])
             rhs = np.vstack([rhs, np.zeros((support.size, len(members)))])
-        w = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
+        try:
+            w = np.linalg.lstsq(lhs, rhs, rcond=None)[0]
+        except np.linalg.LinAlgError as exc:
+            raise ValueError(
+                f"STLS could not solve the least-squares problem on theta ({exc}); expected theta and target "
+                "without extreme values."
+            ) from exc
         for k, i in enumerate(members):
             out[i] = (support, w[:, k])
     return out

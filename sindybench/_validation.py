@@ -406,7 +406,7 @@ def validate_named(estimator, X, y="no_validation", **kwargs):
         if a is None or isinstance(a, str):
             continue
         try:
-            ndim = np.ndim(a)
+            ndim = np.asarray(a).ndim  # not np.ndim: scikit-learn's checks pass objects that refuse it
         except ValueError as exc:  # ragged nested lists
             raise ValueError(f"{name} could not be converted to an array: {exc}") from exc
         if ndim == 0:

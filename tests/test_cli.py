@@ -200,7 +200,7 @@ def test_report_figure_draws_every_model_with_the_public_plotting():
     fig = _test_figure(results, "test", test, {"good": test.y + 0.1, "wild": 1e3 * t[:, None], "lost": None})
     ax, ax_u = fig.axes[:2]
     assert [line.get_label() for line in ax.get_lines()] == [
-        "measured", "GOOD (R^2 0.98)", "WILD (R^2 -259910631.28), leaves the frame"]
+        "measured", "GOOD (R^2 0.98, fit 86.0 %)", "WILD (R^2 -259910631.28, fit -1612074.4 %), leaves the frame"]
     np.testing.assert_array_equal(ax_u.get_lines()[0].get_ydata(), test.u[:, 0])
     assert ax.get_title() == "Toy: open-loop simulation, test set 'test'"
 

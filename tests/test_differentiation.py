@@ -390,3 +390,9 @@ def test_a_step_the_stencil_cannot_resolve_is_a_value_error(dt):
             FiniteDifference().derivative(y, dt=dt)
         with pytest.raises(ValueError, match="rescale the time unit"):
             SINDy(dt=dt).fit(u, y)
+        # scipy's Savitzky-Golay divides by dt ** 2 for a second derivative (ZeroDivisionError before)
+        with pytest.raises(ValueError, match=f"SavitzkyGolay could not differentiate y with dt = {dt:g}"):
+            SavitzkyGolay(window_length=5).derivative(y, dt=dt, order=2)
+        # weights that overflow give inf or NaN (a NaN "strategy states" error before)
+        with pytest.raises(ValueError, match="FiniteDifference gave NaN or inf derivatives of the finite y"):
+            FiniteDifference().derivative(y, dt=1e300)

@@ -279,3 +279,13 @@ def test_sindy_on_tiny_data(scale):
     model.fit(u * scale, y * scale)  # before: an all-zero model
     np.testing.assert_allclose(model.coef_[0, 1:], ref.coef_[0, 1:], rtol=1e-9)
     np.testing.assert_allclose(model.coef_[0, 1:], [-2.0, 1.0], rtol=1e-4)
+
+
+def test_huge_ridge_on_rescaled_columns_pins_them_to_zero():
+    # found by tests/test_fuzz_estimators.py: the ridge rows sqrt(alpha) / scale overflowed to inf
+    # and lstsq failed ("SVD did not converge") instead of returning the fully penalized zero
+    theta, target = np.array([[0.0], [1e-301]]), np.array([0.84, 0.89])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        coef, _ = stls(theta, target, threshold=0.0, alpha=1e300, max_iter=1, unbias=False)
+    assert coef.tolist() == [0.0]

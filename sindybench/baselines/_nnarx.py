@@ -17,6 +17,7 @@ from ._persist import nnarx_from_dict, nnarx_to_dict
 
 __all__ = ["NNARX"]
 
+_MAX_UNITS = 100_000  # units per hidden layer: far beyond any NARX model, short of an out-of-memory error
 _ACTIVATIONS = {
     "identity": lambda h: h,
     "logistic": lambda h: 0.5 * (1.0 + np.tanh(0.5 * h)),
@@ -180,11 +181,11 @@ class NNARX(SaveLoadMixin, LagModel):
             sizes = tuple(sizes)
         except TypeError:
             sizes = None
-        if not sizes or not all(isinstance(k, numbers.Integral) and not isinstance(k, bool) and k >= 1
+        if not sizes or not all(isinstance(k, numbers.Integral) and not isinstance(k, bool) and 1 <= k <= _MAX_UNITS
                                 for k in sizes):
             raise ValueError(
-                f"hidden_layer_sizes = {self.hidden_layer_sizes!r}; expected a non-empty tuple of integers >= 1 "
-                "(one size per hidden layer; for a model without hidden layer use ARX)."
+                f"hidden_layer_sizes = {self.hidden_layer_sizes!r}; expected a non-empty tuple of integers in "
+                f"[1, {_MAX_UNITS}] (one size per hidden layer; for a model without hidden layer use ARX)."
             )
         check_option(self.activation, "activation", sorted(_ACTIVATIONS))
         check_bool(self.residual, "residual")

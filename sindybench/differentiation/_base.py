@@ -65,12 +65,18 @@ class BaseDifferentiation(BaseEstimator):
             )
         try:
             out = self._derivative(y, t, step, order)
-        except np.linalg.LinAlgError as exc:  # e.g. a stencil of powers of dt = 1e-300 underflows to zero
+        except (np.linalg.LinAlgError, ZeroDivisionError, OverflowError) as exc:  # powers of dt = 1e-300 underflow
             spacing = f"dt = {step:g}" if step is not None else f"the smallest step {np.min(np.diff(t)):g}"
             raise ValueError(
                 f"{type(self).__name__} could not differentiate y with {spacing} ({exc}); expected sample "
                 "times on a scale the method can resolve (rescale the time unit)."
             ) from exc
+        if not np.all(np.isfinite(out)):  # y is finite: the method's weights over- or underflowed
+            spacing = f"dt = {step:g}" if step is not None else f"the smallest step {np.min(np.diff(t)):g}"
+            raise ValueError(
+                f"{type(self).__name__} gave NaN or inf derivatives of the finite y with {spacing}; expected "
+                "sample times on a scale the method can resolve (rescale the time unit)."
+            )
         return out.reshape(shape)
 
     def _validate_params(self):

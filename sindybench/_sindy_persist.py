@@ -1,6 +1,7 @@
 """The fitted state of :class:`~sindybench.SINDy` in model files (see :mod:`sindybench.io`).
 
-Stored ``fitted`` entries (add a new fitted attribute to both functions):
+Stored ``fitted`` entries (add a new fitted attribute to both functions; ``SINDy._rebuild_model``
+then assembles ``dynamics_`` from them):
 
 ``library``
     the fitted library: its parameters and its symbolic terms
@@ -64,8 +65,9 @@ def sindy_from_dict(model, fitted):
     model.feature_names_ = fitted.strings("feature_names", n_terms)
     model.output_names_ = fitted.strings("output_names", n_states)
     model.input_names_ = fitted.strings("input_names", n_inputs)
-    model.n_states_, model.n_inputs_, model.n_features_in_ = n_states, n_inputs, n_inputs
+    model.n_inputs_, model.n_features_in_ = n_inputs, n_inputs
     model.dt_ = fitted.float("dt", allow_none=True)
     model.x0_ = fitted.array("x0", (n_states,))
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
+    model._rebuild_model()

@@ -192,14 +192,13 @@ def _model_inputs(model, header, data, path):
 
 
 def _output_names(model, n_outputs):
-    names = getattr(model, "output_names_", None)
-    if names is None and hasattr(model, "structure_"):
-        names = [model.state_names_[i] for i in model.structure_.output_index]
+    index = getattr(model, "output_index_", None)
+    names = None if index is None else [model.state_names_[i] for i in index]
     return list(names) if names is not None and len(names) == n_outputs else [f"y{i}" for i in range(n_outputs)]
 
 
 def _simulate(args):
-    from . import SINDy, load_model
+    from . import load_model
     from .io import write_text_atomic
 
     model = load_model(args.model, allow_import=args.allow_import)
@@ -208,7 +207,7 @@ def _simulate(args):
     y_init = None if args.y_init is None else _read_csv(args.y_init, "--y-init")[1]
     if y_init is not None:
         y_pred = model.predict(X, y_init=y_init)
-    elif isinstance(model, SINDy):
+    elif getattr(model, "x0_", None) is not None:  # the model's own initial state is what was asked for
         y_pred = model.predict(X, x0=model.x0_)
     else:
         with warnings.catch_warnings():  # the model's own initial state is what was asked for

@@ -123,7 +123,7 @@ def hidden_sindy_from_dict(model, fitted):
     model.x0_ = fitted.array("x0", (s.n_states,))
     model.dt_ = fitted.float("dt")
     check_params(model._check_params, model.dt_)
-    model.n_features_in_, model.n_outputs_ = n_inputs, n_outputs
+    model.n_features_in_ = n_inputs
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
     model._rebuild_model()

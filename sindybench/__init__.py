@@ -2,7 +2,7 @@
 
 from . import baselines, differentiation
 from ._sindy import SINDy
-from ._stls import STLS, GramCache, stls
+from .optimizers import STLS, GramCache, stls
 from .hidden import HiddenStateSINDy
 from .io import load_model
 from .simulate import SimulationError

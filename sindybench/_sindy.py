@@ -10,7 +10,7 @@ from sklearn.utils.validation import check_is_fitted
 from ._base import DynamicsEstimator
 from ._equations import EquationRow
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
-from ._stls import STLS
+from .optimizers import STLS
 from ._validation import (
     check_array_like,
     check_bounds,

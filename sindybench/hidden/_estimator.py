@@ -9,7 +9,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._base import DynamicsEstimator
 from .._equations import EquationRow
-from .._stls import STLS
+from ..optimizers import STLS
 from .._validation import (
     check_array_like,
     check_bool,

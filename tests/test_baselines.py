@@ -7,7 +7,7 @@ import pytest
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
-from sindybench._divergence import DivergenceWarning
+from sindybench import DivergenceWarning
 from sindybench.baselines import ARX, NNARX
 from sindybench.baselines._lags import free_run, lagged_regressors, n_lags
 from sindybench.metrics import r2, rmse

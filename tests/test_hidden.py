@@ -5,8 +5,7 @@ import pytest
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
-from sindybench import STLS, HiddenStateSINDy, SimulationError
-from sindybench._divergence import DivergenceWarning
+from sindybench import STLS, DivergenceWarning, HiddenStateSINDy, SimulationError
 from sindybench.hidden import DerivativeHiddenState, ParametricHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.simulate import TermsRHS, simulate

@@ -10,8 +10,7 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 from sklearn.model_selection import GridSearchCV
 
-from sindybench import STLS, SimulationError, SINDy
-from sindybench._divergence import DivergenceWarning
+from sindybench import STLS, DivergenceWarning, SimulationError, SINDy
 from sindybench.libraries import CustomLibrary, PolynomialLibrary
 from sindybench.libraries._terms import POW
 from sindybench.metrics import r2

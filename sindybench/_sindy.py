@@ -17,7 +17,6 @@ from ._validation import (
     check_dt,
     check_inputs_outputs,
     check_integer,
-    check_n_samples,
     check_option,
     check_positive,
     check_signal,

@@ -146,7 +146,8 @@ def test_autonomous_system(rng):
     assert model.n_inputs_ == 0
     assert model.equations(precision=2) == ["y0' = 1.00 y1", "y1' = -4.00 y0"]
     np.testing.assert_allclose(model.simulate(None, x0=y[0], t=t), y, atol=1e-2)
-    np.testing.assert_allclose(model.predict(np.zeros((1500, 0)), y_init=y[:1]), model.simulate(None, x0=y[0], t=t), rtol=1e-9)
+    np.testing.assert_allclose(model.predict(np.zeros((1500, 0)), y_init=y[:1]), model.simulate(None, x0=y[0], t=t),
+                               rtol=1e-9)
 
 
 def test_equations_format(data):

@@ -74,8 +74,8 @@ def refine_candidate(cand, hidden, X, y, refinement, *, build):
         physical = None
         coef = coef + block(values)
     x0 = np.asarray(cand.design.states[0], dtype=float)
-    result = refinement.run(dyn.terms, coef, X, y, dyn.dt, x0=x0, output_index=s.output_index, free=free, physical=physical,
-                            make_rhs=make_rhs, **dyn.settings)
+    result = refinement.run(dyn.terms, coef, X, y, dyn.dt, x0=x0, output_index=s.output_index, free=free,
+                            physical=physical, make_rhs=make_rhs, **dyn.settings)
     params = {**cand.params, **result.physical}
     return params, result.coef[:n_lib, learned].copy(), result.x0, result
 

@@ -240,15 +240,22 @@ class DynamicsEstimator(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixi
         return format_equations(self._equation_rows(), precision=precision, latex=latex)
 
     # -------------------------------------------------------------- refinement
-    @staticmethod
-    def _refine_or_keep(run):
-        """``run()``, the refinement; ``(result, None)``, or ``(None, record)`` with a warning if it diverged.
+    def _run_refinement(self, dynamics, u, y, *, x0, coef=None, free=None, physical=None, make_rhs=None):
+        """Refine ``dynamics`` on ``(u, y)`` with ``self.refine``; ``(result, None)`` or ``(None, record)``.
 
+        ``coef`` defaults to ``dynamics.coef``, ``make_rhs`` to
+        ``dynamics.rhs_for`` on the Python path (see
+        :meth:`OutputErrorRefinement.run <sindybench.refine.OutputErrorRefinement.run>`).
         A model whose simulation of the training record diverges cannot be
-        refined: it is kept as fitted by equation error.
+        refined: it is kept as fitted by equation error, with a warning, and
+        the record says so.
         """
+        if make_rhs is None and not dynamics.compiled:
+            make_rhs = dynamics.rhs_for
         try:
-            result = run()
+            result = self.refine.run(dynamics.terms, dynamics.coef if coef is None else coef, u, y, dynamics.dt,
+                                     x0=x0, output_index=dynamics.output_index, free=free, physical=physical,
+                                     make_rhs=make_rhs, **dynamics.settings)
         except SimulationError as exc:
             warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=4)
             return None, {"status": -1, "message": f"skipped: {exc}"}

@@ -243,10 +243,11 @@ class SINDy(DynamicsEstimator):
         x0, refinement = y[0].copy(), None
         if self.refine is not None:
             coef, x0, refinement = self._refine(dynamics, X, y, coef, x0)
-            dynamics = self._assemble(library, coef, out_names, fitted_dt)
+        coef_ = coef.T.copy()
+        dynamics = self._assemble(library, coef_.T, out_names, fitted_dt)  # as _rebuild_model does
 
         self.differentiation_, self.library_, self.optimizer_ = differentiation, library, optimizer
-        self.coef_ = coef.T.copy()
+        self.coef_ = coef_
         self.terms_ = getattr(library, "terms_", None)
         self.output_names_ = out_names
         self.input_names_ = in_names
@@ -272,9 +273,7 @@ class SINDy(DynamicsEstimator):
     def _refine(self, dynamics, X, y, coef, x0):
         """``(coef, x0, record)`` refined by simulation error (see ``refine``); kept as given if it diverges."""
         lo, hi = check_bounds(self.bounds, dynamics.n_states)
-        result, record = self._refine_or_keep(lambda: self.refine.run(
-            dynamics.terms, dynamics.coef, X, y, dynamics.dt, x0=np.clip(y[0], lo, hi),
-            output_index=dynamics.output_index, make_rhs=dynamics.rhs_for, **dynamics.settings))
+        result, record = self._run_refinement(dynamics, X, y, x0=np.clip(y[0], lo, hi))
         if result is None:
             return coef, x0, record
         return result.coef.copy(), result.x0, result.summary()

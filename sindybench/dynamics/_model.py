@@ -134,8 +134,10 @@ class Dynamics:
         if self.terms is not None:
             return TermsRHS(coef, self.terms, self.n_states)
         n_lib = coef.shape[0] - len(self.fixed_terms)
-        return _PythonRHS(self.library, coef[:n_lib, list(self.learned)], self.learned, self.n_states,
-                          self.fixed_terms, coef[n_lib:], self.fixed_rhs)
+        # all rows learned: a view, so that the Python path's products round as with ``coef`` itself
+        learned = coef[:n_lib] if self.learned == tuple(range(self.n_states)) else coef[:n_lib, list(self.learned)]
+        return _PythonRHS(self.library, learned, self.learned, self.n_states, self.fixed_terms, coef[n_lib:],
+                          self.fixed_rhs)
 
     def simulate(self, u, x0, *, dt=None, t=None, on_divergence="raise"):
         """Open-loop simulation from ``x0`` driven by ``u`` (see :func:`sindybench.simulate.simulate`).
@@ -206,9 +208,14 @@ def assemble(library, coef, *, n_states=None, learned=None, fixed_terms=(), fixe
     fixed[:, list(learned)] = 0.0
     lib_terms = getattr(library, "terms_", None)
     n_lib = coef.shape[0]
-    full = np.zeros((n_lib + len(fixed_terms), n_states))
-    full[:n_lib, list(learned)] = coef
-    full[n_lib:] = fixed
+    if not fixed_terms and learned == tuple(range(n_states)):
+        # keeps the memory layout of ``coef``: the refinement's matrices, and so the
+        # Python path's products, round exactly as they did before ``assemble``
+        full = np.array(coef, dtype=float, order="K")
+    else:
+        full = np.zeros((n_lib + len(fixed_terms), n_states))
+        full[:n_lib, list(learned)] = coef
+        full[n_lib:] = fixed
     if lib_terms is not None and fixed_rhs is None:
         terms = list(lib_terms) + fixed_terms
         rhs = TermsRHS(full, terms, n_states)

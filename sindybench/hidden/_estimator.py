@@ -29,7 +29,7 @@ from ._candidate import Candidate, candidate_initial_state, fit_candidate, struc
 from ._derivative import Derivative
 from ._objective import SEARCH_PENALTY, VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
-from ._refinement import refine_candidate
+from ._refinement import refined_values, refinement_problem
 from ._search import check_space, minimize
 
 __all__ = ["HiddenStateSINDy"]
@@ -382,12 +382,12 @@ class HiddenStateSINDy(DynamicsEstimator):
         with a warning.
         """
         simulation = self._simulation(cand.dynamics.dt)
-        result, record = self._refine_or_keep(lambda: refine_candidate(
-            cand, hidden, X, y, self.refine, build=lambda s, coef: structure_dynamics(s, cand.library, coef,
-                                                                                      simulation)))
+        problem = refinement_problem(cand, hidden, y.shape[1], X.shape[1],
+                                     build=lambda s, coef: structure_dynamics(s, cand.library, coef, simulation))
+        result, record = self._run_refinement(cand.dynamics, X, y, **problem)
         if result is None:
             return cand, None, record
-        params, coef, x0, result = result
+        params, coef, x0 = refined_values(cand, result)
         structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
         cand = cand._replace(params=params, structure=structure, coef=coef,
                              dynamics=structure_dynamics(structure, cand.library, coef, simulation))

@@ -15,7 +15,7 @@ import numpy as np
 from ..refine import Physical, estimate_initial_state
 from ..simulate import simulate
 
-__all__ = ["initial_state", "refine_candidate"]
+__all__ = ["initial_state", "refined_values", "refinement_problem"]
 
 
 class _FixedBlock:
@@ -49,18 +49,20 @@ class _PythonModel:
         return self.build(s, C[: self.block.n_lib, self.learned]).rhs_for(C)
 
 
-def refine_candidate(cand, hidden, X, y, refinement, *, build):
-    """Refine ``cand`` on ``(X, y)``; return ``(params, coef, x0, result)``.
+def refinement_problem(cand, hidden, n_outputs, n_inputs, *, build):
+    """The refinement's layout of ``cand``: ``coef``, ``free``, ``physical``, ``make_rhs`` and ``x0``.
 
-    ``build(structure, coef) -> Dynamics`` assembles the estimator's model
-    (for the Python path, whose fixed rows may depend on the physical parameters).
+    The keyword arguments of ``DynamicsEstimator._run_refinement`` on
+    ``cand.dynamics``. ``build(structure, coef) -> Dynamics`` assembles the
+    estimator's model (for the Python path, whose fixed rows may depend on
+    the physical parameters).
     """
     s, dyn = cand.structure, cand.dynamics
     learned = list(s.learned)
     n_lib = cand.coef.shape[0]
     names = tuple(k for k in hidden.refinable(cand.params)
                   if isinstance(cand.params.get(k), numbers.Real) and not isinstance(cand.params[k], bool))
-    block = _FixedBlock(hidden, cand.params, names, n_lib, y.shape[1], X.shape[1])
+    block = _FixedBlock(hidden, cand.params, names, n_lib, n_outputs, n_inputs)
     values = np.array([float(cand.params[k]) for k in names])
     coef = np.zeros((n_lib + len(s.fixed_terms), s.n_states))
     coef[:n_lib, learned] = cand.coef
@@ -74,10 +76,13 @@ def refine_candidate(cand, hidden, X, y, refinement, *, build):
         physical = None
         coef = coef + block(values)
     x0 = np.asarray(cand.design.states[0], dtype=float)
-    result = refinement.run(dyn.terms, coef, X, y, dyn.dt, x0=x0, output_index=s.output_index, free=free,
-                            physical=physical, make_rhs=make_rhs, **dyn.settings)
-    params = {**cand.params, **result.physical}
-    return params, result.coef[:n_lib, learned].copy(), result.x0, result
+    return dict(coef=coef, free=free, physical=physical, make_rhs=make_rhs, x0=x0)
+
+
+def refined_values(cand, result):
+    """``(params, coef, x0)`` of the candidate after the refinement ``result``."""
+    learned = list(cand.structure.learned)
+    return {**cand.params, **result.physical}, result.coef[: cand.coef.shape[0], learned].copy(), result.x0
 
 
 def initial_state(mode, rhs, x0, X, y_init, dt, *, output_index, settings):

@@ -34,6 +34,11 @@ def fit_sparse(library, optimizer, Z, target, *, rows=None, feature_filter=None,
     coef : ndarray of shape (n_terms, n_targets)
         Column ``k``: the coefficients of target ``k``.
 
+    Raises
+    ------
+    ValueError
+        When the optimizer's coefficients are not finite.
+
     Examples
     --------
     >>> from sindybench import STLS
@@ -53,4 +58,7 @@ def fit_sparse(library, optimizer, Z, target, *, rows=None, feature_filter=None,
     theta = check_signal(theta, what)
     target = target if rows is None else target[rows]
     optimizer.fit(theta, target)
-    return np.asarray(optimizer.coef_, dtype=float).reshape(target.shape[1], theta.shape[1]).T
+    coef = np.asarray(optimizer.coef_, dtype=float).reshape(target.shape[1], theta.shape[1]).T
+    if not np.all(np.isfinite(coef)):
+        raise ValueError("the optimizer returned NaN or inf coefficients; check the data and its settings.")
+    return coef

@@ -236,8 +236,6 @@ class SINDy(DynamicsEstimator):
         library = clone(as_library(self.library))
         optimizer = clone(STLS() if self.optimizer is None else self.optimizer)
         coef = fit_sparse(library, optimizer, np.hstack([y, X]), x_dot, what="library output Theta([y, u])")
-        if not np.all(np.isfinite(coef)):
-            raise ValueError("the optimizer returned NaN or inf coefficients; check the data and its settings.")
         fitted_dt = dt if dt is not None else uniform_step(t)
         dynamics = self._assemble(library, coef, out_names, fitted_dt)
         x0, refinement = y[0].copy(), None

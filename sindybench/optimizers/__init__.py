@@ -18,8 +18,9 @@ keyword arguments; every tunable number is a parameter, so
     fail with a ``ValueError``.
 
 Nothing else is called (no ``predict``): the estimators assemble the model
-from ``coef_`` (:func:`sindybench.dynamics.assemble`). pysindy optimizers
-(``STLSQ``, ``SR3``) satisfy the contract as they are.
+from ``coef_`` (:func:`sindybench.dynamics.assemble`). pysindy's ``STLSQ``
+satisfies the contract as it is (a model using it cannot be saved: it is not
+registered).
 
 **Model files.** A model file stores the optimizer by class name and parameters, and its
 fitted state through the functions given to

@@ -1,8 +1,9 @@
 """sindybench: SINDy with control for systems with hidden states and hard nonlinearities."""
 
 from . import baselines, differentiation
+from ._divergence import DivergenceWarning
 from ._sindy import SINDy
-from ._stls import STLS, GramCache, stls
+from .optimizers import STLS, GramCache, stls
 from .hidden import HiddenStateSINDy
 from .io import load_model
 from .simulate import SimulationError
@@ -10,6 +11,7 @@ from .simulate import SimulationError
 __version__ = "0.1.0"
 
 __all__ = [
+    "DivergenceWarning",
     "GramCache",
     "HiddenStateSINDy",
     "SINDy",

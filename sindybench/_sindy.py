@@ -4,13 +4,13 @@ import logging
 import warnings
 
 import numpy as np
-from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
-from ._equations import EquationRow, EquationsDisplayMixin, format_equations
-from ._params import SharedDefaultsMixin
+from ._base import DynamicsEstimator
+from ._equations import EquationRow
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
-from ._stls import STLS
+from .optimizers import STLS
 from ._validation import (
     check_array_like,
     check_bounds,
@@ -18,8 +18,6 @@ from ._validation import (
     check_estimator_param,
     check_inputs_outputs,
     check_integer,
-    check_model_inputs,
-    check_n_samples,
     check_option,
     check_positive,
     check_signal,
@@ -27,10 +25,11 @@ from ._validation import (
     uniform_step,
 )
 from .differentiation import FiniteDifference, as_differentiation
-from .io import SaveLoadMixin, register_model
+from .dynamics import assemble
+from .io import register_model
 from .libraries import PolynomialLibrary, as_library
-from .metrics import make_simulation_scorer
-from .simulate import _HOLDS, _METHODS, SimulationError, make_rhs, simulate
+from ._regression import fit_sparse
+from .simulate import _HOLDS, _METHODS
 
 __all__ = ["SINDy"]
 
@@ -46,7 +45,7 @@ def _check_names(names, n, prefix, name):
     return list(names)
 
 
-class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
+class SINDy(DynamicsEstimator):
     """Continuous-time SINDy with control: ``y' = Theta([y, u]) coef``.
 
     ``fit`` differentiates the measured states ``y``, evaluates the library on
@@ -105,7 +104,14 @@ class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, Regressor
     refinement_ : dict or None
         Record of the refinement (see :meth:`RefinementResult.summary
         <sindybench.refine.RefinementResult.summary>`); None without ``refine``.
-    n_states_, n_inputs_, n_features_in_ : int
+    dynamics_ : Dynamics
+        The fitted model (right-hand side, states, outputs, bounds,
+        simulation settings; see :class:`sindybench.dynamics.Dynamics`).
+    output_names_, input_names_, state_names_ : list of str
+        ``state_names_`` equals ``output_names_`` (every state is measured).
+    output_index_ : tuple of int
+        ``(0, 1, ..., n_states - 1)``.
+    n_states_, n_outputs_, n_inputs_, n_features_in_ : int
         ``n_features_in_`` is the number of inputs (columns of ``X``).
 
     See Also
@@ -184,6 +190,8 @@ class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, Regressor
     def fit(self, X, y, *, dt=None, t=None, x_dot=None):
         """Fit the sparse model ``y' = Theta([y, u]) coef``.
 
+        Fitted attributes are set only when the fit succeeds.
+
         Parameters
         ----------
         X : array-like of shape (n_samples, n_inputs) or None
@@ -212,216 +220,100 @@ class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, Regressor
         n_samples, n_states = y.shape
         self._check_params(n_states)
         dt, t = self._resolve_time(dt, t, n_samples, self.dt)
+        if self.refine is not None and t is not None:
+            raise ValueError("refine needs uniformly sampled data (dt); got sample times t.")
         if n_samples < 3 and x_dot is None:
             raise ValueError(f"y has {n_samples} sample(s); expected at least 3 to estimate derivatives.")
         out_names = _check_names(self.output_names, n_states, "y", "output_names")
         in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
 
-        self.differentiation_ = clone(as_differentiation(self.differentiation))
+        differentiation = clone(as_differentiation(self.differentiation))
         if x_dot is None:
-            x_dot = self.differentiation_.derivative(y, dt=dt, t=t)
+            x_dot = differentiation.derivative(y, dt=dt, t=t)
             x_dot = check_signal(x_dot, "derivative of y", n_samples=n_samples)
         else:
             x_dot = check_signal(x_dot, "x_dot", n_samples=n_samples)
             if x_dot.shape[1] != n_states:
                 raise ValueError(f"x_dot has {x_dot.shape[1]} columns; expected {n_states} (one per state in y).")
 
-        self.library_ = clone(as_library(self.library))
-        theta = self.library_.fit_transform(np.hstack([y, X]))
-        check_n_samples(n_samples, theta.shape[1])
-        theta = check_signal(theta, "library output Theta([y, u])")
-        self.optimizer_ = clone(STLS() if self.optimizer is None else self.optimizer)
-        self.optimizer_.fit(theta, x_dot)
-        coef = np.asarray(self.optimizer_.coef_, dtype=float).reshape(n_states, theta.shape[1])
-        if not np.all(np.isfinite(coef)):
-            raise ValueError("the optimizer returned NaN or inf coefficients; check the data and its settings.")
+        library = clone(as_library(self.library))
+        optimizer = clone(STLS() if self.optimizer is None else self.optimizer)
+        coef = fit_sparse(library, optimizer, np.hstack([y, X]), x_dot, what="library output Theta([y, u])")
+        fitted_dt = dt if dt is not None else uniform_step(t)
+        dynamics = self._assemble(library, coef, out_names, fitted_dt)
+        x0, refinement = y[0].copy(), None
+        if self.refine is not None:
+            coef, x0, refinement = self._refine(dynamics, X, y, coef, x0)
+        coef_ = coef.T.copy()
+        dynamics = self._assemble(library, coef_.T, out_names, fitted_dt)  # as _rebuild_model does
 
-        self.coef_ = coef
-        self.terms_ = getattr(self.library_, "terms_", None)
+        self.differentiation_, self.library_, self.optimizer_ = differentiation, library, optimizer
+        self.coef_ = coef_
+        self.terms_ = getattr(library, "terms_", None)
         self.output_names_ = out_names
         self.input_names_ = in_names
-        self.feature_names_ = [str(s) for s in self.library_.get_feature_names_out(out_names + in_names)]
-        self.n_states_ = n_states
+        self.feature_names_ = [str(s) for s in library.get_feature_names_out(out_names + in_names)]
         self.n_inputs_ = X.shape[1]
         self.n_features_in_ = X.shape[1]
-        self.dt_ = dt if dt is not None else uniform_step(t)
-        self.x0_ = y[0].copy()
+        self.dt_ = fitted_dt
+        self.x0_ = x0
         self._y_1d = y_1d
-        self.refinement_ = None
-        if self.refine is not None:
-            if t is not None:
-                raise ValueError("refine needs uniformly sampled data (dt); got sample times t.")
-            self._refine(X, y)
+        self.refinement_ = refinement
+        self.dynamics_ = dynamics
         return self
 
-    def _refine(self, X, y):
-        """Refine ``coef_`` and ``x0_`` by simulation error (see ``refine``)."""
-        library, n = self.library_, self.n_states_
-        settings = dict(n_substeps=self.n_substeps, method=self.integrator, input_hold=self.input_hold,
-                        bounds=self.bounds, max_abs=self.max_abs)
-        try:
-            result = self.refine.run(self.terms_, self.coef_.T, X, y, self.dt_, x0=np.clip(y[0], *check_bounds(
-                self.bounds, n)), output_index=tuple(range(n)), make_rhs=lambda C: make_rhs(library, C, n), **settings)
-        except SimulationError as exc:
-            warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=3)
-            self.refinement_ = {"status": -1, "message": f"skipped: {exc}"}
-            return
-        self.coef_ = result.coef.T.copy()
-        self.x0_ = result.x0
-        self.refinement_ = result.summary()
+    def _assemble(self, library, coef, names, dt):
+        """The :class:`~sindybench.dynamics.Dynamics` of ``coef`` (n_terms, n_states) over ``library``."""
+        return assemble(library, coef, state_names=names, bounds=self.bounds, dt=dt, n_substeps=self.n_substeps,
+                        method=self.integrator, input_hold=self.input_hold, max_abs=self.max_abs)
+
+    def _rebuild_model(self):
+        """Assemble ``dynamics_`` from the plain fitted attributes (after loading a model file)."""
+        self.dynamics_ = self._assemble(self.library_, self.coef_.T, self.output_names_, self.dt_)
+
+    def _refine(self, dynamics, X, y, coef, x0):
+        """``(coef, x0, record)`` refined by simulation error (see ``refine``); kept as given if it diverges."""
+        lo, hi = check_bounds(self.bounds, dynamics.n_states)
+        result, record = self._run_refinement(dynamics, X, y, x0=np.clip(y[0], lo, hi))
+        if result is None:
+            return coef, x0, record
+        return result.coef.copy(), result.x0, result.summary()
 
     # -------------------------------------------------------------- simulation
-    def _rhs(self):
-        return make_rhs(self.library_, self.coef_.T, self.n_states_)
+    def _initial_state(self, X, y_init):
+        # a measured sample may lie slightly outside the model's bounds (noise)
+        return np.clip(y_init[0], *check_bounds(self.bounds, self.n_states_))
 
-    def simulate(self, X, x0, *, dt=None, t=None, on_divergence="raise"):
-        """Open-loop simulation driven by the inputs ``X`` from ``x0``.
+    def simulate(self, X, *args, y_init=None, x0=None, dt=None, t=None, on_divergence="raise"):
+        """Open-loop simulation driven by the inputs ``X``, from ``x0`` or from ``y_init``.
 
-        Parameters
-        ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-            Inputs (None for an autonomous model, with ``t`` given).
-        x0 : array-like of shape (n_states,)
-            Initial state (returned as the first row).
-        dt : float, optional
-            Step (default: the training ``dt``).
-        t : array-like of shape (n_samples,), optional
-            Sample times instead of ``dt`` (may be non-uniform).
-        on_divergence : {"raise", "nan"}, default="raise"
-            Raise :class:`sindybench.SimulationError`, or fill NaN from the
-            diverged sample on.
+        The shared ``simulate`` (``y_init``: the simulation starts from
+        ``y_init[0]`` clipped into ``bounds``), with another step ``dt`` or
+        sample times ``t`` (may be non-uniform; ``X`` may then be None for an
+        autonomous model) if wanted. ``simulate(X, x0)`` with ``x0`` by
+        position is the old spelling: it still works, with a
+        ``FutureWarning``; write ``simulate(X, x0=x0)``.
 
         Returns
         -------
         ndarray of shape (n_samples, n_states)
         """
-        check_is_fitted(self)
-        X = check_model_inputs(X, self.n_inputs_, type(self).__name__, n_samples=None if t is None else len(t))
-        dt, t = self._resolve_time(dt, t, X.shape[0], self.dt_)
-        return simulate(
-            self._rhs(),
-            x0,
-            X,
-            dt,
-            t=t,
-            n_substeps=self.n_substeps,
-            method=self.integrator,
-            input_hold=self.input_hold,
-            bounds=self.bounds,
-            max_abs=self.max_abs,
-            on_divergence=on_divergence,
-        )
+        if args:
+            if len(args) > 1 or x0 is not None:
+                raise TypeError("SINDy.simulate takes X and the keywords y_init, x0, dt, t and on_divergence.")
+            warnings.warn("SINDy.simulate(X, x0) is deprecated; pass the initial state by keyword: "
+                          "simulate(X, x0=x0) (or y_init=...).", FutureWarning, stacklevel=2)
+            x0 = args[0]
+        return self._simulate(X, y_init, x0, on_divergence, dt=dt, t=t)
 
-    def predict(self, X, *, x0=None, y_init=None):
-        """Simulated output for the inputs ``X``, NaN after a divergence.
-
-        The simulation starts from ``x0``, or from ``y_init[0]`` (``y_init``:
-        the first samples of the measured output, as the scorers of
-        :mod:`sindybench.metrics` pass it). Without either it starts from the
-        first training sample ``x0_`` and warns: that is only right when ``X``
-        starts where the training data started. ``y_init[0]`` is clipped into
-        ``bounds`` (a noisy measurement may lie just outside them).
-
-        Parameters
-        ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-        x0 : array-like of shape (n_states,), optional
-        y_init : array-like of shape (n_init, n_states), optional
-
-        Returns
-        -------
-        ndarray of shape (n_samples, n_states), or (n_samples,) when ``fit`` got a 1-D ``y``
-        """
-        check_is_fitted(self)
-        if x0 is not None and y_init is not None:
-            raise ValueError("give x0 or y_init, not both.")
-        if x0 is None and y_init is None:
-            warnings.warn(
-                "predict without x0 or y_init starts from the first training sample x0_; "
-                "pass y_init (the first samples of the measured y) for new data.",
-                UserWarning,
-                stacklevel=2,
-            )
-            x0 = self.x0_
-        if y_init is not None:
-            y_init = check_signal(y_init, "y_init")
-            if y_init.shape[1] != self.n_states_:
-                raise ValueError(f"y_init has {y_init.shape[1]} columns; expected {self.n_states_} (one per state).")
-            # a measured sample may lie slightly outside the model's bounds (noise)
-            x0 = np.clip(y_init[0], *check_bounds(self.bounds, self.n_states_))
-        y_pred = self.simulate(X, x0, on_divergence="nan")
-        return y_pred[:, 0] if getattr(self, "_y_1d", False) else y_pred
-
-    def score(self, X, y, sample_weight=None):
-        """R^2 of the open-loop simulation started from ``y[0]``.
-
-        A diverged simulation scores ``-inf`` (ranked last by scikit-learn
-        searches, as by :func:`sindybench.metrics.make_simulation_scorer`).
-
-        Parameters
-        ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-        y : array-like of shape (n_samples, n_states)
-        sample_weight : None
-            Not supported; must be None.
-
-        Returns
-        -------
-        float
-        """
-        if sample_weight is not None:
-            raise ValueError("sample_weight is not supported by SINDy.score; expected None.")
-        X, y = check_inputs_outputs(X, y)
-        return make_simulation_scorer("r2")(self, X, y)
-
-    # ----------------------------------------------------------------- display
-    def equations(self, precision=3, *, latex=False):
-        r"""Readable model equations, one line per state.
-
-        Lines look like ``y0' = -4.822 y0 + 0.740 y0 u0 + 1.742 u0^2``; a
-        constant term shows as its number, an all-zero row as ``0``. In a
-        notebook a fitted model displays them typeset (``_repr_latex_``).
-
-        Parameters
-        ----------
-        precision : int, default=3
-            Decimals of the coefficients; coefficients that would show fewer
-            than two significant digits, or ``|c| >= 1e6``, use ``precision``
-            significant digits (``%.3g``) instead.
-        latex : bool, default=False
-            LaTeX lines instead (``\dot{y}_0 = -2.00 \, y_0``), the terms
-            written from the library's symbolic terms (``\sqrt{x_1}``, ``|v| z``).
-
-        Returns
-        -------
-        list of str
-
-        Examples
-        --------
-        >>> from sindybench.libraries import PolynomialLibrary
-        >>> t = np.arange(0, 3, 0.01)
-        >>> y = np.column_stack([np.exp(-2 * t), 1 + np.exp(-t)])
-        >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01)
-        >>> model.fit(None, y).equations(precision=2)
-        ["y0' = -2.00 y0", "y1' = 1.00 - 1.00 y1"]
-        >>> model.equations(precision=2, latex=True)[0]
-        '\\dot{y}_0 = -2.00 \\, y_0'
-        """
-        return format_equations(self._equation_rows(), precision=precision, latex=latex)
+    def _time(self, n_samples, dt, t):
+        return self._resolve_time(dt, t, n_samples, self.dt_)
 
     def _equation_rows(self):
         check_is_fitted(self)
         names = self.output_names_ + self.input_names_
         return [EquationRow(name, row, self.feature_names_, self.terms_, names)
                 for name, row in zip(self.output_names_, self.coef_)]
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.target_tags.multi_output = True
-        tags.target_tags.single_output = True
-        tags.regressor_tags.poor_score = True
-        tags.input_tags.allow_nan = False
-        return tags
 
 
 register_model(SINDy, to_dict=sindy_to_dict, from_dict=sindy_from_dict)

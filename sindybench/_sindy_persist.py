@@ -1,6 +1,7 @@
 """The fitted state of :class:`~sindybench.SINDy` in model files (see :mod:`sindybench.io`).
 
-Stored ``fitted`` entries (add a new fitted attribute to both functions):
+Stored ``fitted`` entries (add a new fitted attribute to both functions; ``SINDy._rebuild_model``
+then assembles ``dynamics_`` from them):
 
 ``library``
     the fitted library: its parameters and its symbolic terms
@@ -92,10 +93,11 @@ def sindy_from_dict(model, fitted):
     model.coef_ = fitted.array("coef", (n_states, n_terms), finite=True)
     model.optimizer_, model.differentiation_ = fitted_parts(model, fitted, STLS)
     model.feature_names_ = fitted.strings("feature_names", n_terms)
-    model.n_states_, model.n_inputs_, model.n_features_in_ = n_states, n_inputs, n_inputs
+    model.n_inputs_, model.n_features_in_ = n_inputs, n_inputs
     model.dt_ = fitted.float("dt", allow_none=True)
     if model.dt_ is not None and not (math.isfinite(model.dt_) and model.dt_ > 0):
         raise ValueError(f"fitted.dt: expected a finite number > 0 or null; got {model.dt_!r}.")
     model.x0_ = fitted.array("x0", (n_states,), finite=True)
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
+    model._rebuild_model()

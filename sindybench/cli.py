@@ -271,9 +271,8 @@ def _model_inputs(model, header, data, path):
 
 
 def _output_names(model, n_outputs):
-    names = getattr(model, "output_names_", None)
-    if names is None and hasattr(model, "structure_"):
-        names = [model.state_names_[i] for i in model.structure_.output_index]
+    index = getattr(model, "output_index_", None)
+    names = None if index is None else [model.state_names_[i] for i in index]
     return list(names) if names is not None and len(names) == n_outputs else [f"y{i}" for i in range(n_outputs)]
 
 
@@ -304,12 +303,10 @@ def _load(path, allow_import):
 
 
 def _predict(model, X, y_init, args):
-    from . import SINDy
-
     try:
         if y_init is not None:
             return model.predict(X, y_init=y_init)
-        if isinstance(model, SINDy):
+        if getattr(model, "x0_", None) is not None:  # the model's own initial state is what was asked for
             return model.predict(X, x0=model.x0_)
         with warnings.catch_warnings():  # the model's own initial state is what was asked for
             warnings.filterwarnings("ignore", message="predict without")

@@ -6,8 +6,11 @@
 with R^2 = 0.75 the fit index is 50 %.
 """
 
+import warnings
+
 import numpy as np
 
+from ._divergence import DivergenceWarning
 from ._validation import check_integer, check_option, check_signal
 
 __all__ = ["fit_index", "make_simulation_scorer", "nrmse", "r2", "rmse"]
@@ -165,7 +168,9 @@ class _SimulationScorer:
 
     def __call__(self, estimator, X, y):
         func, greater_is_better = _METRICS[self.name]
-        y_pred = estimator.predict(X, y_init=y)
+        with warnings.catch_warnings():  # a diverged simulation scores -inf, no warning
+            warnings.simplefilter("ignore", DivergenceWarning)
+            y_pred = estimator.predict(X, y_init=y)
         if not np.all(np.isfinite(y_pred)):
             return -np.inf
         value = func(y, y_pred, skip=self.skip)

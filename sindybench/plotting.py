@@ -87,7 +87,7 @@ import numbers
 import numpy as np
 
 from ._validation import check_integer, check_signal
-from .hidden._estimator import _PENALTY as _SEARCH_PENALTY  # the inner search's score of a failed candidate
+from .hidden import SEARCH_PENALTY as _SEARCH_PENALTY  # the inner search's score of a failed candidate
 from .metrics import fit_index, r2
 
 __all__ = [
@@ -290,13 +290,14 @@ def plot_simulation(X, y, models=None, *, n_init=1, dt=None, output=0, input=0, 
 def _hidden_indices(model):
     """Indices in the full state of the model's hidden (not measured) states."""
     names = getattr(model, "state_names_", None)
-    structure = getattr(model, "structure_", None)
-    if names is None or structure is None or not hasattr(model, "simulate"):
+    outputs = getattr(model, "output_index_", None)
+    hidden = [] if names is None or outputs is None else [i for i in range(len(names)) if i not in outputs]
+    if not hidden or not hasattr(model, "simulate"):
         raise ValueError(
             f"{type(model).__name__} has no hidden states; expected a fitted HiddenStateSINDy "
-            "(or a model with state_names_, structure_ and simulate)."
+            "(or a model with state_names_, output_index_ and simulate)."
         )
-    return [i for i in range(len(names)) if i not in structure.output_index]
+    return hidden
 
 
 def _hidden_index(model, state):
@@ -369,7 +370,7 @@ def plot_hysteresis(X, y, models=None, *, n_init=1, output=0, input=0, hidden=No
         for label, model in _as_models(models):
             idx = _hidden_index(model, hidden)
             states = model.simulate(X, y_init=y[:n_init], on_divergence="nan")
-            out = list(model.structure_.output_index)[output]
+            out = list(model.output_index_)[output]
             ax.plot(states[::k, out], states[::k, idx], lw=1.0, label=label)
             ax.set_ylabel(model.state_names_[idx])
     ax.set_xlabel(output_label)

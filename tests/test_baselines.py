@@ -7,6 +7,7 @@ import pytest
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
+from sindybench import DivergenceWarning
 from sindybench.baselines import ARX, NNARX
 from sindybench.baselines._lags import free_run, lagged_regressors, n_lags
 from sindybench.metrics import r2, rmse
@@ -99,15 +100,18 @@ def test_feedthrough_and_pure_autoregression(rng):
     np.testing.assert_allclose(ar.predict(np.zeros((50, 1)), y_init=y_ar), y_ar, atol=1e-12)
 
 
-def test_unstable_model_gives_non_finite_output_without_warnings():
+def test_unstable_model_gives_non_finite_output_with_one_divergence_warning():
     u = np.zeros((2000, 1))
     y = 1.5 ** np.arange(40)[:, None]
     model = ARX(na=1, nb=1, fit_intercept=False).fit(u[:40], y)
-    with warnings.catch_warnings():
-        warnings.simplefilter("error")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
         y_sim = model.predict(u, y_init=y)
+    assert [type(w.message) for w in caught] == [DivergenceWarning]  # no overflow RuntimeWarning
     assert not np.all(np.isfinite(y_sim)) and np.isfinite(y_sim[:100]).all()
-    assert model.score(u, np.ones((2000, 1))) == -np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # score reports the divergence as -inf, without a warning
+        assert model.score(u, np.ones((2000, 1))) == -np.inf
 
 
 @pytest.mark.parametrize("Model", [ARX, NNARX])
@@ -307,3 +311,19 @@ def test_nnarx_on_the_cascaded_tanks_full_search(data_home, seed):
     validation, test_rmse = _tune_nnarx_on_the_tanks(data, space, 40, seed)
     assert validation < 0.8  # ARX: 0.84 V
     assert test_rmse < 0.72  # ARX: 0.70-0.75 V; a plain network (residual=False): 0.9-1.2 V
+
+
+@pytest.mark.parametrize("model", [ARX(na=1, nb=1), NNARX(na=1, nb=1, random_state=0)], ids=["ARX", "NNARX"])
+def test_predict_warns_when_the_free_run_diverges(model):
+    # y[k+1] = 3 y[k] + u[k]: the fitted free run grows as 3^k, past the float range within 2000 samples
+    u = np.ones((60, 1))
+    y = np.zeros(60)
+    for k in range(59):
+        y[k + 1] = 3.0 * y[k] + u[k, 0] if k < 20 else 0.5 * y[k] + u[k, 0]
+    model.fit(u[:20], y[:20])
+    with pytest.warns(DivergenceWarning, match=f"{type(model).__name__}.predict: the simulation diverged at "
+                      "sample") as record:
+        y_pred = model.predict(np.ones((2000, 1)), y_init=y[:3])
+    first = int(np.argmax(~np.isfinite(y_pred)))
+    assert 3 < first < 2000 and np.isfinite(y_pred[:first]).all()
+    assert f"at sample {first} of 2000;" in str(record[0].message)

@@ -93,7 +93,7 @@ def _expected_failed_checks(estimator):
     return EXPECTED_FAILED.get(type(estimator).__name__, {})
 
 
-@pytest.mark.filterwarnings("ignore:predict without x0 or y_init")
+@pytest.mark.filterwarnings("ignore:predict without y_init or x0")
 @pytest.mark.filterwarnings("ignore::sklearn.exceptions.ConvergenceWarning")
 @parametrize_with_checks(ESTIMATORS, expected_failed_checks=_expected_failed_checks)
 def test_sklearn_compatible_estimator(estimator, check):

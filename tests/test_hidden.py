@@ -3,8 +3,9 @@
 import numpy as np
 import pytest
 from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
 
-from sindybench import STLS, HiddenStateSINDy
+from sindybench import STLS, DivergenceWarning, HiddenStateSINDy, SimulationError
 from sindybench.hidden import DerivativeHiddenState, ParametricHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.simulate import TermsRHS, simulate
@@ -152,8 +153,26 @@ def test_search_params_jointly_and_diverging_trials(oscillator):
 
 def test_all_candidates_failing_is_a_clear_error(oscillator):
     u, y, _ = oscillator
+    model = _leaky_model((-3.0, -1.0), n_trials=3)
     with pytest.raises(ValueError, match="all 3 candidates of the inner search diverged"):
-        _leaky_model((-3.0, -1.0), n_trials=3).fit(u[:300], y[:300])
+        model.fit(u[:300], y[:300])
+    # a failed fit leaves the estimator unfitted (no best_params_ or search_results_ either)
+    assert not [k for k in vars(model) if k.endswith("_")]
+    with pytest.raises(NotFittedError):
+        model.predict(u[:300], y_init=y[:300])
+
+
+def test_predict_warns_from_which_sample_it_diverged():
+    t = np.arange(400) * DT
+    y = np.exp(0.5 * t)[:, None]
+    model = _model(max_abs=100.0).fit(None, y)
+    long = np.zeros((2000, 0))
+    with pytest.raises(SimulationError) as info:
+        model.simulate(long, y_init=y[:5])
+    with pytest.warns(DivergenceWarning, match=f"HiddenStateSINDy.predict: the simulation diverged at sample "
+                      f"{info.value.step} of 2000"):
+        y_pred = model.predict(long, y_init=y[:5])
+    assert np.isfinite(y_pred[: info.value.step]).all() and np.isnan(y_pred[info.value.step :]).all()
 
 
 def test_search_is_reproducible(oscillator):
@@ -184,7 +203,7 @@ def test_long_horizon_validation_scores_from_the_training_start(oscillator):
     fits = {v: _leaky_model((0.5, 0.5 + 1e-9), n_trials=1, validation=v, validation_size=200).fit(u[:600], y[:600])
             for v in ("block", "continued", "full")}
     model = fits["full"]
-    y_sim = model._simulate(model._candidate_, model.states_[0], u[:600], DT, "nan")[:, :1]
+    y_sim = model.simulate(u[:600], x0=model.states_[0], on_divergence="nan")[:, :1]
     assert np.isfinite(y_sim).all()
     scores = {v: m.search_results_[0][1] for v, m in fits.items()}
     assert len(set(scores.values())) == 3  # three different criteria

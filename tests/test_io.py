@@ -93,7 +93,7 @@ def _outputs(model, X, y):
         return [model.predict(X)]
     n = 50
     if isinstance(model, SINDy):
-        return [model.predict(X, y_init=y[:n]), model.simulate(X, y[0])]
+        return [model.predict(X, y_init=y[:n]), model.simulate(X, x0=y[0])]
     if isinstance(model, HiddenStateSINDy):
         return [model.predict(X, y_init=y[:n]), model.simulate(X, y_init=y[:n], on_divergence="nan"),
                 model.simulate(X, x0=model.x0_, on_divergence="nan")]
@@ -354,7 +354,7 @@ def test_round_trip_simulates_identically(tmp_path, fitted):
     assert loaded.terms_ == model.terms_
     assert loaded.equations() == model.equations()
     assert loaded.feature_names_ == model.feature_names_
-    np.testing.assert_array_equal(loaded.simulate(u, y[0]), model.simulate(u, y[0]))
+    np.testing.assert_array_equal(loaded.simulate(u, x0=y[0]), model.simulate(u, x0=y[0]))
     np.testing.assert_array_equal(loaded.predict(u[:300], y_init=y[:300]), model.predict(u[:300], y_init=y[:300]))
     assert loaded.score(u, y) == model.score(u, y)
     assert repr(loaded) == repr(model) and loaded.bounds == model.bounds

@@ -1,14 +1,16 @@
 """SINDy with control: recovery, simulation, scoring, searches, bad input."""
 
 import pickle
+import warnings
 
 import numpy as np
 import pysindy as ps
 import pytest
 from sklearn.base import clone
+from sklearn.exceptions import NotFittedError
 from sklearn.model_selection import GridSearchCV
 
-from sindybench import STLS, SimulationError, SINDy
+from sindybench import STLS, DivergenceWarning, SimulationError, SINDy
 from sindybench.libraries import CustomLibrary, PolynomialLibrary
 from sindybench.libraries._terms import POW
 from sindybench.metrics import r2
@@ -74,7 +76,7 @@ def test_simulation_on_new_inputs(rng, data):
     assert r2(y_test, y_sim) > 0.999
     assert model.score(u_test, y_test) == pytest.approx(r2(y_test, y_sim))
     np.testing.assert_array_equal(model.predict(u_test, x0=y_test[0]), y_sim)
-    np.testing.assert_array_equal(model.simulate(u_test, y_test[0]), y_sim)
+    np.testing.assert_array_equal(model.simulate(u_test, x0=y_test[0]), y_sim)
 
 
 @pytest.mark.parametrize("settings", [dict(integrator="euler"), dict(n_substeps=3), dict(input_hold="zoh"),
@@ -87,9 +89,9 @@ def test_simulation_settings_reach_the_simulator(data, settings):
         TermsRHS(model.coef_.T, model.terms_, 2), x0, u, dt=DT,
         n_substeps=model.n_substeps, method=model.integrator, input_hold=model.input_hold, bounds=model.bounds,
     )
-    np.testing.assert_allclose(model.simulate(u, x0), expected, rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(model.simulate(u, x0=x0), expected, rtol=1e-12, atol=1e-14)
     if "bounds" in settings:
-        assert model.simulate(u, x0).max() <= 0.3
+        assert model.simulate(u, x0=x0).max() <= 0.3
         assert y.max() > 0.3
 
 
@@ -132,9 +134,9 @@ def test_nonuniform_t(rng):
     model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.05)).fit(None, y, t=t)
     assert model.dt_ is None
     np.testing.assert_allclose(model.coef_, [[0.0, -0.7]], atol=1e-3)
-    np.testing.assert_allclose(model.simulate(None, y[0], t=t), y, atol=1e-4)
+    np.testing.assert_allclose(model.simulate(None, x0=y[0], t=t), y, atol=1e-4)
     with pytest.raises(ValueError, match="dt is None"):
-        model.simulate(np.zeros((10, 0)), y[0])
+        model.simulate(np.zeros((10, 0)), x0=y[0])
 
 
 def test_autonomous_system(rng):
@@ -143,8 +145,9 @@ def test_autonomous_system(rng):
     model = _model().fit(np.zeros((len(t), 0)), y)
     assert model.n_inputs_ == 0
     assert model.equations(precision=2) == ["y0' = 1.00 y1", "y1' = -4.00 y0"]
-    np.testing.assert_allclose(model.simulate(None, y[0], t=t), y, atol=1e-2)
-    np.testing.assert_allclose(model.predict(np.zeros((1500, 0)), y_init=y[:1]), model.simulate(None, y[0], t=t), rtol=1e-9)
+    np.testing.assert_allclose(model.simulate(None, x0=y[0], t=t), y, atol=1e-2)
+    np.testing.assert_allclose(model.predict(np.zeros((1500, 0)), y_init=y[:1]), model.simulate(None, x0=y[0], t=t),
+                               rtol=1e-9)
 
 
 def test_equations_format(data):
@@ -173,24 +176,49 @@ def test_divergence(rng):
     model.fit(None, y)
     long = np.zeros((2000, 0))
     with pytest.raises(SimulationError, match="diverged") as info:
-        model.simulate(long, y[0])
+        model.simulate(long, x0=y[0])
     assert 900 < info.value.step < 1000  # exp(0.5 t) passes 100 at t = 9.2
-    y_pred = model.predict(long, x0=y[0])
+    with pytest.warns(DivergenceWarning, match=f"SINDy.predict: the simulation diverged at sample {info.value.step} "
+                      "of 2000"):
+        y_pred = model.predict(long, x0=y[0])
     assert np.isfinite(y_pred[: info.value.step]).all() and np.isnan(y_pred[info.value.step :]).all()
-    assert model.score(long, np.ones((2000, 1)) + rng.normal(size=(2000, 1))) == -np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # score reports the divergence as -inf, without a warning
+        assert model.score(long, np.ones((2000, 1)) + rng.normal(size=(2000, 1))) == -np.inf
+
+
+def test_old_simulate_spelling_warns_and_gives_the_same(data):
+    u, y = data
+    model = _model().fit(u[:500], y[:500])
+    with pytest.warns(FutureWarning, match=r"simulate\(X, x0=x0\)"):
+        old = model.simulate(u[:300], y[0])
+    np.testing.assert_array_equal(old, model.simulate(u[:300], x0=y[0]))
+    np.testing.assert_array_equal(model.simulate(u[:300], y_init=y[:5]), old)  # y_init[0] starts it
+    assert model.dynamics_.n_states == model.n_states_ == 2 and model.output_index_ == (0, 1)
+    assert model.state_names_ == model.output_names_ == ["y0", "y1"]
+
+
+def test_failed_fit_leaves_the_model_unfitted(data):
+    u, y = data
+    model = _model()
+    with pytest.raises(ValueError, match="x_dot has 1 columns; expected 2"):
+        model.fit(u, y, x_dot=np.zeros((len(y), 1)))
+    assert not [k for k in vars(model) if k.endswith("_")]
+    with pytest.raises(NotFittedError):
+        model.predict(u, y_init=y)
 
 
 def test_predict_initial_state(data):
     u, y = data
     model = _model().fit(u[:500], y[:500])
-    with pytest.warns(UserWarning, match="predict without x0 or y_init"):
+    with pytest.warns(UserWarning, match="predict without y_init or x0"):
         default = model.predict(u[:500])
     np.testing.assert_array_equal(default, model.predict(u[:500], x0=y[0]))
     with pytest.raises(ValueError, match="give x0 or y_init, not both"):
         model.predict(u, x0=y[0], y_init=y)
     with pytest.raises(ValueError, match="y_init has 1 columns; expected 2"):
         model.predict(u, y_init=y[:, :1])
-    with pytest.raises(ValueError, match=r"x0 has shape \(3,\)"):
+    with pytest.raises(ValueError, match="x0 has 3 entries; expected 2"):
         model.predict(u, x0=[1.0, 2.0, 3.0])
 
 
@@ -200,7 +228,7 @@ def test_one_dimensional_output(rng):
     y = simulate(lambda x, v: -x + v, [0.0], u, dt=DT, input_hold="linear")[:, 0]
     model = SINDy(library=PolynomialLibrary(degree=1), dt=DT, input_hold="linear").fit(u, y)
     assert model.predict(u, y_init=y).shape == (800,)
-    assert model.simulate(u, y[:1]).shape == (800, 1)
+    assert model.simulate(u, x0=y[:1]).shape == (800, 1)
 
 
 def test_clone_pickle_and_refit_are_consistent(data):
@@ -302,11 +330,11 @@ def test_simulate_checks_inputs(data):
     u, y = data
     model = _model().fit(u[:500], y[:500])
     with pytest.raises(ValueError, match="X has 2 features, but SINDy is expecting 1 features"):
-        model.simulate(np.hstack([u, u]), y[0])
+        model.simulate(np.hstack([u, u]), x0=y[0])
     with pytest.raises(ValueError, match="X is None"):
-        model.simulate(None, y[0])
+        model.simulate(None, x0=y[0])
     with pytest.raises(ValueError, match="Complex data not supported"):
-        model.simulate(u + 1j, y[0])
+        model.simulate(u + 1j, x0=y[0])
 
 
 def test_pysindy_optimizer_is_accepted(data):
@@ -332,6 +360,6 @@ def test_predict_clips_a_measured_start_into_bounds(data):
     u, y = data
     model = _model(bounds=(-0.3, 0.3)).fit(u[:600], y[:600])
     start = np.array([[0.35, -0.1]])  # a noisy sample above the bound
-    np.testing.assert_array_equal(model.predict(u[:600], y_init=start), model.simulate(u[:600], [0.3, -0.1]))
+    np.testing.assert_array_equal(model.predict(u[:600], y_init=start), model.simulate(u[:600], x0=[0.3, -0.1]))
     with pytest.raises(ValueError, match="outside bounds"):
-        model.simulate(u[:600], start[0])
+        model.simulate(u[:600], x0=start[0])

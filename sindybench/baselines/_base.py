@@ -4,6 +4,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
+from .._divergence import warn_divergence
 from .._validation import check_integer, check_signal, validate_named
 from ..metrics import make_simulation_scorer
 from ._lags import lagged_regressors, n_lags
@@ -91,8 +92,8 @@ class LagModel(RegressorMixin, BaseEstimator):
         return y.ravel() if self.y_ndim_ == 1 else y
 
     def predict(self, X, *, y_init=None):
-        """Simulated output (the free run of :meth:`simulate`)."""
-        return self.simulate(X, y_init)
+        """Simulated output (the free run of :meth:`simulate`); warns when it diverged."""
+        return warn_divergence(self.simulate(X, y_init), type(self).__name__)
 
     def score(self, X, y, sample_weight=None):
         """R^2 of the simulation started from the first samples of ``y``.

@@ -1,11 +1,14 @@
-"""The fitted dynamics: term operations, simulation, the one-step map and its Jacobians.
+"""The fitted dynamics: term operations, simulation, the one-step map and its Jacobians, the ``Dynamics`` value.
 
 The bottom layer of sindybench's numerical core. Term operations (value and
 derivative, built-in and user-registered) are defined once here and compiled
 by numba; the simulator, the one-step map and the sensitivity kernel share
-one integrator (:mod:`sindybench.dynamics._kernels`).
+one integrator (:mod:`sindybench.dynamics._kernels`). A fitted model is one
+:class:`Dynamics` value, built by :func:`assemble` (the one place that decides
+compiled or Python right-hand side).
 """
 
+from ._model import Dynamics, assemble
 from ._ops import ABS_POW, BUILTIN_OPS, POW, SIGN, SQRT, STEP, USER
 from ._simulate import Settings, SimulationError, TermsRHS, make_rhs, simulate, simulation_settings
 from ._step import (
@@ -24,6 +27,7 @@ from ._user import OpCompileError, UserOp, register_op, user_table
 __all__ = [
     "ABS_POW",
     "BUILTIN_OPS",
+    "Dynamics",
     "OpCompileError",
     "POW",
     "SIGN",
@@ -35,6 +39,7 @@ __all__ = [
     "TermsRHS",
     "USER",
     "UserOp",
+    "assemble",
     "check_terms",
     "coefficient_directions",
     "evaluate_terms",

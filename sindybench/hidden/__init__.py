@@ -4,10 +4,12 @@ from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy, ModelView, Structure, linear_term
 from ._bouc_wen import BoucWenHiddenState
 from ._estimator import HiddenStateSINDy
+from ._objective import SEARCH_PENALTY
 from ._parametric import ParametricHiddenState
 from ._tanks import TanksHiddenState
 
 __all__ = [
+    "SEARCH_PENALTY",
     "BoucWenHiddenState",
     "DerivativeHiddenState",
     "Design",

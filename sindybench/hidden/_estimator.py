@@ -2,16 +2,14 @@
 
 import logging
 import numbers
-import warnings
-from typing import NamedTuple
 
 import numpy as np
-from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
-from .._equations import EquationRow, EquationsDisplayMixin, format_equations
-from .._params import SharedDefaultsMixin
-from .._stls import STLS
+from .._base import DynamicsEstimator
+from .._equations import EquationRow
+from ..optimizers import STLS
 from .._validation import (
     check_array_like,
     check_bool,
@@ -19,133 +17,31 @@ from .._validation import (
     check_estimator_param,
     check_inputs_outputs,
     check_integer,
-    check_model_inputs,
-    check_n_samples,
     check_option,
     check_positive,
-    check_signal,
 )
 from ..differentiation import FiniteDifference, as_differentiation
-from ..io import SaveLoadMixin, register_model
-from ..libraries import as_library, evaluate_terms, term_name
-from ..metrics import make_simulation_scorer
-from ..simulate import _HOLDS, SimulationError, TermsRHS, simulate
+from ..io import register_model
+from ..libraries import as_library, term_name
+from ..simulate import _HOLDS
 from ._augmentation import DerivativeHiddenState
-from ._base import Design, HiddenStrategy, ModelView, Structure
+from ._base import Design, HiddenStrategy
+from ._candidate import Candidate, candidate_initial_state, fit_candidate, structure_dynamics
+from ._derivative import Derivative
+from ._objective import SEARCH_PENALTY, VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
-from ._refinement import initial_state, refine_candidate
+from ._refinement import refined_values, refinement_problem
 from ._search import check_space, minimize
 
 __all__ = ["HiddenStateSINDy"]
 
 logger = logging.getLogger(__name__)
 
-_PENALTY = 1e3  # validation score of a diverged or failed candidate (scores are normalized RMSEs)
 _HIDDEN_PREFIX = "hidden__"
-_VALIDATIONS = ("block", "continued", "full")
 _INITIAL_STATES = ("strategy", "fit", "periodic")
 
 
-class _Derivative:
-    """``derivative(a, order=1)`` bound to a differentiation method and ``dt`` (picklable).
-
-    Orders above 2 chain second and first derivatives. While an array is
-    ``pinned`` (the measured outputs, during the inner search), derivatives of
-    arrays equal to it are computed once and then copied from a memo.
-    """
-
-    def __init__(self, differentiation, dt):
-        self.differentiation = differentiation
-        self.dt = dt
-        self.pinned, self._memo = None, {}
-
-    def pin(self, a):
-        """Memoize derivatives of ``a`` (None stops and clears the memo)."""
-        self.pinned = None if a is None else np.asarray(a, dtype=float)
-        self._memo = {}
-
-    def __call__(self, a, order=1):
-        a = np.asarray(a, dtype=float)
-        if order == 0:
-            return a.copy()
-        p = self.pinned
-        if p is not None and a.size == p.size and np.array_equal(a.reshape(p.shape), p):
-            key = (order, a.shape)
-            if key not in self._memo:
-                self._memo[key] = self._compute(a, order)
-            return self._memo[key].copy()
-        return self._compute(a, order)
-
-    def _compute(self, a, order):
-        if order <= 2:
-            d = self.differentiation.derivative(a, dt=self.dt, order=order)
-            return np.asarray(d, dtype=float).reshape(a.shape)
-        return self(self(a, 2), order - 2)
-
-
-class _Candidate(NamedTuple):
-    """One fitted model for given physical parameters (internal)."""
-
-    params: dict
-    structure: Structure
-    library: object
-    optimizer: object
-    differentiation: object
-    coef: np.ndarray
-    derivative: _Derivative
-    design: Design
-    rhs: object
-
-
-def _build_rhs(structure, library, coef):
-    """Full right-hand side: learned rows from ``library``/``coef``, fixed rows from ``structure``."""
-    n_states, learned = structure.n_states, list(structure.learned)
-    fixed_coef = structure.fixed_coef.copy()
-    fixed_coef[:, learned] = 0.0
-    lib_terms = getattr(library, "terms_", None)
-    compiled = getattr(structure.fixed_rhs, "compiled", None)  # Python fixed rows that numba may compile
-    if lib_terms is not None and (structure.fixed_rhs is None or compiled is not None):
-        full = np.zeros((len(lib_terms) + len(structure.fixed_terms), n_states))
-        full[: len(lib_terms), learned] = coef
-        full[len(lib_terms) :] = fixed_coef
-        if structure.fixed_rhs is None:
-            return TermsRHS(full, list(lib_terms) + list(structure.fixed_terms), n_states)
-        rhs = compiled(full[: len(lib_terms)], list(lib_terms), n_states)  # the Python fixed rows replace the terms
-        if rhs is not None:
-            return rhs
-    return _PythonRHS(structure, library, coef, fixed_coef)
-
-
-class _PythonRHS:
-    """Right-hand side on the Python path (non-compilable library or Python fixed rows); picklable."""
-
-    def __init__(self, structure, library, coef, fixed_coef):
-        self.n_states, self.learned = structure.n_states, list(structure.learned)
-        self.fixed_terms, self.fixed_rhs, self.fixed_coef = structure.fixed_terms, structure.fixed_rhs, fixed_coef
-        self.library, self.coef = library, coef
-        lib_terms = getattr(library, "terms_", None)
-        if lib_terms is not None:  # evaluate only the active terms, without the transformer's checks
-            active = np.flatnonzero(np.any(coef != 0, axis=1))
-            self.active_terms, self.active_coef = [lib_terms[j] for j in active], coef[active]
-        else:
-            self.active_terms = None
-
-    def __call__(self, x, u):
-        z = np.concatenate([x, u])[None, :]
-        if self.fixed_rhs is not None:
-            dx = np.array(self.fixed_rhs(x, u), dtype=float).reshape(self.n_states)
-        elif self.fixed_terms:
-            dx = evaluate_terms(self.fixed_terms, z)[0] @ self.fixed_coef
-        else:
-            dx = np.zeros(self.n_states)
-        if self.active_terms is not None:
-            dx[self.learned] = evaluate_terms(self.active_terms, z)[0] @ self.active_coef
-        else:
-            dx[self.learned] = self.library.transform(z)[0] @ self.coef
-        return dx
-
-
-class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
+class HiddenStateSINDy(DynamicsEstimator):
     """SINDy with control for partly hidden states, with a physics-guided hidden-state strategy.
 
     The ``hidden`` strategy turns measured outputs into a full state (observed +
@@ -253,8 +149,11 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
     coef_ : ndarray of shape (n_learned, n_library_terms)
         Learned coefficients, one row per learned state.
     structure_ : Structure
+    dynamics_ : Dynamics
+        The fitted model of the full state (right-hand side, states, outputs,
+        bounds, simulation settings; see :class:`sindybench.dynamics.Dynamics`).
     rhs_ : TermsRHS or callable
-        Right-hand side of the full state.
+        Right-hand side of the full state (``dynamics_.rhs``).
     states_ : ndarray of shape (n_samples, n_states)
         State trajectory reconstructed on the training data (with ``refine``,
         the refined model's simulation of it from ``x0_``).
@@ -267,6 +166,9 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         status, refined physical parameters, pruned terms); None without
         ``refine``.
     state_names_ : list of str
+    output_index_ : tuple of int
+        The states that are the outputs (``structure_.output_index``).
+    n_states_ : int
     dt_ : float
     n_features_in_ : int
         Number of inputs.
@@ -343,7 +245,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         n_trials = check_integer(self.n_trials, "n_trials")
         check_integer(self.n_substeps, "n_substeps")
         check_integer(self.local_trials, "local_trials", low=0, high=n_trials - 1)
-        check_option(self.validation, "validation", _VALIDATIONS)
+        check_option(self.validation, "validation", VALIDATIONS)
         check_option(self.input_hold, "input_hold", _HOLDS)
         check_bool(self.refit, "refit")
         check_bool(self.show_progress_bar, "show_progress_bar")
@@ -384,6 +286,8 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
     def fit(self, X, y, *, dt=None):
         """Fit the model, searching the strategy's open physical parameters.
 
+        Fitted attributes are set only when the fit succeeds.
+
         Parameters
         ----------
         X : array-like of shape (n_samples, n_inputs) or None
@@ -405,47 +309,51 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         space = {_HIDDEN_PREFIX + k: ("float", lo, hi, log) for k, (lo, hi, log) in hidden.search_space().items()}
         space.update(est_space)
         n = y1.shape[0]
-        self.best_params_, self.search_results_ = {}, []
+        best_params, search_results = {}, []
         n_rows = n
         # the outputs' derivatives do not depend on a trial unless the differentiation is searched
         derivative = None
         if not any(k.split("__")[0] == "differentiation" for k in space):
-            derivative = _Derivative(clone(as_differentiation(self.differentiation)), dt)
+            derivative = Derivative(clone(as_differentiation(self.differentiation)), dt)
             derivative.pin(y1)
         if space:
-            n_val = self._n_validation(n)
-            n_fit = n - n_val
-
-            def objective(values):
-                try:
-                    cand = self._candidate(hidden, values, X, y1, dt, n_fit, derivative)
-                    return self._validation_error(hidden, cand, X, y1, dt, n_fit)
-                except (SimulationError, ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
-                    logger.debug("bad trial %s: %s", values, exc)
-                    return _PENALTY
-
+            n_fit = n - self._n_validation(n)
+            objective = SearchObjective(lambda values: self._candidate(hidden, values, X, y1, dt, n_fit, derivative),
+                                        hidden, X, y1, n_fit, self.validation)
             with np.errstate(all="ignore"):
-                self.best_params_, self.search_results_ = minimize(
-                    objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=_PENALTY,
+                best_params, search_results = minimize(
+                    objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=SEARCH_PENALTY,
                     n_local=self.local_trials, show_progress_bar=self.show_progress_bar,
                 )
-            if min(s for _, s in self.search_results_) >= _PENALTY:
+            if min(s for _, s in search_results) >= SEARCH_PENALTY:
                 raise ValueError(
                     f"all {self.n_trials} candidates of the inner search diverged or failed on the validation "
                     "block; expected bounds of the searched parameters that contain a stable model."
                 )
             n_rows = n if self.refit else n_fit
-        cand = self._candidate(hidden, self.best_params_, X, y1, dt, n_rows, derivative)
+        cand = self._candidate(hidden, best_params, X, y1, dt, n_rows, derivative)
         cand.derivative.pin(None)
-        x0, self.refinement_ = None, None
+        states = np.asarray(cand.design.states, dtype=float)
+        x0, refinement = states[0].copy(), None
         if self.refine is not None:
-            cand, x0, self.refinement_ = self._refine(hidden, cand, X[:n_rows], y1[:n_rows], dt)
-        self._set_fitted(hidden, cand, self.best_params_, dt, X, y1)
-        if x0 is not None:  # the refined model's own trajectory replaces the reconstruction
-            self.x0_ = x0
-            self.states_ = self._simulate(cand, x0, X, dt, "nan")
-            self._rebuild_model()
+            cand, x0_refined, refinement = self._refine(hidden, cand, X[:n_rows], y1[:n_rows])
+            if x0_refined is not None:  # the refined model's own trajectory replaces the reconstruction
+                x0 = x0_refined
+                states = cand.dynamics.simulate(X, x0, on_divergence="nan")
+
+        self.best_params_, self.search_results_ = best_params, search_results
+        self.hidden_ = hidden
+        self.params_ = dict(cand.params)
+        self.library_, self.optimizer_, self.differentiation_ = cand.library, cand.optimizer, cand.differentiation
+        self.coef_ = cand.coef.T.copy()
+        self.structure_ = cand.structure
+        self.states_ = states
+        self.x0_ = x0
+        self.dt_ = dt
+        self.n_features_in_ = X.shape[1]
+        self.refinement_ = refinement
         self._y_1d = np.asarray(y).ndim == 1
+        self._rebuild_model()
         return self
 
     def _components(self, est_values):
@@ -455,115 +363,43 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         differentiation = clone(as_differentiation(est.differentiation))
         return library, optimizer, differentiation
 
+    def _simulation(self, dt):
+        """The simulation settings of this estimator's dynamics (see :func:`structure_dynamics`)."""
+        return dict(dt=dt, n_substeps=self.n_substeps, input_hold=self.input_hold, max_abs=self.max_abs)
+
     def _candidate(self, hidden, values, X, y, dt, n_rows, derivative=None):
         hvals = {k[len(_HIDDEN_PREFIX) :]: v for k, v in values.items() if k.startswith(_HIDDEN_PREFIX)}
         est_values = {k: v for k, v in values.items() if not k.startswith(_HIDDEN_PREFIX)}
         library, optimizer, differentiation = self._components(est_values)
         library = clone(as_library(library if library is not None else hidden.default_library()))
         if derivative is None:
-            derivative = _Derivative(differentiation, dt)
-        differentiation = derivative.differentiation
-        params = hidden.resolve_params(hvals)
-        structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
-        design = hidden.design(X, y, dt, derivative=derivative, params=params)
-        states = check_signal(design.states, "strategy states", n_samples=y.shape[0])
-        targets = check_signal(design.targets, "strategy targets", n_samples=y.shape[0])
-        if states.shape[1] != structure.n_states or targets.shape[1] != len(structure.learned):
-            raise ValueError(
-                f"the strategy returned states {states.shape} and targets {targets.shape}; expected "
-                f"{structure.n_states} state columns and {len(structure.learned)} target columns."
-            )
-        rows = np.zeros(y.shape[0], dtype=bool)
-        rows[:n_rows] = True
-        if design.rows is not None:
-            keep = np.zeros(y.shape[0], dtype=bool)
-            keep[design.rows] = True
-            rows &= keep
-        Z = np.hstack([states, X])
-        library.fit(Z[rows])
-        if design.feature_filter is None:
-            theta = library.transform(Z[rows])
-        else:
-            theta = check_signal(design.feature_filter(library.transform(Z)), "filtered features")[rows]
-        check_n_samples(int(rows.sum()), theta.shape[1])
-        optimizer.fit(theta, targets[rows])
-        coef = np.asarray(optimizer.coef_, dtype=float).reshape(len(structure.learned), theta.shape[1]).T
-        rhs = _build_rhs(structure, library, coef)
-        return _Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
-                          differentiation=differentiation, coef=coef, derivative=derivative, design=design, rhs=rhs)
+            derivative = Derivative(differentiation, dt)
+        return fit_candidate(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
+                             self._simulation(dt))
 
-    def _settings(self, structure):
-        return dict(n_substeps=self.n_substeps, input_hold=self.input_hold, bounds=structure.bounds,
-                    max_abs=self.max_abs)
-
-    def _simulate(self, cand, x0, X, dt, on_divergence):
-        return simulate(cand.rhs, x0, X, dt, on_divergence=on_divergence, **self._settings(cand.structure))
-
-    def _refine(self, hidden, cand, X, y, dt):
+    def _refine(self, hidden, cand, X, y):
         """The candidate refined by simulation error, its refined first state and the refinement record.
 
         A model whose simulation of the training record diverges cannot be
         refined: it is kept as fitted by equation error (first state None),
         with a warning.
         """
-        try:
-            params, coef, x0, result = refine_candidate(cand, hidden, X, y, dt, self.refine, python_rhs=_PythonRHS,
-                                                        settings=self._settings(cand.structure))
-        except SimulationError as exc:
-            warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=3)
-            return cand, None, {"status": -1, "message": f"skipped: {exc}"}
+        simulation = self._simulation(cand.dynamics.dt)
+        problem = refinement_problem(cand, hidden, y.shape[1], X.shape[1],
+                                     build=lambda s, coef: structure_dynamics(s, cand.library, coef, simulation))
+        result, record = self._run_refinement(cand.dynamics, X, y, **problem)
+        if result is None:
+            return cand, None, record
+        params, coef, x0 = refined_values(cand, result)
         structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
         cand = cand._replace(params=params, structure=structure, coef=coef,
-                             rhs=_build_rhs(structure, cand.library, coef))
+                             dynamics=structure_dynamics(structure, cand.library, coef, simulation))
         logger.info("refinement: cost %.3g -> %.3g in %d simulations (%s)", result.initial_cost, result.cost,
                     result.nfev, result.message)
         return cand, x0, result.summary()
 
-    def _model_view(self, cand, dt):
-        return ModelView(rhs=cand.rhs, simulate=lambda x0, u: self._simulate(cand, x0, u, dt, "nan"))
-
-    def _initial_state(self, hidden, cand, X, y_init, dt, mode="strategy"):
-        n = min(X.shape[0], y_init.shape[0])
-        x0 = hidden.initial_state(X[:n], y_init[:n], dt, derivative=cand.derivative, params=cand.params,
-                                  model=self._model_view(cand, dt))
-        x0 = np.asarray(x0, dtype=float).reshape(-1)
-        if x0.shape[0] != cand.structure.n_states or not np.all(np.isfinite(x0)):
-            raise ValueError(f"the strategy's initial state {x0!r} is not {cand.structure.n_states} finite numbers.")
-        return initial_state(mode, cand.rhs, x0, X, y_init[:n], dt, output_index=cand.structure.output_index,
-                             settings=self._settings(cand.structure))
-
-    def _validation_error(self, hidden, cand, X, y, dt, n_fit):
-        """Normalized RMSE of the candidate's simulation (see ``validation``)."""
-        if self.validation == "block":
-            X, y = X[n_fit:], y[n_fit:]
-            x0 = self._initial_state(hidden, cand, X, y, dt)
-        else:
-            x0 = np.asarray(cand.design.states[0], dtype=float)
-        y_sim = self._simulate(cand, x0, X, dt, "nan")[:, list(cand.structure.output_index)]
-        if not np.all(np.isfinite(y_sim)):
-            return _PENALTY
-        if self.validation == "continued":
-            y_sim, y = y_sim[n_fit:], y[n_fit:]
-        scale = np.std(y, axis=0)
-        scale[scale == 0] = 1.0
-        return float(np.mean(np.sqrt(np.mean((y_sim - y) ** 2, axis=0)) / scale))
-
-    def _set_fitted(self, hidden, cand, values, dt, X, y):
-        s = cand.structure
-        self.hidden_ = hidden
-        self.params_ = dict(cand.params)
-        self.library_, self.optimizer_, self.differentiation_ = cand.library, cand.optimizer, cand.differentiation
-        self.coef_ = cand.coef.T.copy()
-        self.structure_ = s
-        self.states_ = np.asarray(cand.design.states, dtype=float)
-        self.x0_ = self.states_[0].copy()
-        self.dt_ = dt
-        self.n_features_in_ = X.shape[1]
-        self.n_outputs_ = y.shape[1]
-        self._rebuild_model()
-
     def _rebuild_model(self):
-        """Assemble ``rhs_``, ``_candidate_`` and the derived attributes from the plain fitted attributes.
+        """Assemble ``dynamics_``, ``_candidate_`` and the derived attributes from the plain fitted attributes.
 
         The one way the fitted model is put together: after ``fit``, after a
         change of ``coef_`` or ``structure_.fixed_coef``, and when a model file
@@ -573,117 +409,25 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         """
         s = self.structure_
         coef = self.coef_.T
-        self.rhs_ = _build_rhs(s, self.library_, coef)
+        self.dynamics_ = structure_dynamics(s, self.library_, coef, self._simulation(self.dt_))
         design = Design(states=self.states_, targets=np.empty((self.states_.shape[0], 0)))
-        self._candidate_ = _Candidate(
+        self._candidate_ = Candidate(
             params=self.params_, structure=s, library=self.library_, optimizer=self.optimizer_,
-            differentiation=self.differentiation_, coef=coef, derivative=_Derivative(self.differentiation_, self.dt_),
-            design=design, rhs=self.rhs_,
+            differentiation=self.differentiation_, coef=coef, derivative=Derivative(self.differentiation_, self.dt_),
+            design=design, dynamics=self.dynamics_,
         )
         hidden_idx = [i for i in range(s.n_states) if i not in s.output_index]
         self.hidden_states_ = self.states_[:, hidden_idx]
-        self.state_names_ = list(s.state_names)
+
+    @property
+    def rhs_(self):
+        """Right-hand side of the full state (``dynamics_.rhs``)."""
+        return self.dynamics_.rhs
 
     # ------------------------------------------------------------- simulation
-    def _check_X(self, X, n_samples=None):
-        return check_model_inputs(X, self.n_features_in_, type(self).__name__, n_samples=n_samples)
-
-    def estimate_initial_state(self, X, y_init):
-        """Initial state for simulating ``X``, from the first samples ``y_init`` of its output.
-
-        Parameters
-        ----------
-        X : array-like of shape (n_samples, n_inputs)
-            Inputs of the run to simulate (the strategy may use the first ones).
-        y_init : array-like of shape (n_init, n_outputs)
-            First measured output samples of that run.
-
-        Returns
-        -------
-        ndarray of shape (n_states,)
-        """
-        check_is_fitted(self)
-        y_init = check_signal(y_init, "y_init")
-        if y_init.shape[1] != self.n_outputs_:
-            raise ValueError(f"y_init has {y_init.shape[1]} columns; expected {self.n_outputs_} (one per output).")
-        X = self._check_X(X, y_init.shape[0])
+    def _initial_state(self, X, y_init):
         check_option(self.initial_state, "initial_state", _INITIAL_STATES)
-        return self._initial_state(self.hidden_, self._candidate_, X, y_init, self.dt_, self.initial_state)
-
-    def simulate(self, X, *, y_init=None, x0=None, on_divergence="raise"):
-        """Open-loop simulation of the full state (measured and hidden).
-
-        Parameters
-        ----------
-        X : array-like of shape (n_samples, n_inputs)
-        y_init : array-like of shape (n_init, n_outputs), optional
-            First measured output samples; the initial state is estimated from them.
-        x0 : array-like of shape (n_states,), optional
-            The initial state, instead of ``y_init``.
-        on_divergence : {"raise", "nan"}, default="raise"
-
-        Returns
-        -------
-        ndarray of shape (n_samples, n_states)
-        """
-        check_is_fitted(self)
-        if (x0 is None) == (y_init is None):
-            raise ValueError("give exactly one of x0 and y_init.")
-        X = self._check_X(X)
-        if y_init is not None:
-            x0 = self.estimate_initial_state(X, y_init)
-        x0 = np.asarray(x0, dtype=float).reshape(-1)
-        if x0.shape[0] != self.structure_.n_states:
-            raise ValueError(f"x0 has {x0.shape[0]} entries; expected {self.structure_.n_states} (one per state).")
-        return self._simulate(self._candidate_, x0, X, self.dt_, on_divergence)
-
-    def predict(self, X, *, y_init=None):
-        """Simulated outputs for the inputs ``X`` (NaN after a divergence).
-
-        Started from the state estimated from ``y_init`` (the first samples of
-        the measured output); without it from the first training state
-        ``x0_``, with a warning.
-        """
-        check_is_fitted(self)
-        if y_init is None:
-            warnings.warn(
-                "predict without y_init starts from the first training state x0_; "
-                "pass y_init (the first samples of the measured y) for new data.",
-                UserWarning,
-                stacklevel=2,
-            )
-            states = self.simulate(X, x0=self.x0_, on_divergence="nan")
-        else:
-            states = self.simulate(X, y_init=y_init, on_divergence="nan")
-        y_pred = states[:, list(self.structure_.output_index)]
-        return y_pred[:, 0] if self._y_1d else y_pred
-
-    def score(self, X, y, sample_weight=None):
-        """R^2 of the open-loop simulation initialised from the start of ``y`` (-inf if it diverges)."""
-        if sample_weight is not None:
-            raise ValueError("sample_weight is not supported by HiddenStateSINDy.score; expected None.")
-        X, y = check_inputs_outputs(X, y)
-        return make_simulation_scorer("r2")(self, X, y)
-
-    def equations(self, precision=3, *, latex=False):
-        """Readable model equations, one line per state (fixed rows included).
-
-        Formatted as :meth:`sindybench.SINDy.equations`; a row fixed by a
-        Python function shows as ``(fixed: <strategy>)``. In a notebook a
-        fitted model displays them typeset (``_repr_latex_``).
-
-        Parameters
-        ----------
-        precision : int, default=3
-            Decimals of the coefficients.
-        latex : bool, default=False
-            LaTeX lines instead (``\\dot{z} = ... \\, |v| z``).
-
-        Returns
-        -------
-        list of str
-        """
-        return format_equations(self._equation_rows(), precision=precision, latex=latex)
+        return candidate_initial_state(self.hidden_, self._candidate_, X, y_init, self.initial_state)
 
     def _equation_rows(self):
         check_is_fitted(self)
@@ -703,13 +447,6 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
                 rows.append(EquationRow(names[i], s.fixed_coef[:, i], fixed_names, list(s.fixed_terms), names,
                                         learned=False))
         return rows
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.target_tags.multi_output = True
-        tags.target_tags.single_output = True
-        tags.regressor_tags.poor_score = True
-        return tags
 
 
 def _default_strategy():

@@ -166,7 +166,7 @@ def hidden_sindy_from_dict(model, fitted):
         raise ValueError(f"fitted.states: expected the training trajectory (at least one sample of {s.n_states} "
                          "states); got 0 samples.")
     model.x0_ = fitted.array("x0", (s.n_states,), finite=True)
-    model.n_features_in_, model.n_outputs_ = n_inputs, n_outputs
+    model.n_features_in_ = n_inputs
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
     model._rebuild_model()

@@ -15,7 +15,7 @@ import numpy as np
 from ..refine import Physical, estimate_initial_state
 from ..simulate import simulate
 
-__all__ = ["initial_state", "refine_candidate"]
+__all__ = ["initial_state", "refined_values", "refinement_problem"]
 
 
 class _FixedBlock:
@@ -39,49 +39,50 @@ class _FixedBlock:
 
 
 class _PythonModel:
-    """``make_rhs(C, values)`` for models on the Python path."""
+    """``make_rhs(C, values)`` for models on the Python path: the dynamics of ``structure(values)`` with ``C``."""
 
-    def __init__(self, block, library, learned, build):
-        self.block, self.library, self.learned, self.build = block, library, learned, build
+    def __init__(self, block, learned, build):
+        self.block, self.learned, self.build = block, learned, build
 
     def __call__(self, C, values=None):
         s = self.block.structure(() if values is None else values)
-        n_lib = self.block.n_lib
-        return self.build(s, self.library, C[:n_lib, self.learned], C[n_lib:])
+        return self.build(s, C[: self.block.n_lib, self.learned]).rhs_for(C)
 
 
-def refine_candidate(cand, hidden, X, y, dt, refinement, *, python_rhs, settings):
-    """Refine ``cand`` on ``(X, y)``; return ``(params, coef, x0, result)``.
+def refinement_problem(cand, hidden, n_outputs, n_inputs, *, build):
+    """The refinement's layout of ``cand``: ``coef``, ``free``, ``physical``, ``make_rhs`` and ``x0``.
 
-    ``python_rhs(structure, library, coef, fixed_coef)`` builds the
-    estimator's model on the Python path.
+    The keyword arguments of ``DynamicsEstimator._run_refinement`` on
+    ``cand.dynamics``. ``build(structure, coef) -> Dynamics`` assembles the
+    estimator's model (for the Python path, whose fixed rows may depend on
+    the physical parameters).
     """
-    s = cand.structure
+    s, dyn = cand.structure, cand.dynamics
     learned = list(s.learned)
-    lib_terms = getattr(cand.library, "terms_", None)
     n_lib = cand.coef.shape[0]
     names = tuple(k for k in hidden.refinable(cand.params)
                   if isinstance(cand.params.get(k), numbers.Real) and not isinstance(cand.params[k], bool))
-    block = _FixedBlock(hidden, cand.params, names, n_lib, y.shape[1], X.shape[1])
+    block = _FixedBlock(hidden, cand.params, names, n_lib, n_outputs, n_inputs)
     values = np.array([float(cand.params[k]) for k in names])
     coef = np.zeros((n_lib + len(s.fixed_terms), s.n_states))
     coef[:n_lib, learned] = cand.coef
     free = np.zeros(coef.shape, dtype=bool)
     free[:n_lib, learned] = cand.coef != 0
-    compiled = lib_terms is not None and s.fixed_rhs is None
-    make_rhs = None if compiled else _PythonModel(block, cand.library, learned, python_rhs)
+    make_rhs = None if dyn.compiled else _PythonModel(block, learned, build)
     if names:
         physical = Physical(names=names, values=values, lower=np.where(values > 0, 0.0, -np.inf),
                             upper=np.full(len(names), np.inf), coef=block, make_rhs=make_rhs)
     else:
         physical = None
         coef = coef + block(values)
-    terms = list(lib_terms) + list(s.fixed_terms) if compiled else None
     x0 = np.asarray(cand.design.states[0], dtype=float)
-    result = refinement.run(terms, coef, X, y, dt, x0=x0, output_index=s.output_index, free=free, physical=physical,
-                            make_rhs=make_rhs, **settings)
-    params = {**cand.params, **result.physical}
-    return params, result.coef[:n_lib, learned].copy(), result.x0, result
+    return dict(coef=coef, free=free, physical=physical, make_rhs=make_rhs, x0=x0)
+
+
+def refined_values(cand, result):
+    """``(params, coef, x0)`` of the candidate after the refinement ``result``."""
+    learned = list(cand.structure.learned)
+    return {**cand.params, **result.physical}, result.coef[: cand.coef.shape[0], learned].copy(), result.x0
 
 
 def initial_state(mode, rhs, x0, X, y_init, dt, *, output_index, settings):

@@ -1,6 +1,6 @@
 """Feature libraries: scikit-learn transformers applied to ``Z = [states, inputs]``."""
 
-from ._base import BaseLibrary
+from ._base import BaseLibrary, ConcatLibrary, ExternalLibrary, ProductLibrary
 from ._builtin import (
     AbsProductLibrary,
     FrictionLibrary,
@@ -9,8 +9,7 @@ from ._builtin import (
     SqrtLibrary,
     TermsLibrary,
 )
-from ._compose import ConcatLibrary, ProductLibrary
-from ._custom import CustomLibrary, ExternalLibrary, as_library
+from ._custom import CustomLibrary, as_library
 from ._spec import fitted_library_from_dict, fitted_library_to_dict, library_from_spec, library_to_spec
 from ._terms import (
     ABS_POW,

@@ -13,12 +13,11 @@ import warnings
 from itertools import combinations
 
 import numpy as np
-from sklearn.base import clone
-from sklearn.utils.validation import check_is_fitted
 
 from ..dynamics._terms import evaluate_terms
 from ..dynamics._user import OpCompileError, register_op
-from ._base import BaseLibrary, check_variables
+from ._base import BaseLibrary, ExternalLibrary, as_component, check_variables
+from ._builtin import PolynomialLibrary
 
 __all__ = ["CustomLibrary", "ExternalLibrary", "as_library"]
 
@@ -172,71 +171,6 @@ def _python_path(reason):
                   "simulate and refine; compile=False silences this).", UserWarning, stacklevel=4)
 
 
-class ExternalLibrary(BaseLibrary):
-    """Adapter for a pysindy feature library or a scikit-learn transformer.
-
-    The wrapped object is cloned and fitted on ``Z``; names come from its
-    ``get_feature_names`` (pysindy) or ``get_feature_names_out``
-    (scikit-learn). Use :func:`as_library` rather than this class directly.
-
-    Parameters
-    ----------
-    library : object
-        Has ``fit`` and ``transform``.
-
-    Attributes
-    ----------
-    library_ : object
-        The fitted clone.
-    terms_ : None
-
-    Examples
-    --------
-    >>> import numpy as np, pysindy as ps
-    >>> lib = ExternalLibrary(ps.PolynomialLibrary(degree=2)).fit(np.zeros((3, 1)))
-    >>> lib.get_feature_names_out(["y"]).tolist()
-    ['1', 'y', 'y^2']
-    """
-
-    def __init__(self, library=None):
-        self.library = library
-
-    def fit(self, Z, y=None):
-        """Fit a clone of the wrapped library on ``Z``."""
-        Z = self._validate_Z(Z, reset=True)
-        if not (hasattr(self.library, "fit") and hasattr(self.library, "transform")):
-            raise ValueError(f"library must have fit and transform methods; got {self.library!r}.")
-        self.library_ = clone(self.library).fit(Z)
-        self.terms_ = None
-        self.n_output_features_ = np.asarray(self.library_.transform(Z[:1])).shape[1]
-        return self
-
-    def _transform(self, Z):
-        return np.asarray(self.library_.transform(Z), dtype=float)
-
-    def _feature_names(self, names):
-        check_is_fitted(self)
-        if hasattr(self.library_, "get_feature_names"):
-            return list(self.library_.get_feature_names(names))
-        return list(self.library_.get_feature_names_out(names))
-
-
-def _check_clonable(obj):
-    """A library is cloned at every fit; one whose ``get_params`` fails cannot be (pysindy's CustomLibrary)."""
-    try:
-        if hasattr(obj, "get_params"):
-            obj.get_params(deep=False)
-    except AttributeError as exc:
-        name = f"{type(obj).__module__}.{type(obj).__qualname__}"
-        hint = ("; use sindybench.libraries.CustomLibrary(functions=[...]), which holds the same functions"
-                if type(obj).__name__ == "CustomLibrary" else "")
-        raise ValueError(
-            f"library {name} cannot be used: its get_params() fails ({exc}), so it cannot be cloned as "
-            f"scikit-learn estimators are at every fit (its constructor arguments are not kept as attributes of "
-            f"the same name){hint}."
-        ) from exc
-
-
 def as_library(obj):
     """Return ``obj`` as a sindybench library.
 
@@ -255,15 +189,6 @@ def as_library(obj):
     >>> as_library(None)
     PolynomialLibrary()
     """
-    from ._builtin import PolynomialLibrary
-
     if obj is None:
         return PolynomialLibrary()
-    if isinstance(obj, BaseLibrary):
-        return obj
-    if hasattr(obj, "fit") and hasattr(obj, "transform"):
-        _check_clonable(obj)
-        return ExternalLibrary(obj)
-    raise ValueError(
-        f"library must be a sindybench library, a pysindy feature library or a transformer; got {obj!r}."
-    )
+    return as_component(obj)

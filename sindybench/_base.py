@@ -1,0 +1,270 @@
+"""The shared base of the estimators that fit continuous-time dynamics (``SINDy``, ``HiddenStateSINDy``).
+
+A subclass fits, then keeps its model as a :class:`~sindybench.dynamics.Dynamics`
+in ``dynamics_`` (built by :func:`~sindybench.dynamics.assemble` in its
+``_rebuild_model``, after ``fit`` and after a model file is loaded alike) and
+says how to start a simulation from measured outputs (``_initial_state``) and
+what its equations are (``_equation_rows``). This base does the rest, the same
+way for both: ``simulate``, ``predict`` (with a warning when the simulation
+diverges), ``score``, ``equations``, ``estimate_initial_state``, the checks of
+``X``, ``x0`` and ``y_init``, the refinement's skip-and-warn glue and the
+scikit-learn tags.
+"""
+
+import warnings
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.utils.validation import check_is_fitted
+
+from ._divergence import warn_divergence
+from ._equations import EquationsDisplayMixin, format_equations
+from ._params import SharedDefaultsMixin
+from ._validation import check_inputs_outputs, check_model_inputs, check_signal
+from .io import SaveLoadMixin
+from .metrics import make_simulation_scorer
+from .simulate import SimulationError
+
+__all__ = ["DynamicsEstimator"]
+
+
+class DynamicsEstimator(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
+    """Base class: ``simulate``, ``predict``, ``score`` and ``equations`` of a fitted ``dynamics_``.
+
+    Subclasses set ``dynamics_``, ``x0_``, ``n_features_in_`` and ``_y_1d``
+    at the end of a successful ``fit`` and implement ``_initial_state(X, y_init)``
+    and ``_equation_rows()``.
+
+    The fitted attributes ``n_states_``, ``state_names_``, ``output_index_``
+    and ``n_outputs_`` are read from ``dynamics_``.
+    """
+
+    # ------------------------------------------------------- fitted attributes
+    @property
+    def n_states_(self):
+        """Number of states of the fitted model."""
+        return self.dynamics_.n_states
+
+    @property
+    def state_names_(self):
+        """Names of the states (list of str)."""
+        return list(self.dynamics_.state_names)
+
+    @property
+    def output_index_(self):
+        """The states that are the measured outputs, in the column order of ``y`` (tuple of int)."""
+        return self.dynamics_.output_index
+
+    @property
+    def n_outputs_(self):
+        """Number of measured outputs (columns of ``y``)."""
+        return len(self.dynamics_.output_index)
+
+    # ------------------------------------------------------------------ checks
+    def _check_X(self, X, n_samples=None):
+        return check_model_inputs(X, self.n_features_in_, type(self).__name__, n_samples=n_samples)
+
+    def _check_y_init(self, y_init):
+        y_init = check_signal(y_init, "y_init")
+        if y_init.shape[1] != self.n_outputs_:
+            raise ValueError(f"y_init has {y_init.shape[1]} columns; expected {self.n_outputs_} (one per output).")
+        return y_init
+
+    def _check_x0(self, x0):
+        x0 = np.asarray(x0, dtype=float).reshape(-1)
+        if x0.shape[0] != self.n_states_:
+            raise ValueError(f"x0 has {x0.shape[0]} entries; expected {self.n_states_} (one per state).")
+        return x0
+
+    # -------------------------------------------------------------- simulation
+    def estimate_initial_state(self, X, y_init):
+        """Initial state for simulating ``X``, from the first samples ``y_init`` of its output.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+            Inputs of the run to simulate (a strategy may use the first ones).
+        y_init : array-like of shape (n_init, n_outputs)
+            First measured output samples of that run.
+
+        Returns
+        -------
+        ndarray of shape (n_states,)
+        """
+        check_is_fitted(self)
+        y_init = self._check_y_init(y_init)
+        X = self._check_X(X, y_init.shape[0])
+        return self._initial_state(X, y_init)
+
+    def _initial_state(self, X, y_init):
+        raise NotImplementedError
+
+    def simulate(self, X, *, y_init=None, x0=None, on_divergence="raise"):
+        """Open-loop simulation of the full state, driven by the inputs ``X``.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+            Inputs (None for an autonomous model started from ``y_init``).
+        y_init : array-like of shape (n_init, n_outputs), optional
+            First measured output samples; the initial state is estimated
+            from them (:meth:`estimate_initial_state`).
+        x0 : array-like of shape (n_states,), optional
+            The initial state, instead of ``y_init`` (returned as the first row).
+        on_divergence : {"raise", "nan"}, default="raise"
+            Raise :class:`sindybench.SimulationError`, or fill NaN from the
+            diverged sample on.
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_states)
+        """
+        return self._simulate(X, y_init, x0, on_divergence)
+
+    def _simulate(self, X, y_init, x0, on_divergence, *, dt=None, t=None):
+        check_is_fitted(self)
+        if (x0 is None) == (y_init is None):
+            raise ValueError("give exactly one of x0 and y_init.")
+        n_samples = len(t) if t is not None else None
+        if y_init is not None:
+            y_init = self._check_y_init(y_init)
+            if n_samples is None and X is None:  # an autonomous model: as many samples as y_init
+                n_samples = y_init.shape[0]
+        X = self._check_X(X, n_samples)
+        if y_init is not None:
+            x0 = self.estimate_initial_state(X, y_init)
+        dt, t = self._time(X.shape[0], dt, t)
+        return self.dynamics_.simulate(X, self._check_x0(x0), dt=dt, t=t, on_divergence=on_divergence)
+
+    def _time(self, n_samples, dt, t):
+        """``(dt, t)`` of a simulation of ``n_samples`` (default: the fitted ``dynamics_.dt``)."""
+        return dt, t
+
+    def predict(self, X, *, y_init=None, x0=None):
+        """Simulated outputs for the inputs ``X``; NaN after a divergence, with a warning.
+
+        The simulation starts from the state estimated from ``y_init`` (the
+        first samples of the measured output, as the scorers of
+        :mod:`sindybench.metrics` pass it) or from ``x0``; without either from
+        the first training state ``x0_``, with a warning (right only when
+        ``X`` starts where the training data started).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+        y_init : array-like of shape (n_init, n_outputs), optional
+        x0 : array-like of shape (n_states,), optional
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_outputs), or (n_samples,) when ``fit`` got a 1-D ``y``
+
+        Warns
+        -----
+        DivergenceWarning
+            When the simulation diverged; the message says from which sample.
+        """
+        check_is_fitted(self)
+        if x0 is not None and y_init is not None:
+            raise ValueError("give x0 or y_init, not both.")
+        if x0 is None and y_init is None:
+            warnings.warn(
+                "predict without y_init or x0 starts from the first training state x0_; "
+                "pass y_init (the first samples of the measured y) for new data.",
+                UserWarning,
+                stacklevel=2,
+            )
+            x0 = self.x0_
+        states = self.simulate(X, y_init=y_init, x0=x0, on_divergence="nan")
+        y_pred = warn_divergence(states[:, list(self.output_index_)], type(self).__name__)
+        return y_pred[:, 0] if getattr(self, "_y_1d", False) else y_pred
+
+    def score(self, X, y, sample_weight=None):
+        """R^2 of the open-loop simulation started from the start of ``y``.
+
+        A diverged simulation scores ``-inf`` (ranked last by scikit-learn
+        searches, as by :func:`sindybench.metrics.make_simulation_scorer`).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+        y : array-like of shape (n_samples, n_outputs)
+        sample_weight : None
+            Not supported; must be None.
+
+        Returns
+        -------
+        float
+        """
+        if sample_weight is not None:
+            raise ValueError(f"sample_weight is not supported by {type(self).__name__}.score; expected None.")
+        X, y = check_inputs_outputs(X, y)
+        return make_simulation_scorer("r2")(self, X, y)
+
+    # ----------------------------------------------------------------- display
+    def equations(self, precision=3, *, latex=False):
+        r"""Readable model equations, one line per state (fixed rows included).
+
+        Lines look like ``y0' = -4.822 y0 + 0.740 y0 u0 + 1.742 u0^2``; a
+        constant term shows as its number, an all-zero row as ``0``, a row
+        fixed by a Python function as ``(fixed: <strategy>)``. In a notebook
+        a fitted model displays them typeset (``_repr_latex_``).
+
+        Parameters
+        ----------
+        precision : int, default=3
+            Decimals of the coefficients; coefficients that would show fewer
+            than two significant digits, or ``|c| >= 1e6``, use ``precision``
+            significant digits (``%.3g``) instead.
+        latex : bool, default=False
+            LaTeX lines instead (``\dot{y}_0 = -2.00 \, y_0``), the terms
+            written from the library's symbolic terms (``\sqrt{x_1}``, ``|v| z``).
+
+        Returns
+        -------
+        list of str
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> from sindybench import STLS, SINDy
+        >>> from sindybench.libraries import PolynomialLibrary
+        >>> t = np.arange(0, 3, 0.01)
+        >>> y = np.column_stack([np.exp(-2 * t), 1 + np.exp(-t)])
+        >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01)
+        >>> model.fit(None, y).equations(precision=2)
+        ["y0' = -2.00 y0", "y1' = 1.00 - 1.00 y1"]
+        >>> model.equations(precision=2, latex=True)[0]
+        '\\dot{y}_0 = -2.00 \\, y_0'
+        """
+        return format_equations(self._equation_rows(), precision=precision, latex=latex)
+
+    # -------------------------------------------------------------- refinement
+    def _run_refinement(self, dynamics, u, y, *, x0, coef=None, free=None, physical=None, make_rhs=None):
+        """Refine ``dynamics`` on ``(u, y)`` with ``self.refine``; ``(result, None)`` or ``(None, record)``.
+
+        ``coef`` defaults to ``dynamics.coef``, ``make_rhs`` to
+        ``dynamics.rhs_for`` on the Python path (see
+        :meth:`OutputErrorRefinement.run <sindybench.refine.OutputErrorRefinement.run>`).
+        A model whose simulation of the training record diverges cannot be
+        refined: it is kept as fitted by equation error, with a warning, and
+        the record says so.
+        """
+        if make_rhs is None and not dynamics.compiled:
+            make_rhs = dynamics.rhs_for
+        try:
+            result = self.refine.run(dynamics.terms, dynamics.coef if coef is None else coef, u, y, dynamics.dt,
+                                     x0=x0, output_index=dynamics.output_index, free=free, physical=physical,
+                                     make_rhs=make_rhs, **dynamics.settings)
+        except SimulationError as exc:
+            warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=4)
+            return None, {"status": -1, "message": f"skipped: {exc}"}
+        return result, None
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        tags.regressor_tags.poor_score = True
+        tags.input_tags.allow_nan = False
+        return tags

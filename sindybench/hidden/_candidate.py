@@ -1,0 +1,107 @@
+"""The functional core of :class:`~sindybench.HiddenStateSINDy`: one candidate model for given physical parameters.
+
+:func:`fit_candidate` runs the strategy's design, the library and the sparse
+optimizer (:func:`~sindybench._regression.fit_sparse`, the regression step of
+``SINDy`` too) and assembles the candidate's :class:`~sindybench.dynamics.Dynamics`;
+:func:`candidate_initial_state` starts a simulation of new data from its
+first output samples.
+"""
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .._regression import fit_sparse
+from .._validation import check_signal
+from ..dynamics import Dynamics, assemble
+from ._base import Design, ModelView, Structure
+from ._derivative import Derivative
+from ._refinement import initial_state
+
+__all__ = ["Candidate", "candidate_initial_state", "fit_candidate", "structure_dynamics"]
+
+
+class Candidate(NamedTuple):
+    """One fitted model for given physical parameters.
+
+    ``coef`` has shape (n_library_terms, n_learned).
+    """
+
+    params: dict
+    structure: Structure
+    library: object
+    optimizer: object
+    differentiation: object
+    coef: np.ndarray
+    derivative: Derivative
+    design: Design
+    dynamics: Dynamics
+
+
+def structure_dynamics(structure, library, coef, simulation):
+    """The :class:`~sindybench.dynamics.Dynamics` of a strategy's ``structure`` with the learned ``coef``.
+
+    ``simulation``: ``dt``, ``n_substeps``, ``input_hold`` and ``max_abs``.
+    """
+    s = structure
+    return assemble(library, coef, n_states=s.n_states, learned=s.learned, fixed_terms=s.fixed_terms,
+                    fixed_coef=s.fixed_coef, fixed_rhs=s.fixed_rhs, output_index=s.output_index,
+                    state_names=s.state_names, bounds=s.bounds, method="rk4", **simulation)
+
+
+def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, simulation):
+    """Fit the candidate of ``hidden`` with physical ``params`` on the first ``n_rows`` samples.
+
+    Parameters
+    ----------
+    hidden : HiddenStrategy
+    params : dict
+        All physical parameters (:meth:`HiddenStrategy.resolve_params`).
+    library, optimizer : unfitted clones
+        Fitted here.
+    derivative : Derivative
+    X : ndarray of shape (n_samples, n_inputs)
+    y : ndarray of shape (n_samples, n_outputs)
+    n_rows : int
+        The regression uses the first ``n_rows`` samples (and the strategy's ``Design.rows``).
+    simulation : dict
+        ``dt``, ``n_substeps``, ``input_hold``, ``max_abs`` of the candidate's dynamics.
+
+    Returns
+    -------
+    Candidate
+    """
+    structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
+    design = hidden.design(X, y, simulation["dt"], derivative=derivative, params=params)
+    states = check_signal(design.states, "strategy states", n_samples=y.shape[0])
+    targets = check_signal(design.targets, "strategy targets", n_samples=y.shape[0])
+    if states.shape[1] != structure.n_states or targets.shape[1] != len(structure.learned):
+        raise ValueError(
+            f"the strategy returned states {states.shape} and targets {targets.shape}; expected "
+            f"{structure.n_states} state columns and {len(structure.learned)} target columns."
+        )
+    rows = np.zeros(y.shape[0], dtype=bool)
+    rows[:n_rows] = True
+    if design.rows is not None:
+        keep = np.zeros(y.shape[0], dtype=bool)
+        keep[design.rows] = True
+        rows &= keep
+    coef = fit_sparse(library, optimizer, np.hstack([states, X]), targets, rows=rows,
+                      feature_filter=design.feature_filter, what="library output Theta([x, u])")
+    return Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
+                     differentiation=derivative.differentiation, coef=coef, derivative=derivative, design=design,
+                     dynamics=structure_dynamics(structure, library, coef, simulation))
+
+
+def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):
+    """Initial state of a simulation of ``X`` from its first outputs ``y_init`` (see ``initial_state``)."""
+    dyn = cand.dynamics
+    n = min(X.shape[0], y_init.shape[0])
+    view = ModelView(rhs=dyn.rhs, simulate=lambda x0, u: dyn.simulate(u, x0, on_divergence="nan"))
+    x0 = hidden.initial_state(X[:n], y_init[:n], dyn.dt, derivative=cand.derivative, params=cand.params,
+                              model=view)
+    x0 = np.asarray(x0, dtype=float).reshape(-1)
+    if x0.shape[0] != dyn.n_states or not np.all(np.isfinite(x0)):
+        raise ValueError(f"the strategy's initial state {x0!r} is not {dyn.n_states} finite numbers.")
+    return initial_state(mode, dyn.rhs, x0, X, y_init[:n], dyn.dt, output_index=dyn.output_index,
+                         settings=dyn.settings)

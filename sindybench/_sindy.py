@@ -29,6 +29,7 @@ from .differentiation import FiniteDifference, as_differentiation
 from .io import SaveLoadMixin, register_model
 from .libraries import PolynomialLibrary, as_library
 from .metrics import make_simulation_scorer
+from .refine._report import UncertaintyMixin
 from .simulate import _HOLDS, _METHODS, SimulationError, make_rhs, simulate
 
 __all__ = ["SINDy"]
@@ -44,7 +45,7 @@ def _check_names(names, n, prefix, name):
     return list(names)
 
 
-class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
+class SINDy(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
     """Continuous-time SINDy with control: ``y' = Theta([y, u]) coef``.
 
     ``fit`` differentiates the measured states ``y``, evaluates the library on
@@ -372,7 +373,7 @@ class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, Regressor
         return make_simulation_scorer("r2")(self, X, y)
 
     # ----------------------------------------------------------------- display
-    def equations(self, precision=3, *, latex=False):
+    def equations(self, precision=3, *, latex=False, errors=False):
         r"""Readable model equations, one line per state.
 
         Lines look like ``y0' = -4.822 y0 + 0.740 y0 u0 + 1.742 u0^2``; a
@@ -388,6 +389,9 @@ class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, Regressor
         latex : bool, default=False
             LaTeX lines instead (``\dot{y}_0 = -2.00 \, y_0``), the terms
             written from the library's symbolic terms (``\sqrt{x_1}``, ``|v| z``).
+        errors : bool, default=False
+            Write each refined coefficient with its standard error,
+            ``(4.822 ± 0.012)`` (needs ``refine``; see :meth:`standard_errors`).
 
         Returns
         -------
@@ -404,7 +408,8 @@ class SINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, Regressor
         >>> model.equations(precision=2, latex=True)[0]
         '\\dot{y}_0 = -2.00 \\, y_0'
         """
-        return format_equations(self._equation_rows(), precision=precision, latex=latex)
+        return format_equations(self._equation_rows(), precision=precision, latex=latex,
+                                errors=self._coef_errors() if errors else None)
 
     def _equation_rows(self):
         check_is_fitted(self)

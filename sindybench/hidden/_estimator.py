@@ -28,6 +28,7 @@ from ..differentiation import FiniteDifference, as_differentiation
 from ..io import SaveLoadMixin, register_model
 from ..libraries import as_library, evaluate_terms, term_name
 from ..metrics import make_simulation_scorer
+from ..refine._report import UncertaintyMixin
 from ..simulate import _HOLDS, SimulationError, TermsRHS, simulate
 from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy, ModelView, Structure
@@ -139,7 +140,7 @@ class _PythonRHS:
         return dx
 
 
-class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
+class HiddenStateSINDy(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
     """SINDy with control for partly hidden states, with a physics-guided hidden-state strategy.
 
     The ``hidden`` strategy turns measured outputs into a full state (observed +
@@ -657,7 +658,7 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
         X, y = check_inputs_outputs(X, y)
         return make_simulation_scorer("r2")(self, X, y)
 
-    def equations(self, precision=3, *, latex=False):
+    def equations(self, precision=3, *, latex=False, errors=False):
         """Readable model equations, one line per state (fixed rows included).
 
         Formatted as :meth:`sindybench.SINDy.equations`; a row fixed by a
@@ -670,12 +671,16 @@ class HiddenStateSINDy(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin
             Decimals of the coefficients.
         latex : bool, default=False
             LaTeX lines instead (``\\dot{z} = ... \\, |v| z``).
+        errors : bool, default=False
+            Write each refined coefficient with its standard error,
+            ``(4.822 ± 0.012)`` (needs ``refine``; see :meth:`standard_errors`).
 
         Returns
         -------
         list of str
         """
-        return format_equations(self._equation_rows(), precision=precision, latex=latex)
+        return format_equations(self._equation_rows(), precision=precision, latex=latex,
+                                errors=self._coef_errors() if errors else None)
 
     def _equation_rows(self):
         check_is_fitted(self)

@@ -10,6 +10,7 @@ MODULES = (
     ("sindybench.differentiation", "Derivative estimation"),
     ("sindybench.simulate", "Simulation"),
     ("sindybench.refine", "Fitting by simulation error"),
+    ("sindybench.uncertainty", "Uncertainty: ensembles and prediction bands"),
     ("sindybench.metrics", "Metrics and scorers"),
     ("sindybench.plotting", "Plotting"),
     ("sindybench.model_selection", "Model selection"),

@@ -1,6 +1,6 @@
 """sindybench: SINDy with control for systems with hidden states and hard nonlinearities."""
 
-from . import baselines, differentiation
+from . import baselines, differentiation, uncertainty
 from ._sindy import SINDy
 from ._stls import STLS, GramCache, stls
 from .hidden import HiddenStateSINDy
@@ -20,4 +20,5 @@ __all__ = [
     "differentiation",
     "load_model",
     "stls",
+    "uncertainty",
 ]

@@ -104,9 +104,23 @@ class ParameterCovariance(NamedTuple):
                    at_bound=np.asarray(data["at_bound"], dtype=bool).reshape(n))
 
 
-def _bartlett_lags(n):
-    """Newey-West's rule of thumb ``floor(4 (n / 100)^(2/9))``."""
-    return int(np.floor(4.0 * (n / 100.0) ** (2.0 / 9.0)))
+def insignificant_lag(R):
+    """The first lag from which every column's autocorrelation is insignificant (``< 2 / sqrt(n)``)."""
+    n = R.shape[0]
+    z = R - R.mean(axis=0)
+    var = np.sum(z**2, axis=0)
+    lag = 1
+    while lag < n // 4:
+        acf = np.sum(z[lag:] * z[:-lag], axis=0) / np.where(var > 0, var, 1.0)
+        if np.all(np.abs(acf) < 2.0 / np.sqrt(n)):
+            break
+        lag += 1
+    return lag
+
+
+def _default_lags(R):
+    """The longer of Newey-West's ``floor(4 (n / 100)^(2/9))`` and twice :func:`insignificant_lag`."""
+    return int(max(np.floor(4.0 * (R.shape[0] / 100.0) ** (2.0 / 9.0)), 2 * insignificant_lag(R)))
 
 
 def parameter_covariance(jac, residuals, parameters, values, *, n_outputs=1, kind="white", lags=None, rcond=1e-9,
@@ -126,8 +140,9 @@ def parameter_covariance(jac, residuals, parameters, values, *, n_outputs=1, kin
     kind : {"white", "hac"}, default="white"
         See the module's description.
     lags : int, optional
-        Lags of the ``"hac"`` estimate; default ``floor(4 (n / 100)^(2/9))``
-        for ``n`` samples.
+        Lags of the ``"hac"`` estimate; default the longer of Newey-West's
+        ``floor(4 (n / 100)^(2/9))`` (``n`` samples) and twice the lag from
+        which the residuals' autocorrelation is insignificant.
     rcond : float, default=1e-9
         Relative cut-off of the singular values of ``jac``.
     at_bound : array-like of bool, optional
@@ -172,7 +187,7 @@ def parameter_covariance(jac, residuals, parameters, values, *, n_outputs=1, kin
         g = (U[:, keep] * r[:, None]).reshape(n, n_outputs, rank).sum(axis=1)  # score contributions per sample
         g = g * np.sqrt(m / dof)
         meat = g.T @ g
-        lags = _bartlett_lags(n) if lags is None else int(lags)
+        lags = _default_lags(R) if lags is None else int(lags)
         for lag in range(1, min(lags, n - 1) + 1):
             w = 1.0 - lag / (lags + 1.0)
             cross = g[lag:].T @ g[:-lag]

@@ -29,6 +29,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from ..io import SaveLoadMixin, register_model
+from ..refine._covariance import insignificant_lag
 from ..simulate import SimulationError
 from ._persist import ensemble_from_dict, ensemble_to_dict
 
@@ -65,16 +66,7 @@ def circular_block_indices(n, block_length, rng, n_source=None):
 def _auto_block_length(e):
     """``max(n^(1/3), 2 L)``, L the first lag at which every output's residual autocorrelation is insignificant."""
     n = e.shape[0]
-    z = e - e.mean(axis=0)
-    var = np.sum(z**2, axis=0)
-    limit = 2.0 / np.sqrt(n)
-    lag = 1
-    while lag < n // 4:
-        acf = np.sum(z[lag:] * z[:-lag], axis=0) / np.where(var > 0, var, 1.0)
-        if np.all(np.abs(acf) < limit):
-            break
-        lag += 1
-    return int(min(max(np.ceil(n ** (1.0 / 3.0)), 2 * lag), max(n // 4, 1)))
+    return int(min(max(np.ceil(n ** (1.0 / 3.0)), 2 * insignificant_lag(e)), max(n // 4, 1)))
 
 
 def fitted_output(model, X):

@@ -182,6 +182,8 @@ def test_tanks_ensemble_bands_and_json_round_trip(tmp_path):
     lower, upper = ens.parameter_intervals()["k1"]
     assert lower < system.k1 < upper and upper - lower < 0.02 * system.k1
     assert isinstance(ens.median_model(), HiddenStateSINDy)
+    learned, fixed = ens.estimator_.equations(errors=True)
+    assert learned.count("±") == 2 and fixed == ens.estimator_.equations()[1]  # the fixed row has no free entry
     band = prediction_band(ens, u, y_init=y[:5], states=True)
     assert band.names == ["y0", "x1"] and band.outputs == [0] and band.samples.shape == (len(ens.members_), 500, 2)
     assert np.all(band.lower <= band.median) and np.all(band.median <= band.upper)

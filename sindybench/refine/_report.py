@@ -58,7 +58,24 @@ def parameter_names(parameters, rows):
 
 
 def standard_errors(model, kind="white"):
-    """Standard errors of a refined estimator's free parameters, by name (dict of float)."""
+    """Standard errors of a refined estimator's free parameters, by name (dict of float).
+
+    Examples
+    --------
+    >>> from sindybench import SINDy, STLS
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> from sindybench.refine import OutputErrorRefinement
+    >>> t = np.arange(0, 5, 0.01)
+    >>> y = np.exp(-2 * t)[:, None] + 0.001 * np.random.default_rng(0).normal(size=(500, 1))
+    >>> model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=0.01,
+    ...               refine=OutputErrorRefinement()).fit(None, y)
+    >>> errors = standard_errors(model)
+    >>> sorted(errors), bool(errors["y0': y0"] < 0.01)
+    (["y0': y0", 'y0(0)'], True)
+    >>> low, high = confidence_intervals(model)["y0': y0"]
+    >>> bool(low < -2.0 < high)
+    True
+    """
     cov = model_covariance(model, kind)
     return dict(zip(parameter_names(cov.parameters, model._equation_rows()), cov.standard_errors().tolist()))
 

@@ -609,3 +609,24 @@ def test_refine_warns_and_records_when_it_stops_on_its_budget(duffing):
                                         warn_budget=False)
         estimate_initial_state(TermsRHS(TRUE_COEF, DUFFING, 2), u[:50], y[:50], DT, x0=[0.2, 0.0], max_nfev=1)
     assert quiet.budget_exhausted
+
+
+def test_python_rhs_multiple_shooting_jacobian_matches_the_sensitivities(noisy_duffing):
+    """The forward-difference output Jacobian of a Python model after multiple shooting (no sensitivities)."""
+    u, y = noisy_duffing
+    u, y = u[:200], y[:200]
+
+    def make_rhs(C):
+        def f(x, uu):
+            return np.array([C[0, 0] * x[1], C[0, 1] * x[1] + C[1, 1] * x[0] + C[2, 1] * uu[0]
+                             + C[3, 1] * x[0] ** 3])
+        return f
+
+    python = refine_simulation_error(None, TRUE_COEF, u, y, DT, x0=TRUE_X0, free=FREE, make_rhs=make_rhs,
+                                     n_segments=2, max_nfev=40)
+    exact = core._Problem(DUFFING, python.coef, FREE, None, python.x0, np.arange(2), u, y, DT, (0,),
+                          {"settings": {"n_substeps": 1, "method": "rk4", "input_hold": "zoh", "bounds": None,
+                                        "max_abs": np.inf}, "make_rhs": None}, [(0, 200)])
+    J = exact.jacobian(python.values)
+    assert python.jacobian == "2-point" and python.parameters == exact.parameters()
+    np.testing.assert_allclose(python.jac, J, rtol=1e-3, atol=1e-5 * np.abs(J).max())

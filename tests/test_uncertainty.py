@@ -15,7 +15,7 @@ import pytest
 from scipy.signal import lfilter
 
 from sindybench import STLS, HiddenStateSINDy, SINDy, load_model
-from sindybench.hidden import TanksHiddenState
+from sindybench.hidden import DerivativeHiddenState, TanksHiddenState
 from sindybench.libraries import POW, PolynomialLibrary, SqrtLibrary
 from sindybench.refine import OutputErrorRefinement
 from sindybench.simulate import TermsRHS, simulate
@@ -171,6 +171,9 @@ def test_standard_errors_names_equations_and_saved_models(tmp_path):
         sindy(refine=False).fit(u, y).standard_errors()
     with pytest.raises(ValueError, match="kind must be one of"):
         model.standard_errors(kind="bayes")
+    model.refinement_.pop("covariance")  # as in a file written before covariances were recorded
+    with pytest.raises(ValueError, match="a model file written before covariances were recorded"):
+        model.standard_errors()
 
 
 # ------------------------------------------------------------------ ensembles of a hidden-state model, bands, files
@@ -197,6 +200,26 @@ def test_tanks_ensemble_bands_and_json_round_trip(tmp_path):
     loaded = load_model(path)
     np.testing.assert_array_equal(loaded.coef_, ens.coef_)
     np.testing.assert_array_equal(prediction_band(loaded, u, y_init=y[:5], states=True).samples, band.samples)
+
+
+def test_ensemble_of_a_derivative_hidden_state_model():
+    """A second strategy: the velocity of ``y'' = -4 y - 0.5 y' + 2 u`` as a hidden state, refined."""
+    t = np.arange(400) * DT
+    u = (np.sin(0.9 * t) + 0.6 * np.sin(2.3 * t + 1.0))[:, None]
+    rhs = TermsRHS([[1.0, -0.5], [0.0, -4.0], [0.0, 2.0]], [((1, POW, 1, 0),), ((0, POW, 1, 0),), ((2, POW, 1, 0),)],
+                   2)
+    x = simulate(rhs, [0.0, 0.0], u, DT)
+    y = x[:, :1] + noise(np.random.default_rng(2), len(x), 0.001 * np.std(x[:, 0]))
+    model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=1),
+                             optimizer=STLS(threshold=0.05), dt=DT, refine=OutputErrorRefinement(max_nfev=30))
+    ens = BootstrapEnsemble(model, n_members=8, random_state=0).fit(u, y)
+    names = list(ens.estimator_.library_.get_feature_names_out(["y0", "y0'", "u0"]))
+    p = dict(zip(names, ens.inclusion_probabilities_[0]))
+    assert p["y0"] == p["y0'"] == p["u0"] == 1.0 and p["1"] <= 0.25
+    median = dict(zip(names, ens.median_coef()[0]))
+    np.testing.assert_allclose([median["y0"], median["y0'"], median["u0"]], [-4.0, -0.5, 2.0], rtol=0.05)
+    band = prediction_band(ens, u, y_init=y[:10], states=True)
+    assert band.names == ["y0", "y0'"] and np.mean(np.abs(band.median - x)) < 0.05 * np.std(x)
 
 
 @pytest.mark.slow

@@ -13,6 +13,7 @@ import warnings
 import numpy as np
 import pytest
 from scipy.signal import lfilter
+from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from sindybench import STLS, HiddenStateSINDy, SINDy, load_model
 from sindybench.hidden import DerivativeHiddenState, TanksHiddenState
@@ -260,3 +261,13 @@ def test_prediction_band_bad_input():
         prediction_band(ens, u)
     with pytest.raises(ValueError, match="alpha must be in"):
         prediction_band(ens, u, x0=[0.5], alpha=2.0)
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+@parametrize_with_checks(
+    [BootstrapEnsemble(SINDy(dt=0.1, library=PolynomialLibrary(degree=1)), n_members=3, random_state=0)],
+    expected_failed_checks=lambda estimator: {
+        "check_estimators_empty_data_messages": "X with zero columns is valid: an autonomous system has no inputs"},
+)
+def test_ensemble_is_a_scikit_learn_estimator(estimator, check):
+    check(estimator)

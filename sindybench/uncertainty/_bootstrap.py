@@ -117,6 +117,8 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
     n_failed_ : int
         Members whose fit failed (a diverging simulation, an empty support).
     block_length_ : int
+    n_features_in_ : int
+        Inputs, as the estimator's.
     residuals_ : ndarray of shape (n_samples, n_outputs)
         ``y - y_hat`` of ``estimator_``.
     coef_ : ndarray of shape (n_members, ...)
@@ -159,8 +161,6 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
                 raise ValueError(f"{name} must be an integer >= {low}; got {value!r}.")
         if self.block_length is not None and self.block_length > n:
             raise ValueError(f"block_length={self.block_length} exceeds the {n} samples of the record.")
-        if not hasattr(self.estimator, "fit"):
-            raise ValueError(f"estimator must be a SINDy or HiddenStateSINDy; got {type(self.estimator).__name__}.")
 
     def fit(self, X, y):
         """Fit the estimator, then ``n_members`` clones to block-bootstrapped records.
@@ -174,11 +174,13 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
         -------
         self
         """
+        if not hasattr(self.estimator, "fit"):
+            raise ValueError(f"estimator must be a SINDy or HiddenStateSINDy; got {type(self.estimator).__name__}.")
+        base = clone(self.estimator).fit(X, y)  # its own checks of X and y first
         y_1d = np.asarray(y).ndim == 1
         y2 = np.asarray(y, dtype=float).reshape(len(y), -1)
         self._validate(y2.shape[0])
         rng = check_random_state(self.random_state)
-        base = clone(self.estimator).fit(X, y)
         y_hat = fitted_output(base, X)
         if not np.all(np.isfinite(y_hat)):
             raise SimulationError("the fitted model's simulation of its training record diverges; a residual "
@@ -202,6 +204,7 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
         return self
 
     def _summarize(self):
+        self.n_features_in_ = self.estimator_.n_features_in_
         shapes = {np.shape(m.coef_) for m in self.members_}
         if len(shapes) > 1:
             raise ValueError(f"the members' coef_ differ in shape {sorted(shapes)}; expected one library.")

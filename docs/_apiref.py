@@ -15,6 +15,7 @@ MODULES = (
     ("sindybench.refine", "Fitting by simulation error"),
     ("sindybench.estimation", "State estimation, prediction, linearization"),
     ("sindybench.export", "Export (CasADi)"),
+    ("sindybench.uncertainty", "Uncertainty: ensembles and prediction bands"),
     ("sindybench.metrics", "Metrics and scorers"),
     ("sindybench.plotting", "Plotting"),
     ("sindybench.model_selection", "Model selection"),

@@ -1,6 +1,6 @@
 """sindybench: SINDy with control for systems with hidden states and hard nonlinearities."""
 
-from . import baselines, differentiation
+from . import baselines, differentiation, uncertainty
 from ._divergence import DivergenceWarning
 from ._sindy import SINDy
 from .optimizers import STLS, GramCache, stls
@@ -22,4 +22,5 @@ __all__ = [
     "differentiation",
     "load_model",
     "stls",
+    "uncertainty",
 ]

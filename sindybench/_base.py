@@ -23,12 +23,14 @@ from ._params import SharedDefaultsMixin
 from ._validation import check_inputs_outputs, check_model_inputs, check_signal
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer
+from .refine._report import UncertaintyMixin
 from .simulate import SimulationError
 
 __all__ = ["DynamicsEstimator"]
 
 
-class DynamicsEstimator(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin, BaseEstimator):
+class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin,
+                        BaseEstimator):
     """Base class: ``simulate``, ``predict``, ``score`` and ``equations`` of a fitted ``dynamics_``.
 
     Subclasses set ``dynamics_``, ``x0_``, ``n_features_in_`` and ``_y_1d``
@@ -202,7 +204,7 @@ class DynamicsEstimator(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixi
         return make_simulation_scorer("r2")(self, X, y)
 
     # ----------------------------------------------------------------- display
-    def equations(self, precision=3, *, latex=False):
+    def equations(self, precision=3, *, latex=False, errors=False):
         r"""Readable model equations, one line per state (fixed rows included).
 
         Lines look like ``y0' = -4.822 y0 + 0.740 y0 u0 + 1.742 u0^2``; a
@@ -219,6 +221,9 @@ class DynamicsEstimator(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixi
         latex : bool, default=False
             LaTeX lines instead (``\dot{y}_0 = -2.00 \, y_0``), the terms
             written from the library's symbolic terms (``\sqrt{x_1}``, ``|v| z``).
+        errors : bool, default=False
+            Write each refined coefficient with its standard error,
+            ``(4.822 ± 0.012)`` (needs ``refine``; see :meth:`standard_errors`).
 
         Returns
         -------
@@ -237,7 +242,8 @@ class DynamicsEstimator(EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixi
         >>> model.equations(precision=2, latex=True)[0]
         '\\dot{y}_0 = -2.00 \\, y_0'
         """
-        return format_equations(self._equation_rows(), precision=precision, latex=latex)
+        return format_equations(self._equation_rows(), precision=precision, latex=latex,
+                                errors=self._coef_errors() if errors else None)
 
     # -------------------------------------------------------------- refinement
     def _run_refinement(self, dynamics, u, y, *, x0, coef=None, free=None, physical=None, make_rhs=None):

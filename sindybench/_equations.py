@@ -46,7 +46,7 @@ def _coef_latex(text):
     return power if mantissa == "1" else rf"{mantissa} \times {power}"
 
 
-def format_equation(name, coef, features, *, precision=3, latex=False):
+def format_equation(name, coef, features, *, precision=3, latex=False, errors=None):
     r"""One equation ``name' = a + b x - c y``, skipping zero coefficients.
 
     Parameters
@@ -63,6 +63,10 @@ def format_equation(name, coef, features, *, precision=3, latex=False):
         Decimals of the coefficients (see :func:`format_coef`).
     latex : bool, default=False
         Write LaTeX: ``\dot{y}_0 = -4.822 \, y_0``, exponents as ``\times 10^{k}``.
+    errors : sequence of float, optional
+        A standard error per coefficient (NaN: none); a coefficient with one
+        is written ``(4.822 ± 0.012)`` (LaTeX ``\pm``), the error with
+        the coefficient's format.
 
     Returns
     -------
@@ -79,15 +83,21 @@ def format_equation(name, coef, features, *, precision=3, latex=False):
     "y' = 0"
     >>> print(format_equation("x1", [-2.5e7, 0.5], [r"\sqrt{x_1}", "u_0"], latex=True))
     \dot{x}_1 = -2.5 \times 10^{7} \, \sqrt{x_1} + 0.500 \, u_0
+    >>> format_equation("y", [2.0, -0.5], ["1", "y"], errors=[0.013, float("nan")])
+    "y' = (2.000 ± 0.013) - 0.500 y"
     """
     precision = check_integer(precision, "precision", low=0)
     parts = []
-    for c, feature in zip(coef, features):
+    errors = [float("nan")] * len(features) if errors is None else errors
+    for c, feature, err in zip(coef, features, errors):
         if c == 0:
             continue
         text = format_coef(c, precision)
         if latex:
             text = _coef_latex(text)
+        if err == err:  # not NaN
+            spread = format_coef(err, precision)
+            text = (rf"({text} \pm {_coef_latex(spread)})" if latex else f"({text} ± {spread})")
         if parts:
             text = f"- {text}" if c < 0 else f"+ {text}"
         elif c < 0:
@@ -119,15 +129,17 @@ def _latex_text(feature):
     return feature if feature == "1" else r"\mathrm{" + feature.replace("_", r"\_").replace(" ", r"\ ") + "}"
 
 
-def format_equations(rows, *, precision=3, latex=False):
+def format_equations(rows, *, precision=3, latex=False, errors=None):
     """The rows as text (``y0' = ...``) or LaTeX lines, one per row.
 
     LaTeX features come from the rows' symbolic terms
     (:func:`~sindybench.libraries.term_latex`); features without terms are
-    written as upright text.
+    written as upright text. ``errors``: one sequence of standard errors per
+    row (see :func:`format_equation`), or None.
     """
     lines = []
-    for row in rows:
+    errors = [None] * len(rows) if errors is None else errors
+    for row, err in zip(rows, errors):
         if row.fixed is not None:
             lines.append(rf"{symbol_latex(row.name, dot=True)} = \text{{(fixed: {row.fixed})}}" if latex
                          else f"{row.name}' = (fixed: {row.fixed})")
@@ -138,7 +150,7 @@ def format_equations(rows, *, precision=3, latex=False):
                 features = [term_latex(t, row.variables) for t in row.terms]
             else:
                 features = [_latex_text(f) for f in row.features]
-        lines.append(format_equation(row.name, row.coef, features, precision=precision, latex=latex))
+        lines.append(format_equation(row.name, row.coef, features, precision=precision, latex=latex, errors=err))
     return lines
 
 

@@ -1,8 +1,11 @@
 """sindybench.refine: exact sensitivities, output-error refinement, estimator integration, bad input."""
 
+import warnings
+
 import numpy as np
 import pytest
 from sklearn.base import clone
+from sklearn.exceptions import ConvergenceWarning
 from sklearn.model_selection import GridSearchCV, KFold
 
 import sindybench.refine._core as core
@@ -509,3 +512,121 @@ def test_refine_params_are_nested_clonable_and_searchable(msd):
     assert search.best_params_["refine__max_nfev"] == 15
     assert search.best_estimator_.refinement_ is not None
     assert np.all(np.isfinite(search.cv_results_["mean_test_score"]))
+
+
+# ----------------------------------------------------------------- Jacobian at the optimum, covariance, budget
+@pytest.fixture
+def noisy_duffing(duffing, rng):
+    u, y = duffing
+    return u, y + 0.02 * rng.standard_normal(y.shape)
+
+
+def output_residuals(res, terms, u, y, values):
+    """The record's output residuals at ``values``, recomputed by simulation (for finite differences)."""
+    C, x0 = res.coef.copy(), res.x0.copy()
+    for v, q in zip(values, res.parameters):
+        if q[0] == "coef":
+            C[q[1], q[2]] = v
+        else:
+            x0[q[1]] = v
+    x = simulate(TermsRHS(C, terms, C.shape[1]), x0, u, DT)[:, :1]
+    return ((x - y) / np.std(y)).ravel() / np.sqrt(y.size)
+
+
+def test_refine_keeps_the_jacobian_at_the_optimum(noisy_duffing):
+    u, y = noisy_duffing
+    res = refine_simulation_error(DUFFING, TRUE_COEF * 1.05, u, y, DT, x0=TRUE_X0, free=FREE, max_nfev=50)
+    assert res.parameters == (("coef", 0, 1), ("coef", 1, 1), ("coef", 2, 1), ("coef", 3, 1), ("x0", 0), ("x0", 1))
+    r0 = output_residuals(res, DUFFING, u, y, res.values)
+    np.testing.assert_allclose(res.residuals, r0, rtol=1e-9, atol=1e-12)
+    fd = np.empty_like(res.jac)
+    for k in range(res.values.size):
+        step = 1e-6 * max(1.0, abs(res.values[k]))
+        hi, lo = res.values.copy(), res.values.copy()
+        hi[k] += step
+        lo[k] -= step
+        fd[:, k] = (output_residuals(res, DUFFING, u, y, hi)
+                    - output_residuals(res, DUFFING, u, y, lo)) / (2 * step)
+    np.testing.assert_allclose(res.jac, fd, rtol=1e-4, atol=1e-7 * np.abs(fd).max())
+    assert not res.budget_exhausted and res.status > 0
+
+
+def test_multiple_shooting_covariance_is_that_of_the_open_loop_model(duffing):
+    u, y = duffing
+    start = TRUE_COEF * np.array([[1.0, 0.8], [1.0, 1.15], [1.0, 0.9], [1.0, 0.7]])
+    single = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, max_nfev=50)
+    multiple = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, n_segments=3,
+                                       max_nfev=50)
+    assert multiple.parameters == single.parameters  # no segment starts
+    assert multiple.jac.shape == single.jac.shape == (y.size, len(single.parameters))
+    np.testing.assert_allclose(multiple.jac, single.jac, rtol=1e-5, atol=1e-9 * np.abs(single.jac).max())
+
+
+def test_covariance_of_one_output_is_the_textbook_formula(noisy_duffing):
+    u, y = noisy_duffing
+    res = refine_simulation_error(DUFFING, TRUE_COEF, u, y, DT, x0=TRUE_X0, free=FREE, max_nfev=50)
+    cov = res.covariance()
+    p = len(res.parameters)
+    s2 = res.residuals @ res.residuals / (y.size - p)
+    np.testing.assert_allclose(cov.matrix, s2 * np.linalg.inv(res.jac.T @ res.jac), rtol=1e-6)
+    assert cov.dof == y.size - p and cov.rank == p and not cov.rank_deficient
+    # the residual spread in output units is the noise's (0.02)
+    assert cov.sigma[0] * np.std(y) * np.sqrt(y.size) == pytest.approx(0.02, rel=0.15)
+    lower, upper = res.confidence_intervals(0.05)
+    np.testing.assert_allclose((upper - lower) / 2, 1.964 * res.standard_errors(), rtol=1e-3)
+    hac = res.covariance("hac")
+    assert hac.kind == "hac" and np.all(np.diag(hac.matrix) > 0)
+    summary = res.summary()
+    assert summary["budget_exhausted"] is False
+    np.testing.assert_allclose(summary["covariance"]["white"]["matrix"], cov.matrix)
+    with pytest.raises(ValueError, match="alpha must be in"):
+        cov.confidence_intervals(1.5)
+    with pytest.raises(ValueError, match="kind must be 'white' or 'hac'"):
+        res.covariance("sandwich")
+
+
+def test_covariance_of_collinear_terms_is_rank_deficient(noisy_duffing):
+    u, y = noisy_duffing
+    terms = DUFFING + [lin(2)]  # u twice
+    start = np.vstack([TRUE_COEF, [[0.0, 0.5]]])
+    start[2, 1] = 1.5
+    free = np.vstack([FREE, [[False, True]]])
+    res = refine_simulation_error(terms, start, u, y, DT, x0=TRUE_X0, free=free, max_nfev=30, warn_budget=False)
+    cov = res.covariance()
+    assert cov.rank == len(res.parameters) - 1 and cov.rank_deficient
+    assert np.all(np.isfinite(cov.standard_errors()))
+
+
+def test_refine_warns_and_records_when_it_stops_on_its_budget(duffing):
+    u, y = duffing
+    start = TRUE_COEF * np.array([[1.0, 0.8], [1.0, 1.15], [1.0, 0.9], [1.0, 0.7]])
+    with pytest.warns(ConvergenceWarning, match=r"stopped on its evaluation budget \(max_nfev=2\)"):
+        res = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, max_nfev=2)
+    assert res.budget_exhausted and res.status == 0 and res.summary()["budget_exhausted"] is True
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ConvergenceWarning)
+        quiet = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, max_nfev=2,
+                                        warn_budget=False)
+        estimate_initial_state(TermsRHS(TRUE_COEF, DUFFING, 2), u[:50], y[:50], DT, x0=[0.2, 0.0], max_nfev=1)
+    assert quiet.budget_exhausted
+
+
+def test_python_rhs_multiple_shooting_jacobian_matches_the_sensitivities(noisy_duffing):
+    """The forward-difference output Jacobian of a Python model after multiple shooting (no sensitivities)."""
+    u, y = noisy_duffing
+    u, y = u[:200], y[:200]
+
+    def make_rhs(C):
+        def f(x, uu):
+            return np.array([C[0, 0] * x[1], C[0, 1] * x[1] + C[1, 1] * x[0] + C[2, 1] * uu[0]
+                             + C[3, 1] * x[0] ** 3])
+        return f
+
+    python = refine_simulation_error(None, TRUE_COEF, u, y, DT, x0=TRUE_X0, free=FREE, make_rhs=make_rhs,
+                                     n_segments=2, max_nfev=40)
+    exact = core._Problem(DUFFING, python.coef, FREE, None, python.x0, np.arange(2), u, y, DT, (0,),
+                          {"settings": {"n_substeps": 1, "method": "rk4", "input_hold": "zoh", "bounds": None,
+                                        "max_abs": np.inf}, "make_rhs": None}, [(0, 200)])
+    J = exact.jacobian(python.values)
+    assert python.jacobian == "2-point" and python.parameters == exact.parameters()
+    np.testing.assert_allclose(python.jac, J, rtol=1e-3, atol=1e-5 * np.abs(J).max())

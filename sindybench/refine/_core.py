@@ -26,15 +26,19 @@ optimizer. A starting model that diverges is refused with a
 :class:`~sindybench.simulate.SimulationError`.
 """
 
+import copy
 import logging
+import warnings
 from typing import Callable, NamedTuple
 
 import numpy as np
 from scipy.optimize import least_squares
+from sklearn.exceptions import ConvergenceWarning
 
 from .._validation import check_bounds, check_integer, check_positive, check_signal
 from ..libraries import evaluate_terms
 from ..simulate import SimulationError, TermsRHS, simulate
+from ._result import RefinementResult
 from ._sensitivity import simulate_sensitivity
 
 __all__ = ["Physical", "RefinementResult", "estimate_initial_state", "refine_simulation_error"]
@@ -69,52 +73,6 @@ class Physical(NamedTuple):
     make_rhs: Callable = None
 
 
-class RefinementResult(NamedTuple):
-    """Outcome of :func:`refine_simulation_error`.
-
-    Attributes
-    ----------
-    coef : ndarray of shape (n_terms, n_states)
-        The refined coefficient matrix (physical part included).
-    physical : dict
-        Refined physical parameters by name.
-    x0 : ndarray of shape (n_states,)
-        Refined initial state.
-    initial_cost, cost : float
-        Half the mean squared scaled output error of an open-loop simulation
-        of the whole record before and after (scaled by the output's standard
-        deviation; with multiple shooting too, ``cost`` is that of the
-        returned model run from its initial state).
-    nfev, njev : int
-        Model simulations and Jacobian evaluations.
-    status : int
-        :func:`scipy.optimize.least_squares` status (> 0: converged).
-    message : str
-    jacobian : {"sensitivity", "2-point"}
-    pruned : list of (int, int)
-        ``(term, state)`` entries set to zero by pruning.
-    """
-
-    coef: np.ndarray
-    physical: dict
-    x0: np.ndarray
-    initial_cost: float
-    cost: float
-    nfev: int
-    njev: int
-    status: int
-    message: str
-    jacobian: str
-    pruned: list
-
-    def summary(self):
-        """JSON-able record (no arrays)."""
-        return {"initial_cost": float(self.initial_cost), "cost": float(self.cost), "nfev": int(self.nfev),
-                "njev": int(self.njev), "status": int(self.status), "message": str(self.message),
-                "jacobian": self.jacobian, "physical": {k: float(v) for k, v in self.physical.items()},
-                "pruned": [[int(j), int(i)] for j, i in self.pruned]}
-
-
 class _Problem:
     """Parameter vector ``p = (physical, free coefficients, free x0 of each segment)`` and its residuals."""
 
@@ -136,6 +94,14 @@ class _Problem:
         self.compiled = terms is not None and (physical is None or physical.make_rhs is None)
 
     # ------------------------------------------------------------- vectors
+    def parameters(self):
+        """Descriptions of the entries of ``p``: physical, coefficient, initial state, segment starts."""
+        out = [] if self.physical is None else [("physical", str(n)) for n in self.physical.names]
+        out += [("coef", int(j), int(i)) for j, i in self.free]
+        out += [("x0", int(i)) for i in self.free_x0]
+        out += [("segment", s + 1, i) for s in range(len(self.x_segments)) for i in range(self.n_states)]
+        return tuple(out)
+
     def pack(self):
         parts = [] if self.physical is None else [np.asarray(self.physical.values, dtype=float)]
         parts.append(self.coef[self.free[:, 0], self.free[:, 1]])
@@ -271,7 +237,7 @@ def _contributions(terms, C, x, u, free, rows):
 def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), free=None, physical=None,
                             free_x0=None, make_rhs=None, n_segments=1, continuity_weight=1.0, prune=0.0,
                             n_substeps=1, method="rk4", input_hold="zoh", bounds=None, max_abs=np.inf,
-                            max_nfev=100, ftol=1e-8, xtol=1e-8):
+                            max_nfev=100, ftol=1e-8, xtol=1e-8, warn_budget=True):
     """Refine a model's coefficients and initial state by open-loop simulation error.
 
     Parameters
@@ -314,10 +280,17 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         Budget of simulations per refinement round.
     ftol, xtol : float, default=1e-8
         Stopping tolerances of :func:`scipy.optimize.least_squares`.
+    warn_budget : bool, default=True
+        Warn (:class:`~sklearn.exceptions.ConvergenceWarning`) when the last
+        round stops on ``max_nfev``; the record says so either way
+        (``budget_exhausted``).
 
     Returns
     -------
     RefinementResult
+        With the Jacobian of the output residuals at the optimum, from which
+        :meth:`RefinementResult.covariance` gives the covariance of the
+        free parameters.
 
     Raises
     ------
@@ -336,6 +309,8 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     >>> res = refine_simulation_error(terms, [[-0.8], [1.7]], u, y, 0.05, x0=[0.0])
     >>> np.round(res.coef.ravel(), 6).tolist(), round(float(res.x0[0]), 6), res.jacobian
     ([-1.0, 2.0], 0.5, 'sensitivity')
+    >>> res.parameters, res.standard_errors().shape  # exact data: errors ~ 0
+    ((('coef', 0, 0), ('coef', 1, 0), ('x0', 0)), (3,))
     """
     u = np.ascontiguousarray(check_signal(u, "u"))
     y = check_signal(y, "y", n_samples=u.shape[0])
@@ -405,10 +380,44 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         logger.debug("pruned %d terms; refining again", int(small.sum()))
     names = () if physical is None else physical.names
     phys = dict(zip(names, (float(v) for v in (physical.values if physical is not None else ()))))
+    budget = int(fit.status) == 0
+    if budget and warn_budget:
+        warnings.warn(f"the refinement stopped on its evaluation budget (max_nfev={max_nfev}) before converging "
+                      f"(cost {initial_cost:.4g} -> {problem.output_cost(x):.4g}); raise max_nfev "
+                      "(refine__max_nfev) for a converged model.", ConvergenceWarning, stacklevel=2)
+    jac, res, columns = _output_jacobian(problem, fit)
     return RefinementResult(coef=coef_all, physical=phys, x0=x0, initial_cost=initial_cost,
                             cost=problem.output_cost(x), nfev=nfev, njev=njev, status=int(fit.status),
                             message=str(fit.message), jacobian="sensitivity" if problem.compiled else "2-point",
-                            pruned=pruned)
+                            pruned=pruned, jac=jac, residuals=res, parameters=problem.parameters()[:columns],
+                            values=fit.x[:columns].copy(), at_bound=fit.active_mask[:columns] != 0,
+                            budget_exhausted=budget, n_outputs=len(output_index))
+
+
+def _output_jacobian(problem, fit):
+    """Jacobian and residuals of the output residuals at the optimum, and the number of its columns.
+
+    Single shooting: those of the optimizer. Multiple shooting: the returned
+    model run open loop (one simulation with sensitivities, or one per
+    parameter by forward differences on the Python path); the later
+    segments' starts and the continuity residuals drop out.
+    """
+    columns = problem.n_model + problem.free_x0.size
+    if len(problem.segments) == 1:
+        return fit.jac, fit.fun[: problem.n_res], columns
+    single = copy.copy(problem)
+    single.segments, single.x_segments = [(0, problem.u.shape[0])], []
+    p = fit.x[:columns]
+    r = single.residuals(p)
+    if single.compiled:
+        return single.jacobian(p), r, columns
+    J = np.empty((r.size, columns))
+    for k in range(columns):
+        step = np.sqrt(np.finfo(float).eps) * max(1.0, abs(p[k]))
+        q = p.copy()
+        q[k] += step
+        J[:, k] = (single.residuals(q) - r) / step
+    return J, r, columns
 
 
 def _build(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, n_segments, continuity_weight,
@@ -474,5 +483,6 @@ def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None
         free = np.zeros((0, n), dtype=bool)
     res = refine_simulation_error(terms, coef, u, y, dt, x0=x0, output_index=output_index, free=free,
                                   free_x0=free_x0, make_rhs=make, n_substeps=n_substeps, method=method,
-                                  input_hold=input_hold, bounds=bounds, max_abs=max_abs, max_nfev=max_nfev)
+                                  input_hold=input_hold, bounds=bounds, max_abs=max_abs, max_nfev=max_nfev,
+                                  warn_budget=False)
     return res.x0

@@ -67,7 +67,7 @@ def refine_candidate(cand, hidden, X, y, dt, refinement, *, python_rhs, settings
     coef = np.zeros((n_lib + len(s.fixed_terms), s.n_states))
     coef[:n_lib, learned] = cand.coef
     free = np.zeros(coef.shape, dtype=bool)
-    free[:n_lib, learned] = cand.coef != 0
+    free[:n_lib, learned] = hidden.refine_free(cand.coef, lib_terms, n_outputs=y.shape[1], n_inputs=X.shape[1])
     compiled = lib_terms is not None and s.fixed_rhs is None
     make_rhs = None if compiled else _PythonModel(block, cand.library, learned, python_rhs)
     if names:

@@ -101,10 +101,10 @@ def test_two_latent_states_form_a_chain_with_one_gauge_each():
     s = LatentHiddenState(n_latent=2, tau=3.0)
     st = s.structure({"tau": 3.0}, n_outputs=1, n_inputs=1)
     assert st.state_names == ["y0", "z0", "z1"] and st.learned == (0, 1, 2)
-    assert s.gauge(n_outputs=1).splitlines() == ["z0: the coefficient of u0 in z0' is 1 (scale gauge)",
+    assert s.gauge().splitlines() == ["z0: the coefficient of u0 in z0' is 1 (scale gauge)",
                                                  "z1: the coefficient of z0 in z1' is 1 (scale gauge)"]
     u = np.ones((50, 1))
-    design = s.design(u, np.zeros((50, 1)), 0.1, derivative=lambda a: np.zeros_like(a), params={"tau": 3.0})
+    design = s.design(u, np.zeros((50, 1)), 0.1, derivative=lambda a, order=1: np.zeros_like(a), params={"tau": 3.0})
     # from the lags' steady state (z0 = tau u, z1 = tau z0) they stay at rest under a constant input
     np.testing.assert_allclose(design.states[:, 1:], np.tile([3.0, 9.0], (50, 1)))
     np.testing.assert_allclose(design.targets[:, 1:], 0.0, atol=1e-12)

@@ -38,7 +38,7 @@ from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
 from ..simulate import TermsRHS, simulate
-from ._base import Design, HiddenStrategy, Structure
+from ._base import Design, HiddenStrategy, Structure, linear_term
 
 __all__ = ["LatentHiddenState", "latent_invariants"]
 
@@ -50,11 +50,25 @@ class LatentHiddenState(HiddenStrategy):
     ----------
     n_latent : int, default=1
         Number of latent states (``z0, z1, ...``).
+    order : {1, 2}, default=1
+        Order of the outputs' equations: 1 learns ``y' = f(y, z, u)``; 2 adds
+        the velocities ``v = y'`` (reconstructed by the estimator's
+        differentiation, as :class:`DerivativeHiddenState` does), with the
+        fixed rows ``y' = v`` and ``v' = f(y, v, z, u)`` learned.
+    driver : {"input", "velocity", "output"}, default="input"
+        What drives ``z0`` in the starting lag chain and fixes its gauge: the
+        first input ``u0``, the first velocity ``v0`` (``order=2``; e.g. a
+        hysteresis state) or the first output ``y0``.
     tau : float, optional
         Time constant of the starting lag chain; None = searched within
         ``bounds["tau"]`` (log scale).
-    bounds : dict, default={"tau": (1e-3, 1e3, True)}
-        Search range of ``tau`` (time units of ``dt``).
+    z_max : float, default=inf
+        A further upper bound of every latent state (a reservoir that
+        overflows), in the gauge's units, which are not known in advance:
+        None = searched within ``bounds["z_max"]`` (log scale).
+    bounds : dict, optional
+        Search ranges (log scale): ``"tau"`` (time units of ``dt``; default
+        ``(1e-3, 1e3)``) and ``"z_max"`` (needed when ``z_max=None``).
     latent_bounds : (float, float), optional
         Simulation bounds of every latent state (in the gauge's units), e.g.
         ``(0, inf)`` for a level that cannot go negative; None = unbounded.
@@ -65,8 +79,8 @@ class LatentHiddenState(HiddenStrategy):
     -----
     Use it with ``refine=OutputErrorRefinement(prune=...)``: without a
     refinement the latent rows stay the starting linear lags. The library
-    must contain the linear term of each latent row's driver (``u0``,
-    ``z(j-1)``), whose coefficient fixes the gauge.
+    must contain the linear term of each latent row's driver, whose
+    coefficient fixes the gauge.
 
     Examples
     --------
@@ -75,15 +89,21 @@ class LatentHiddenState(HiddenStrategy):
     ['tau']
     >>> s.structure({"tau": 10.0}, n_outputs=1, n_inputs=1).state_names
     ['y0', 'z0']
-    >>> print(s.gauge(n_outputs=1))
+    >>> print(s.gauge())
     z0: the coefficient of u0 in z0' is 1 (scale gauge)
+    >>> LatentHiddenState(order=2, driver="velocity").structure({"tau": 1.0}, n_outputs=1, n_inputs=1).state_names
+    ['y0', 'v0', 'z0']
     """
 
-    _physical = ("tau",)
+    _physical = ("tau", "z_max")
 
-    def __init__(self, *, n_latent=1, tau=None, bounds=None, latent_bounds=None, output_bounds=None):
+    def __init__(self, *, n_latent=1, order=1, driver="input", tau=None, z_max=np.inf, bounds=None,
+                 latent_bounds=None, output_bounds=None):
         self.n_latent = n_latent
+        self.order = order
+        self.driver = driver
         self.tau = tau
+        self.z_max = z_max
         self.bounds = bounds
         self.latent_bounds = latent_bounds
         self.output_bounds = output_bounds
@@ -91,70 +111,97 @@ class LatentHiddenState(HiddenStrategy):
     def _validate(self):
         if isinstance(self.n_latent, bool) or not isinstance(self.n_latent, numbers.Integral) or self.n_latent < 1:
             raise ValueError(f"n_latent must be an integer >= 1; got {self.n_latent!r}.")
+        if self.order not in (1, 2) or isinstance(self.order, bool):
+            raise ValueError(f"order must be 1 or 2; got {self.order!r}.")
+        if self.driver not in _DRIVERS:
+            raise ValueError(f"driver must be one of {_DRIVERS}; got {self.driver!r}.")
+        if self.driver == "velocity" and self.order != 2:
+            raise ValueError("driver='velocity' needs order=2 (the velocities are states only then).")
         if self.tau is not None and (isinstance(self.tau, bool) or not isinstance(self.tau, numbers.Real)
                                      or not np.isfinite(self.tau) or self.tau <= 0):
             raise ValueError(f"tau must be a finite number > 0 or None (searched); got {self.tau!r}.")
+        if self.z_max is not None and (isinstance(self.z_max, bool) or not isinstance(self.z_max, numbers.Real)
+                                       or np.isnan(self.z_max)):
+            raise ValueError(f"z_max must be a number (inf: no bound) or None (searched); got {self.z_max!r}.")
         check_bounds(self.latent_bounds, 1, name="latent_bounds")
         check_bounds(self.output_bounds, 1, name="output_bounds")
-        super()._validate()
+        self.search_space()
 
     def search_space(self):
-        if self.bounds is None and self.tau is None:
-            return {"tau": (1e-3, 1e3, True)}
-        return super().search_space()
+        bounds = {"tau": (1e-3, 1e3, True), **(self.bounds or {})}
+        return _space(self, bounds)
 
     def refinable(self, params):
-        return ()  # tau only sets the start; the latent rows are learned
+        return ()  # tau and z_max set the start; the latent rows are learned
 
     def default_library(self):
-        """Quadratic polynomial in ``(y, z, u)``."""
+        """Quadratic polynomial in ``(y, [v,] z, u)``."""
         return PolynomialLibrary(degree=2)
 
-    def gauge(self, *, n_outputs):
+    def gauge(self):
         """The gauge of each latent state, in words."""
-        lines = []
-        for j in range(int(self.n_latent)):
-            driver = "u0" if j == 0 else f"z{j - 1}"
-            lines.append(f"z{j}: the coefficient of {driver} in z{j}' is 1 (scale gauge)")
-        return "\n".join(lines)
+        first = {"input": "u0", "velocity": "v0", "output": "y0"}[self.driver]
+        return "\n".join(f"z{j}: the coefficient of {first if j == 0 else f'z{j - 1}'} in z{j}' is 1 (scale gauge)"
+                         for j in range(int(self.n_latent)))
 
     def structure(self, params, *, n_outputs, n_inputs):
-        if n_inputs < 1:
-            raise ValueError("LatentHiddenState needs at least one input (the first one drives z0); got none.")
-        q = int(self.n_latent)
-        n = n_outputs + q
+        if n_inputs < 1 and self.driver == "input":
+            raise ValueError("driver='input' needs at least one input (the first one drives z0); got none.")
+        p, q = n_outputs, int(self.n_latent)
+        n_meas = p * int(self.order)
         ylo, yhi = check_bounds(self.output_bounds, 1, name="output_bounds")
-        zlo, zhi = check_bounds(self.latent_bounds, 1, name="latent_bounds")
-        lower = np.r_[np.full(n_outputs, ylo[0]), np.full(q, zlo[0])]
-        upper = np.r_[np.full(n_outputs, yhi[0]), np.full(q, zhi[0])]
+        zlo, zhi = self._latent_range(params)
+        lower = np.r_[np.full(p, ylo[0]), np.full(n_meas - p, -np.inf), np.full(q, zlo[0])]
+        upper = np.r_[np.full(p, yhi[0]), np.full(n_meas - p, np.inf), np.full(q, zhi[0])]
         bounds = None if np.all(np.isinf(lower)) and np.all(np.isinf(upper)) else (lower, upper)
-        return Structure(n_states=n, learned=tuple(range(n)), output_index=tuple(range(n_outputs)),
-                         state_names=[f"y{i}" for i in range(n_outputs)] + [f"z{j}" for j in range(q)],
-                         bounds=bounds)
+        names = [f"y{i}" for i in range(p)] + [f"v{i}" for i in range(n_meas - p)] + [f"z{j}" for j in range(q)]
+        if self.order == 1:
+            return Structure(n_states=p + q, learned=tuple(range(p + q)), output_index=tuple(range(p)),
+                             state_names=names, bounds=bounds)
+        fixed_coef = np.zeros((p, n_meas + q))
+        fixed_coef[np.arange(p), np.arange(p)] = 1.0  # y_i' = v_i
+        return Structure(n_states=n_meas + q, learned=tuple(range(p, n_meas + q)), output_index=tuple(range(p)),
+                         fixed_terms=[linear_term(p + i) for i in range(p)], fixed_coef=fixed_coef,
+                         state_names=names, bounds=bounds)
 
-    def _drivers(self, n_outputs, n_inputs):
-        """Column in ``Z = [y, z, u]`` of each latent row's driver."""
+    def _latent_range(self, params):
+        zlo, zhi = check_bounds(self.latent_bounds, 1, name="latent_bounds")
+        return zlo, np.minimum(zhi, float(params.get("z_max", np.inf)))
+
+    def _drivers(self, n_outputs):
+        """Column in ``Z = [y, (v,) z, u]`` of each latent row's driver."""
+        n_meas = n_outputs * int(self.order)
         q = int(self.n_latent)
-        return [n_outputs + q if j == 0 else n_outputs + j - 1 for j in range(q)]
+        first = {"input": n_meas + q, "velocity": n_outputs, "output": 0}[self.driver]
+        return [first if j == 0 else n_meas + j - 1 for j in range(q)]
 
-    def _lags(self, u, tau, dt):
-        """The starting latent trajectory: the lag chain from its steady state."""
+    def _lags(self, drive, params, dt):
+        """The starting latent trajectory: the lag chain driven by ``drive``, from its steady state."""
+        tau = float(params["tau"])
         q = int(self.n_latent)
         coef = np.zeros((q + 1, q))
         terms = [((j, POW, 1.0, 0.0),) for j in range(q)] + [((q, POW, 1.0, 0.0),)]
         for j in range(q):
             coef[j, j] = -1.0 / tau
             coef[q if j == 0 else j - 1, j] = 1.0
-        x0 = np.cumprod(np.full(q, tau)) * u[0, 0]
-        return simulate(TermsRHS(coef, terms, q), x0, u[:, :1], dt, n_substeps=4), coef, terms
+        zlo, zhi = self._latent_range(params)
+        x0 = np.clip(np.cumprod(np.full(q, tau)) * drive[0], zlo[0], zhi[0])
+        bounds = (np.full(q, zlo[0]), np.full(q, zhi[0]))
+        z = simulate(TermsRHS(coef, terms, q), x0, drive[:, None], dt, n_substeps=4, bounds=bounds)
+        return z, np.c_[z, drive] @ coef  # the lags and their exact derivatives
+
+    def _measured(self, y, derivative):
+        return y if self.order == 1 else np.c_[y, derivative(y)]
+
+    def _drive(self, meas, u, n_outputs):
+        """The signal that drives ``z0`` (columns: samples; 1-D rows: one sample)."""
+        source = {"input": (u, 0), "velocity": (meas, n_outputs), "output": (meas, 0)}[self.driver]
+        return source[0][..., source[1]]
 
     def design(self, u, y, dt, *, derivative, params):
-        tau = float(params["tau"])
-        z, coef, terms = self._lags(u, tau, dt)
-        q = int(self.n_latent)
-        zu = np.c_[z, u[:, :1]]
-        z_dot = zu @ coef  # exact: the lags' own right-hand side
-        return Design(states=np.c_[y, z], targets=np.c_[derivative(y), z_dot])
+        states = self._measured(y, derivative)
+        z, z_dot = self._lags(self._drive(states, u, y.shape[1]), params, dt)
+        return Design(states=np.c_[states, z], targets=np.c_[derivative(y, order=int(self.order)), z_dot])
 
     def refine_free(self, coef, terms, *, n_outputs, n_inputs):
         """Entries of the learned block freed by a refinement.
@@ -166,7 +213,7 @@ class LatentHiddenState(HiddenStrategy):
             raise ValueError("LatentHiddenState needs a library of built-in terms (compiled); got a Python library.")
         free = coef != 0
         terms = [tuple(t) for t in terms]
-        for j, col in enumerate(self._drivers(n_outputs, n_inputs)):
+        for j, col in enumerate(self._drivers(n_outputs)):
             gauge = ((col, POW, 1.0, 0.0),)
             if gauge not in terms:
                 raise ValueError(f"the library has no linear term of column {col} (the driver of z{j}); expected it "
@@ -176,15 +223,15 @@ class LatentHiddenState(HiddenStrategy):
         return free
 
     def initial_state(self, u, y_init, dt, *, derivative, params, model):
-        """Outputs from ``y_init[0]``; latent states at rest (zero derivative) for those outputs and ``u[0]``."""
-        p = y_init.shape[1]
+        """Outputs (and velocities) from ``y_init``; latent states at rest for them and ``u[0]``."""
         q = int(self.n_latent)
-        tau = float(params["tau"])
-        start = np.cumprod(np.full(q, tau)) * u[0, 0]
-        y0 = np.asarray(y_init[0], dtype=float)
+        meas = np.asarray(self._measured(y_init, derivative)[0], dtype=float)
+        zlo, zhi = self._latent_range(params)
+        drive0 = self._drive(meas, np.asarray(u[0], dtype=float), y_init.shape[1])
+        start = np.clip(np.cumprod(np.full(q, float(params["tau"]))) * drive0, zlo[0], zhi[0])
 
         def residual(z):
-            return np.asarray(model.rhs(np.r_[y0, z], u[0]), dtype=float)[p:]
+            return np.asarray(model.rhs(np.r_[meas, z], u[0]), dtype=float)[meas.size:]
 
         with np.errstate(all="ignore"):
             try:
@@ -192,7 +239,26 @@ class LatentHiddenState(HiddenStrategy):
                 z0 = fit.x if np.all(np.isfinite(fit.x)) else start
             except ValueError:
                 z0 = start
-        return np.r_[y0, z0]
+        return np.r_[meas, z0]
+
+
+_DRIVERS = ("input", "velocity", "output")
+
+
+def _space(strategy, bounds):
+    """The searched parameters (``tau``, ``z_max``) with their ranges, log-scaled."""
+    space = {}
+    for name in LatentHiddenState._physical:
+        if getattr(strategy, name) is not None:
+            continue
+        if name not in bounds:
+            raise ValueError(f"{name}=None asks for a search but bounds has no entry {name!r}; "
+                             f"expected bounds={{{name!r}: (low, high)}} or a fixed value.")
+        low, high = (float(v) for v in tuple(bounds[name])[:2])
+        if not 0 < low < high:
+            raise ValueError(f"bounds[{name!r}] = {bounds[name]!r}; expected 0 < low < high (log-scaled search).")
+        space[name] = (low, high, True)
+    return space
 
 
 def latent_invariants(model, u_op, *, y_guess=None, eps=1e-6):

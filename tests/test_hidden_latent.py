@@ -22,10 +22,13 @@ def _support(model):
     return [{term_name(terms[i], names) for i in np.flatnonzero(row)} for row in model.coef_]
 
 
-def _poles(rhs, x, u):
+def _jacobian(rhs, x, u=(0.0,)):
     h = 1e-6
-    J = np.array([(np.asarray(rhs(x + e, u)) - np.asarray(rhs(x - e, u))) / (2 * h) for e in np.eye(x.size) * h]).T
-    return np.sort(np.linalg.eigvals(J).real)
+    return np.array([(np.asarray(rhs(x + e, u)) - np.asarray(rhs(x - e, u))) / (2 * h) for e in np.eye(x.size) * h]).T
+
+
+def _poles(rhs, x, u):
+    return np.sort(np.linalg.eigvals(_jacobian(rhs, x, u)).real)
 
 
 def _fit(u, y, dt, library, tau_bounds, prune, **hidden):
@@ -90,7 +93,8 @@ def test_without_the_gauge_term_the_refinement_says_what_is_missing(rng):
 @pytest.mark.parametrize(
     "params, match",
     [({"n_latent": 0}, "n_latent must be an integer >= 1"), ({"tau": -1.0}, "tau must be a finite number > 0"),
-     ({"latent_bounds": (1.0, 0.0)}, "latent_bounds")],
+     ({"latent_bounds": (1.0, 0.0)}, "latent_bounds"), ({"scale": "range"}, "expected finite latent_bounds"),
+     ({"driver": "velocity"}, "needs order=2"), ({"order": 3}, "order must be 1 or 2")],
 )
 def test_bad_parameters_are_refused(params, match):
     with pytest.raises(ValueError, match=match):
@@ -104,7 +108,43 @@ def test_two_latent_states_form_a_chain_with_one_gauge_each():
     assert s.gauge().splitlines() == ["z0: the coefficient of u0 in z0' is 1 (scale gauge)",
                                                  "z1: the coefficient of z0 in z1' is 1 (scale gauge)"]
     u = np.ones((50, 1))
-    design = s.design(u, np.zeros((50, 1)), 0.1, derivative=lambda a, order=1: np.zeros_like(a), params={"tau": 3.0})
+    design = s.design(u, np.zeros((50, 1)), 0.1, derivative=lambda a, order=1: np.zeros_like(a),
+                      params=s.resolve_params())
     # from the lags' steady state (z0 = tau u, z1 = tau z0) they stay at rest under a constant input
     np.testing.assert_allclose(design.states[:, 1:], np.tile([3.0, 9.0], (50, 1)))
     np.testing.assert_allclose(design.targets[:, 1:], 0.0, atol=1e-12)
+
+
+def test_hidden_hysteresis_state_driven_by_the_velocity(rng):
+    """A Bouc-Wen-like oscillator: ``v' = -4 y - 0.5 v - 6 z + u``, ``z' = v - 2 |v| z + v |z|``.
+
+    The latent z is found from the displacement alone (``order=2``, gauge: the
+    coefficient of v in z' is 1, as in the truth): exact terms, gauge-free
+    poles within 5 % (at rest every z is an equilibrium: one pole is 0, and
+    there is no static gain).
+    """
+    from sindybench.libraries import AbsProductLibrary
+    from sindybench.simulate import TermsRHS
+
+    truth = TermsRHS.from_equations([
+        {((1, 0, 1, 0),): 1.0},
+        {((0, 0, 1, 0),): -4.0, ((1, 0, 1, 0),): -0.5, ((2, 0, 1, 0),): -6.0, ((3, 0, 1, 0),): 1.0},
+        {((1, 0, 1, 0),): 1.0, ((1, 1, 1, 0), (2, 0, 1, 0)): -2.0, ((1, 0, 1, 0), (2, 1, 1, 0)): 1.0},
+    ])
+    dt, n = 0.02, 3000
+    t = np.arange(n) * dt
+    u = sum(np.sin(2 * np.pi * f * t + rng.uniform(0, 2 * np.pi)) for f in (0.13, 0.31, 0.57, 0.9))[:, None]
+    x = simulate(truth, [0.0, 0.0, 0.0], u, dt, n_substeps=2)
+    y = x[:, :1] + 1e-4 * rng.standard_normal((n, 1))
+    library = ConcatLibrary([PolynomialLibrary(degree=1), AbsProductLibrary(pairs=[(1, 2)], products=("x|y|", "|x|y"))])
+    model = HiddenStateSINDy(
+        hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": (0.05, 50.0)}), library=library,
+        optimizer=STLS(threshold=1e-4, normalize_columns=True), differentiation=SavitzkyGolay(window_length=11),
+        dt=dt, n_substeps=2, validation_size=600, n_trials=10, random_state=0,
+        refine=OutputErrorRefinement(prune=0.02, max_nfev=100), initial_state="fit",
+    ).fit(u, y)
+    assert _support(model) == [{"y0", "v0", "z0", "u0"}, {"v0", "v0 |z0|", "|v0| z0"}]
+    inv = latent_invariants(model, [0.0], y_guess=np.zeros(3))
+    found, true = (np.sort_complex(np.linalg.eigvals(a)) for a in (inv["jacobian"], _jacobian(truth, np.zeros(3))))
+    np.testing.assert_allclose(found, true, rtol=0.05, atol=1e-3)  # 0 and the roots of s^2 + 0.5 s + 10
+    assert inv["gain"] is None

@@ -21,12 +21,12 @@ cannot be regressed on, so its equation is found by simulation error:
    with :func:`~sindybench.model_selection.tune` or a scikit-learn search.
 
 **Gauge.** A latent state is defined only up to its scale: ``z -> s z`` gives
-another model with the same outputs. The gauge is fixed by pinning the
-coefficient of each latent row's driver (``u0`` for ``z0``, ``z(j-1)`` for
-``zj``) at 1 during the refinement: the latent state is "in units of its
-driver's integral". :meth:`LatentHiddenState.gauge` says so in words, and
-gauge-free quantities (the poles and the static gain of the linearized model at
-an operating point) come from :func:`latent_invariants`.
+another model with the same outputs. ``scale="driver"`` fixes it by holding the
+coefficient of each latent row's driver (``u0`` or ``v0`` for ``z0``, ``z(j-1)``
+for ``zj``) at 1 during the refinement; ``scale="range"`` by the latent
+state's finite bounds. :meth:`LatentHiddenState.gauge` says which in words,
+and gauge-free quantities (the poles and the static gain of the linearized
+model at an operating point) come from :func:`latent_invariants`.
 """
 
 import numbers
@@ -62,16 +62,23 @@ class LatentHiddenState(HiddenStrategy):
     tau : float, optional
         Time constant of the starting lag chain; None = searched within
         ``bounds["tau"]`` (log scale).
-    z_max : float, default=inf
-        A further upper bound of every latent state (a reservoir that
-        overflows), in the gauge's units, which are not known in advance:
-        None = searched within ``bounds["z_max"]`` (log scale).
+    scale : {"driver", "range"}, default="driver"
+        The gauge. ``"driver"``: the coefficient of each latent row's driver
+        is held at 1. ``"range"``: each latent state ranges over
+        ``latent_bounds`` (finite, e.g. ``(0, 10)`` for a tank that overflows
+        at its top), which sets its scale; every coefficient of its row is
+        free and the start's driver gain ``gain`` is searched.
+    gain : float, optional
+        Driver gain of the starting lags with ``scale="range"``; None =
+        searched within ``bounds["gain"]`` (log scale). Unused with
+        ``scale="driver"`` (the gain is the gauge, 1).
     bounds : dict, optional
         Search ranges (log scale): ``"tau"`` (time units of ``dt``; default
-        ``(1e-3, 1e3)``) and ``"z_max"`` (needed when ``z_max=None``).
+        ``(1e-3, 1e3)``) and ``"gain"`` (default ``(1e-3, 1e3)``).
     latent_bounds : (float, float), optional
         Simulation bounds of every latent state (in the gauge's units), e.g.
         ``(0, inf)`` for a level that cannot go negative; None = unbounded.
+        With ``scale="range"``, a finite range is required.
     output_bounds : (float, float), optional
         Simulation bounds of the outputs (e.g. a sensor range).
 
@@ -95,15 +102,16 @@ class LatentHiddenState(HiddenStrategy):
     ['y0', 'v0', 'z0']
     """
 
-    _physical = ("tau", "z_max")
+    _physical = ("tau", "gain")
 
-    def __init__(self, *, n_latent=1, order=1, driver="input", tau=None, z_max=np.inf, bounds=None,
+    def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, bounds=None,
                  latent_bounds=None, output_bounds=None):
         self.n_latent = n_latent
         self.order = order
         self.driver = driver
+        self.scale = scale
         self.tau = tau
-        self.z_max = z_max
+        self.gain = gain
         self.bounds = bounds
         self.latent_bounds = latent_bounds
         self.output_bounds = output_bounds
@@ -117,22 +125,40 @@ class LatentHiddenState(HiddenStrategy):
             raise ValueError(f"driver must be one of {_DRIVERS}; got {self.driver!r}.")
         if self.driver == "velocity" and self.order != 2:
             raise ValueError("driver='velocity' needs order=2 (the velocities are states only then).")
-        if self.tau is not None and (isinstance(self.tau, bool) or not isinstance(self.tau, numbers.Real)
-                                     or not np.isfinite(self.tau) or self.tau <= 0):
-            raise ValueError(f"tau must be a finite number > 0 or None (searched); got {self.tau!r}.")
-        if self.z_max is not None and (isinstance(self.z_max, bool) or not isinstance(self.z_max, numbers.Real)
-                                       or np.isnan(self.z_max)):
-            raise ValueError(f"z_max must be a number (inf: no bound) or None (searched); got {self.z_max!r}.")
-        check_bounds(self.latent_bounds, 1, name="latent_bounds")
+        if self.scale not in _SCALES:
+            raise ValueError(f"scale must be one of {_SCALES}; got {self.scale!r}.")
+        for name in self._physical:
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Real)
+                                      or not np.isfinite(value) or value <= 0):
+                raise ValueError(f"{name} must be a finite number > 0 or None (searched); got {value!r}.")
+        zlo, zhi = check_bounds(self.latent_bounds, 1, name="latent_bounds")
+        if self.scale == "range" and not (np.isfinite(zlo[0]) and np.isfinite(zhi[0])):
+            raise ValueError(f"scale='range' fixes the latent scale by its bounds; expected finite latent_bounds, "
+                             f"got {self.latent_bounds!r}.")
         check_bounds(self.output_bounds, 1, name="output_bounds")
         self.search_space()
 
     def search_space(self):
-        bounds = {"tau": (1e-3, 1e3, True), **(self.bounds or {})}
-        return _space(self, bounds)
+        bounds = {"tau": (1e-3, 1e3), "gain": (1e-3, 1e3), **(self.bounds or {})}
+        names = ("tau", "gain") if self.scale == "range" else ("tau",)
+        return _space(self, bounds, names)
+
+    def resolve_params(self, values=None):
+        values = dict(values or {})
+        if self.scale == "driver":
+            values["gain"] = 1.0
+        params = {name: getattr(self, name) if getattr(self, name) is not None else values.get(name)
+                  for name in self._physical}
+        missing = [name for name, value in params.items() if value is None]
+        if missing:
+            raise ValueError(f"no value for the searched parameter {missing[0]!r}.")
+        if self.scale == "driver":
+            params["gain"] = 1.0
+        return params
 
     def refinable(self, params):
-        return ()  # tau and z_max set the start; the latent rows are learned
+        return ()  # tau and gain set the start; the latent rows are learned
 
     def default_library(self):
         """Quadratic polynomial in ``(y, [v,] z, u)``."""
@@ -140,6 +166,9 @@ class LatentHiddenState(HiddenStrategy):
 
     def gauge(self):
         """The gauge of each latent state, in words."""
+        if self.scale == "range":
+            return "\n".join(f"z{j}: ranges over {tuple(self.latent_bounds)} (range gauge)"
+                             for j in range(int(self.n_latent)))
         first = {"input": "u0", "velocity": "v0", "output": "y0"}[self.driver]
         return "\n".join(f"z{j}: the coefficient of {first if j == 0 else f'z{j - 1}'} in z{j}' is 1 (scale gauge)"
                          for j in range(int(self.n_latent)))
@@ -165,8 +194,7 @@ class LatentHiddenState(HiddenStrategy):
                          state_names=names, bounds=bounds)
 
     def _latent_range(self, params):
-        zlo, zhi = check_bounds(self.latent_bounds, 1, name="latent_bounds")
-        return zlo, np.minimum(zhi, float(params.get("z_max", np.inf)))
+        return check_bounds(self.latent_bounds, 1, name="latent_bounds")
 
     def _drivers(self, n_outputs):
         """Column in ``Z = [y, (v,) z, u]`` of each latent row's driver."""
@@ -177,15 +205,15 @@ class LatentHiddenState(HiddenStrategy):
 
     def _lags(self, drive, params, dt):
         """The starting latent trajectory: the lag chain driven by ``drive``, from its steady state."""
-        tau = float(params["tau"])
+        tau, gain = float(params["tau"]), float(params["gain"])
         q = int(self.n_latent)
         coef = np.zeros((q + 1, q))
         terms = [((j, POW, 1.0, 0.0),) for j in range(q)] + [((q, POW, 1.0, 0.0),)]
         for j in range(q):
             coef[j, j] = -1.0 / tau
-            coef[q if j == 0 else j - 1, j] = 1.0
+            coef[q if j == 0 else j - 1, j] = gain
         zlo, zhi = self._latent_range(params)
-        x0 = np.clip(np.cumprod(np.full(q, tau)) * drive[0], zlo[0], zhi[0])
+        x0 = np.clip(np.cumprod(np.full(q, tau * gain)) * drive[0], zlo[0], zhi[0])
         bounds = (np.full(q, zlo[0]), np.full(q, zhi[0]))
         z = simulate(TermsRHS(coef, terms, q), x0, drive[:, None], dt, n_substeps=4, bounds=bounds)
         return z, np.c_[z, drive] @ coef  # the lags and their exact derivatives
@@ -207,18 +235,21 @@ class LatentHiddenState(HiddenStrategy):
         """Entries of the learned block freed by a refinement.
 
         The outputs' nonzero coefficients, and every term of the latent rows
-        except each row's gauge term (its driver's linear term, held at its value).
+        except, with ``scale="driver"``, each row's gauge term (its driver's
+        linear term, held at its value).
         """
         if terms is None:
             raise ValueError("LatentHiddenState needs a library of built-in terms (compiled); got a Python library.")
         free = coef != 0
         terms = [tuple(t) for t in terms]
         for j, col in enumerate(self._drivers(n_outputs)):
+            free[:, n_outputs + j] = True
+            if self.scale == "range":
+                continue
             gauge = ((col, POW, 1.0, 0.0),)
             if gauge not in terms:
                 raise ValueError(f"the library has no linear term of column {col} (the driver of z{j}); expected it "
                                  "in the library: its coefficient fixes the latent state's scale.")
-            free[:, n_outputs + j] = True
             free[terms.index(gauge), n_outputs + j] = False
         return free
 
@@ -228,7 +259,7 @@ class LatentHiddenState(HiddenStrategy):
         meas = np.asarray(self._measured(y_init, derivative)[0], dtype=float)
         zlo, zhi = self._latent_range(params)
         drive0 = self._drive(meas, np.asarray(u[0], dtype=float), y_init.shape[1])
-        start = np.clip(np.cumprod(np.full(q, float(params["tau"]))) * drive0, zlo[0], zhi[0])
+        start = np.clip(np.cumprod(np.full(q, float(params["tau"]) * float(params["gain"]))) * drive0, zlo[0], zhi[0])
 
         def residual(z):
             return np.asarray(model.rhs(np.r_[meas, z], u[0]), dtype=float)[meas.size:]
@@ -243,12 +274,13 @@ class LatentHiddenState(HiddenStrategy):
 
 
 _DRIVERS = ("input", "velocity", "output")
+_SCALES = ("driver", "range")
 
 
-def _space(strategy, bounds):
-    """The searched parameters (``tau``, ``z_max``) with their ranges, log-scaled."""
+def _space(strategy, bounds, names):
+    """The searched parameters among ``names`` with their ranges, log-scaled."""
     space = {}
-    for name in LatentHiddenState._physical:
+    for name in names:
         if getattr(strategy, name) is not None:
             continue
         if name not in bounds:
@@ -282,8 +314,10 @@ def latent_invariants(model, u_op, *, y_guess=None, eps=1e-6):
     Returns
     -------
     dict
-        ``"state"``: the equilibrium, ``"poles"``: eigenvalues (1/time),
-        ``"gain"``: d y / d u at steady state (n_outputs, n_inputs).
+        ``"state"``: the equilibrium, ``"jacobian"``: the state Jacobian there,
+        ``"poles"``: its eigenvalues (1/time), ``"gain"``: d y / d u at steady
+        state (n_outputs, n_inputs), or None where the Jacobian is singular
+        (an integrator, or a continuum of equilibria).
     """
     u_op = np.asarray(u_op, dtype=float).reshape(-1)
     rhs = model.rhs_
@@ -304,8 +338,10 @@ def latent_invariants(model, u_op, *, y_guess=None, eps=1e-6):
     A = jac(lambda v: np.asarray(rhs(v, u_op), dtype=float), x)
     B = jac(lambda v: np.asarray(rhs(x, v), dtype=float), u_op)
     out_idx = list(model.structure_.output_index)
-    gain = -np.linalg.solve(A, B)[out_idx]
-    return {"state": x, "poles": np.linalg.eigvals(A), "gain": gain.reshape(len(out_idx), m)}
+    gain = None  # an integrator or a continuum of equilibria (a hysteresis state at rest): no static gain
+    if np.linalg.cond(A) < 1e10:
+        gain = -np.linalg.solve(A, B)[out_idx].reshape(len(out_idx), m)
+    return {"state": x, "jacobian": A, "poles": np.linalg.eigvals(A), "gain": gain}
 
 
 register_model(LatentHiddenState)

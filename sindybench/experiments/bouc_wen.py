@@ -8,7 +8,7 @@ multisine record, validation the next 960; tests: the low-frequency sine
 (from rest), the official multisine and the sine sweep.
 """
 
-from ._common import arx_model, arx_space, nnarx_model, nnarx_space, refinement, stls_space
+from ._common import REFINE_NFEV_QUICK, arx_model, arx_space, nnarx_model, nnarx_space, refinement, stls_space
 from ._spec import Benchmark, ModelSpec
 
 __all__ = ["BENCHMARK"]
@@ -60,6 +60,41 @@ def _hidden(fixed):
     return make
 
 
+def _latent(*, random_state, quick, dt, n_val, n_samples):
+    """The hysteretic force discovered as a latent state: m, c, k not given, no z' law given.
+
+    :class:`~sindybench.hidden.LatentHiddenState` with ``order=2`` (states y,
+    v = y', z) and ``driver="velocity"`` (gauge: the coefficient of v in z'
+    is 1): v' and z' are learned over [y, v, z, u] from a linear library plus
+    the absolute products v|z|, |v|z, |v||z|. The latent z starts as a lag of v
+    (its time constant searched on the validation block), then every term of
+    z' is fitted by simulation error on the first 8000 training samples and
+    pruned (the pruning level searched on the validation block by the outer
+    search).
+    """
+    from .. import STLS, HiddenStateSINDy
+    from ..differentiation import Spectral
+    from ..hidden import LatentHiddenState
+    from ..libraries import AbsProductLibrary, ConcatLibrary, PolynomialLibrary
+    from ..refine import OutputErrorRefinement
+
+    return HiddenStateSINDy(
+        hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": (1e-4, 1.0)}),
+        library=ConcatLibrary([PolynomialLibrary(degree=1), AbsProductLibrary(pairs=[(1, 2)])]),
+        optimizer=STLS(threshold=1e-6, normalize_columns=True), differentiation=Spectral(cutoff=150.0),
+        dt=dt, n_substeps=2, input_hold="linear", validation_size=n_val, n_trials=6 if quick else 12,
+        random_state=random_state,
+        refine=OutputErrorRefinement(max_nfev=REFINE_NFEV_QUICK if quick else 100, max_samples=8000),
+        initial_state="fit",
+    )
+
+
+def _prune_space(quick, n_init):
+    from ..model_selection import Categorical
+
+    return {"refine__prune": Categorical([0.005, 0.02])}
+
+
 BENCHMARK = Benchmark(
     name="bouc-wen",
     title="Bouc-Wen oscillator",
@@ -82,6 +117,11 @@ BENCHMARK = Benchmark(
                               "by the simulation error of the estimation record (exact sensitivities)"),
         ModelSpec("hidden_bouc_wen_ideal", "Hidden SINDy, Ideal (true m, c, k)", _hidden(TRUE_MCK), None,
                   description="the same with the true m = 2, c = 10, k = 5e4"),
+        ModelSpec("latent_bouc_wen", "SINDy with discovered latent state", _latent, _prune_space, n_trials=2,
+                  n_trials_quick=1,
+                  description="states (y, v, z) with z latent: v' and z' learned from [1, y, v, z, u] and the "
+                              "absolute products of v and z, fitted by simulation error and pruned; m, c, k and "
+                              "the z' law not given; gauge: the coefficient of v in z' is 1"),
         ModelSpec("arx", "ARX", arx_model(), arx_space(max_na=8, max_nb=8), n_trials=50, n_trials_quick=5,
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(dtype="float32"), nnarx_space(max_na=4, max_nb=4), n_trials=10,

@@ -4,6 +4,7 @@ from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy, ModelView, Structure, linear_term
 from ._bouc_wen import BoucWenHiddenState
 from ._estimator import HiddenStateSINDy
+from ._latent import LatentHiddenState, latent_invariants
 from ._objective import SEARCH_PENALTY
 from ._parametric import ParametricHiddenState
 from ._tanks import TanksHiddenState
@@ -15,9 +16,11 @@ __all__ = [
     "Design",
     "HiddenStateSINDy",
     "HiddenStrategy",
+    "LatentHiddenState",
     "ModelView",
     "ParametricHiddenState",
     "Structure",
     "TanksHiddenState",
+    "latent_invariants",
     "linear_term",
 ]

@@ -247,6 +247,14 @@ class HiddenStrategy(BaseEstimator):
         """
         return tuple(name for name in self._physical if name in params)
 
+    def refine_free(self, coef, terms, *, n_outputs, n_inputs):
+        """Entries of the learned coefficients (n_terms, n_learned) that a refinement frees.
+
+        The default: the nonzero ones (the equation-error fit's support).
+        ``terms`` are the library's terms (None for a Python library).
+        """
+        return coef != 0
+
     def structure(self, params, *, n_outputs, n_inputs):
         """The model structure for ``params`` (see :class:`Structure`)."""
         raise NotImplementedError

@@ -67,7 +67,8 @@ def refinement_problem(cand, hidden, n_outputs, n_inputs, *, build):
     coef = np.zeros((n_lib + len(s.fixed_terms), s.n_states))
     coef[:n_lib, learned] = cand.coef
     free = np.zeros(coef.shape, dtype=bool)
-    free[:n_lib, learned] = cand.coef != 0
+    free[:n_lib, learned] = hidden.refine_free(cand.coef, getattr(cand.library, "terms_", None),
+                                               n_outputs=n_outputs, n_inputs=n_inputs)
     make_rhs = None if dyn.compiled else _PythonModel(block, learned, build)
     if names:
         physical = Physical(names=names, values=values, lower=np.where(values > 0, 0.0, -np.inf),

@@ -1,0 +1,347 @@
+"""Latent states whose sparse equations are learned from the data: ``LatentHiddenState``.
+
+The user gives the number of latent states and a library; every row of the
+model (the measured outputs' and the latent states') is a sparse combination
+of the library's terms over ``Z = [outputs, latents, inputs]``. A latent state
+cannot be regressed on, so its equation is found by simulation error:
+
+1. **Start** (equation error, searched on validation): the latent states are a
+   chain of first-order lags driven by the first input,
+   ``z0' = -z0 / tau + u0``, ``z1' = -z1 / tau + z0``, ...; the outputs' rows
+   are regressed on ``[y, z, u]`` by the estimator's optimizer, and ``tau``
+   is searched by ``HiddenStateSINDy``'s inner search (simulation error of the
+   validation block), as any physical guess.
+2. **Discover** (simulation error): the estimator's refinement
+   (``refine=OutputErrorRefinement(prune=...)``) frees *every* term of the
+   latent rows (not only the start's nonzero ones) beside the outputs' nonzero
+   terms, fits them by the open-loop simulation error with exact
+   sensitivities, then prunes the terms that contribute little and refits
+   (sequential thresholding on the simulation-error problem). The pruning
+   level is a hyperparameter (``refine__prune``), chosen on validation data
+   with :func:`~sindybench.model_selection.tune` or a scikit-learn search.
+
+**Gauge.** A latent state is defined only up to its scale: ``z -> s z`` gives
+another model with the same outputs. ``scale="driver"`` fixes it by holding the
+coefficient of each latent row's driver (``u0`` or ``v0`` for ``z0``, ``z(j-1)``
+for ``zj``) at 1 during the refinement; ``scale="range"`` by the latent
+state's finite bounds. :meth:`LatentHiddenState.gauge` says which in words,
+and gauge-free quantities (the poles and the static gain of the linearized
+model at an operating point) come from :func:`latent_invariants`.
+"""
+
+import numbers
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from .._validation import check_bounds
+from ..io import register_model
+from ..libraries import POW, PolynomialLibrary
+from ..simulate import TermsRHS, simulate
+from ._base import Design, HiddenStrategy, Structure, linear_term
+
+__all__ = ["LatentHiddenState", "latent_invariants"]
+
+
+class LatentHiddenState(HiddenStrategy):
+    """Latent states with learned sparse equations (fitted by simulation error).
+
+    Parameters
+    ----------
+    n_latent : int, default=1
+        Number of latent states (``z0, z1, ...``).
+    order : {1, 2}, default=1
+        Order of the outputs' equations: 1 learns ``y' = f(y, z, u)``; 2 adds
+        the velocities ``v = y'`` (reconstructed by the estimator's
+        differentiation, as :class:`DerivativeHiddenState` does), with the
+        fixed rows ``y' = v`` and ``v' = f(y, v, z, u)`` learned.
+    driver : {"input", "velocity", "output"}, default="input"
+        What drives ``z0`` in the starting lag chain and fixes its gauge: the
+        first input ``u0``, the first velocity ``v0`` (``order=2``; e.g. a
+        hysteresis state) or the first output ``y0``.
+    tau : float, optional
+        Time constant of the starting lag chain; None = searched within
+        ``bounds["tau"]`` (log scale).
+    scale : {"driver", "range"}, default="driver"
+        The gauge. ``"driver"``: the coefficient of each latent row's driver
+        is held at 1. ``"range"``: each latent state ranges over
+        ``latent_bounds`` (finite, e.g. ``(0, 10)`` for a tank that overflows
+        at its top), which sets its scale; every coefficient of its row is
+        free and the start's driver gain ``gain`` is searched.
+    gain : float, optional
+        Driver gain of the starting lags with ``scale="range"``; None =
+        searched within ``bounds["gain"]`` (log scale). Unused with
+        ``scale="driver"`` (the gain is the gauge, 1).
+    bounds : dict, optional
+        Search ranges (log scale): ``"tau"`` (time units of ``dt``; default
+        ``(1e-3, 1e3)``) and ``"gain"`` (default ``(1e-3, 1e3)``).
+    latent_bounds : (float, float), optional
+        Simulation bounds of every latent state (in the gauge's units), e.g.
+        ``(0, inf)`` for a level that cannot go negative; None = unbounded.
+        With ``scale="range"``, a finite range is required.
+    output_bounds : (float, float), optional
+        Simulation bounds of the outputs (e.g. a sensor range).
+
+    Notes
+    -----
+    Use it with ``refine=OutputErrorRefinement(prune=...)``: without a
+    refinement the latent rows stay the starting linear lags. The library
+    must contain the linear term of each latent row's driver, whose
+    coefficient fixes the gauge.
+
+    Examples
+    --------
+    >>> s = LatentHiddenState(n_latent=1)
+    >>> sorted(s.search_space())
+    ['tau']
+    >>> s.structure({"tau": 10.0}, n_outputs=1, n_inputs=1).state_names
+    ['y0', 'z0']
+    >>> print(s.gauge())
+    z0: the coefficient of u0 in z0' is 1 (scale gauge)
+    >>> LatentHiddenState(order=2, driver="velocity").structure({"tau": 1.0}, n_outputs=1, n_inputs=1).state_names
+    ['y0', 'v0', 'z0']
+    """
+
+    _physical = ("tau", "gain")
+
+    def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, bounds=None,
+                 latent_bounds=None, output_bounds=None):
+        self.n_latent = n_latent
+        self.order = order
+        self.driver = driver
+        self.scale = scale
+        self.tau = tau
+        self.gain = gain
+        self.bounds = bounds
+        self.latent_bounds = latent_bounds
+        self.output_bounds = output_bounds
+
+    def _validate(self):
+        if isinstance(self.n_latent, bool) or not isinstance(self.n_latent, numbers.Integral) or self.n_latent < 1:
+            raise ValueError(f"n_latent must be an integer >= 1; got {self.n_latent!r}.")
+        if self.order not in (1, 2) or isinstance(self.order, bool):
+            raise ValueError(f"order must be 1 or 2; got {self.order!r}.")
+        if self.driver not in _DRIVERS:
+            raise ValueError(f"driver must be one of {_DRIVERS}; got {self.driver!r}.")
+        if self.driver == "velocity" and self.order != 2:
+            raise ValueError("driver='velocity' needs order=2 (the velocities are states only then).")
+        if self.scale not in _SCALES:
+            raise ValueError(f"scale must be one of {_SCALES}; got {self.scale!r}.")
+        for name in self._physical:
+            value = getattr(self, name)
+            if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Real)
+                                      or not np.isfinite(value) or value <= 0):
+                raise ValueError(f"{name} must be a finite number > 0 or None (searched); got {value!r}.")
+        zlo, zhi = check_bounds(self.latent_bounds, 1, name="latent_bounds")
+        if self.scale == "range" and not (np.isfinite(zlo[0]) and np.isfinite(zhi[0])):
+            raise ValueError(f"scale='range' fixes the latent scale by its bounds; expected finite latent_bounds, "
+                             f"got {self.latent_bounds!r}.")
+        check_bounds(self.output_bounds, 1, name="output_bounds")
+        self.search_space()
+
+    def search_space(self):
+        bounds = {"tau": (1e-3, 1e3), "gain": (1e-3, 1e3), **(self.bounds or {})}
+        names = ("tau", "gain") if self.scale == "range" else ("tau",)
+        return _space(self, bounds, names)
+
+    def resolve_params(self, values=None):
+        values = dict(values or {})
+        if self.scale == "driver":
+            values["gain"] = 1.0
+        params = {name: getattr(self, name) if getattr(self, name) is not None else values.get(name)
+                  for name in self._physical}
+        missing = [name for name, value in params.items() if value is None]
+        if missing:
+            raise ValueError(f"no value for the searched parameter {missing[0]!r}.")
+        if self.scale == "driver":
+            params["gain"] = 1.0
+        return params
+
+    def refinable(self, params):
+        return ()  # tau and gain set the start; the latent rows are learned
+
+    def default_library(self):
+        """Quadratic polynomial in ``(y, [v,] z, u)``."""
+        return PolynomialLibrary(degree=2)
+
+    def gauge(self):
+        """The gauge of each latent state, in words."""
+        if self.scale == "range":
+            return "\n".join(f"z{j}: ranges over {tuple(self.latent_bounds)} (range gauge)"
+                             for j in range(int(self.n_latent)))
+        first = {"input": "u0", "velocity": "v0", "output": "y0"}[self.driver]
+        return "\n".join(f"z{j}: the coefficient of {first if j == 0 else f'z{j - 1}'} in z{j}' is 1 (scale gauge)"
+                         for j in range(int(self.n_latent)))
+
+    def structure(self, params, *, n_outputs, n_inputs):
+        if n_inputs < 1 and self.driver == "input":
+            raise ValueError("driver='input' needs at least one input (the first one drives z0); got none.")
+        p, q = n_outputs, int(self.n_latent)
+        n_meas = p * int(self.order)
+        ylo, yhi = check_bounds(self.output_bounds, 1, name="output_bounds")
+        zlo, zhi = self._latent_range(params)
+        lower = np.r_[np.full(p, ylo[0]), np.full(n_meas - p, -np.inf), np.full(q, zlo[0])]
+        upper = np.r_[np.full(p, yhi[0]), np.full(n_meas - p, np.inf), np.full(q, zhi[0])]
+        bounds = None if np.all(np.isinf(lower)) and np.all(np.isinf(upper)) else (lower, upper)
+        names = [f"y{i}" for i in range(p)] + [f"v{i}" for i in range(n_meas - p)] + [f"z{j}" for j in range(q)]
+        if self.order == 1:
+            return Structure(n_states=p + q, learned=tuple(range(p + q)), output_index=tuple(range(p)),
+                             state_names=names, bounds=bounds)
+        fixed_coef = np.zeros((p, n_meas + q))
+        fixed_coef[np.arange(p), np.arange(p)] = 1.0  # y_i' = v_i
+        return Structure(n_states=n_meas + q, learned=tuple(range(p, n_meas + q)), output_index=tuple(range(p)),
+                         fixed_terms=[linear_term(p + i) for i in range(p)], fixed_coef=fixed_coef,
+                         state_names=names, bounds=bounds)
+
+    def _latent_range(self, params):
+        return check_bounds(self.latent_bounds, 1, name="latent_bounds")
+
+    def _drivers(self, n_outputs):
+        """Column in ``Z = [y, (v,) z, u]`` of each latent row's driver."""
+        n_meas = n_outputs * int(self.order)
+        q = int(self.n_latent)
+        first = {"input": n_meas + q, "velocity": n_outputs, "output": 0}[self.driver]
+        return [first if j == 0 else n_meas + j - 1 for j in range(q)]
+
+    def _lags(self, drive, params, dt):
+        """The starting latent trajectory: the lag chain driven by ``drive``, from its steady state."""
+        tau, gain = float(params["tau"]), float(params["gain"])
+        q = int(self.n_latent)
+        coef = np.zeros((q + 1, q))
+        terms = [((j, POW, 1.0, 0.0),) for j in range(q)] + [((q, POW, 1.0, 0.0),)]
+        for j in range(q):
+            coef[j, j] = -1.0 / tau
+            coef[q if j == 0 else j - 1, j] = gain
+        zlo, zhi = self._latent_range(params)
+        x0 = np.clip(np.cumprod(np.full(q, tau * gain)) * drive[0], zlo[0], zhi[0])
+        bounds = (np.full(q, zlo[0]), np.full(q, zhi[0]))
+        z = simulate(TermsRHS(coef, terms, q), x0, drive[:, None], dt, n_substeps=4, bounds=bounds)
+        return z, np.c_[z, drive] @ coef  # the lags and their exact derivatives
+
+    def _measured(self, y, derivative):
+        return y if self.order == 1 else np.c_[y, derivative(y)]
+
+    def _drive(self, meas, u, n_outputs):
+        """The signal that drives ``z0`` (columns: samples; 1-D rows: one sample)."""
+        source = {"input": (u, 0), "velocity": (meas, n_outputs), "output": (meas, 0)}[self.driver]
+        return source[0][..., source[1]]
+
+    def design(self, u, y, dt, *, derivative, params):
+        states = self._measured(y, derivative)
+        z, z_dot = self._lags(self._drive(states, u, y.shape[1]), params, dt)
+        return Design(states=np.c_[states, z], targets=np.c_[derivative(y, order=int(self.order)), z_dot])
+
+    def refine_free(self, coef, terms, *, n_outputs, n_inputs):
+        """Entries of the learned block freed by a refinement.
+
+        The outputs' nonzero coefficients, and every term of the latent rows
+        except, with ``scale="driver"``, each row's gauge term (its driver's
+        linear term, held at its value).
+        """
+        if terms is None:
+            raise ValueError("LatentHiddenState needs a library of built-in terms (compiled); got a Python library.")
+        free = coef != 0
+        terms = [tuple(t) for t in terms]
+        for j, col in enumerate(self._drivers(n_outputs)):
+            free[:, n_outputs + j] = True
+            if self.scale == "range":
+                continue
+            gauge = ((col, POW, 1.0, 0.0),)
+            if gauge not in terms:
+                raise ValueError(f"the library has no linear term of column {col} (the driver of z{j}); expected it "
+                                 "in the library: its coefficient fixes the latent state's scale.")
+            free[terms.index(gauge), n_outputs + j] = False
+        return free
+
+    def initial_state(self, u, y_init, dt, *, derivative, params, model):
+        """Outputs (and velocities) from ``y_init``; latent states at rest for them and ``u[0]``."""
+        q = int(self.n_latent)
+        meas = np.asarray(self._measured(y_init, derivative)[0], dtype=float)
+        zlo, zhi = self._latent_range(params)
+        drive0 = self._drive(meas, np.asarray(u[0], dtype=float), y_init.shape[1])
+        start = np.clip(np.cumprod(np.full(q, float(params["tau"]) * float(params["gain"]))) * drive0, zlo[0], zhi[0])
+
+        def residual(z):
+            return np.asarray(model.rhs(np.r_[meas, z], u[0]), dtype=float)[meas.size:]
+
+        with np.errstate(all="ignore"):
+            try:
+                fit = least_squares(residual, start, max_nfev=50 * q)
+                z0 = fit.x if np.all(np.isfinite(fit.x)) else start
+            except ValueError:
+                z0 = start
+        return np.r_[meas, z0]
+
+
+_DRIVERS = ("input", "velocity", "output")
+_SCALES = ("driver", "range")
+
+
+def _space(strategy, bounds, names):
+    """The searched parameters among ``names`` with their ranges, log-scaled."""
+    space = {}
+    for name in names:
+        if getattr(strategy, name) is not None:
+            continue
+        if name not in bounds:
+            raise ValueError(f"{name}=None asks for a search but bounds has no entry {name!r}; "
+                             f"expected bounds={{{name!r}: (low, high)}} or a fixed value.")
+        low, high = (float(v) for v in tuple(bounds[name])[:2])
+        if not 0 < low < high:
+            raise ValueError(f"bounds[{name!r}] = {bounds[name]!r}; expected 0 < low < high (log-scaled search).")
+        space[name] = (low, high, True)
+    return space
+
+
+def latent_invariants(model, u_op, *, y_guess=None, eps=1e-6):
+    """Gauge-free quantities of a fitted latent model at a steady operating point.
+
+    The poles (eigenvalues of the state Jacobian at the equilibrium for the
+    constant input ``u_op``) and the static gain of the outputs from the inputs
+    do not depend on the latent states' scale.
+
+    Parameters
+    ----------
+    model : HiddenStateSINDy
+        Fitted, with a :class:`LatentHiddenState` (any fitted model works).
+    u_op : array-like of shape (n_inputs,)
+        Constant input of the operating point.
+    y_guess : array-like, optional
+        Start of the equilibrium search (default: the training states' mean).
+    eps : float, default=1e-6
+        Relative step of the central differences.
+
+    Returns
+    -------
+    dict
+        ``"state"``: the equilibrium, ``"jacobian"``: the state Jacobian there,
+        ``"poles"``: its eigenvalues (1/time), ``"gain"``: d y / d u at steady
+        state (n_outputs, n_inputs), or None where the Jacobian is singular
+        (an integrator, or a continuum of equilibria).
+    """
+    u_op = np.asarray(u_op, dtype=float).reshape(-1)
+    rhs = model.rhs_
+    start = np.mean(model.states_, axis=0) if y_guess is None else np.asarray(y_guess, dtype=float)
+    sol = least_squares(lambda x: rhs(x, u_op), start, xtol=1e-14, ftol=1e-14, gtol=1e-14)
+    x = sol.x
+    n, m = x.size, u_op.size
+
+    def jac(f, v):
+        out = []
+        for i in range(v.size):
+            h = eps * max(1.0, abs(v[i]))
+            e = np.zeros_like(v)
+            e[i] = h
+            out.append((f(v + e) - f(v - e)) / (2 * h))
+        return np.array(out).T
+
+    A = jac(lambda v: np.asarray(rhs(v, u_op), dtype=float), x)
+    B = jac(lambda v: np.asarray(rhs(x, v), dtype=float), u_op)
+    out_idx = list(model.structure_.output_index)
+    gain = None  # an integrator or a continuum of equilibria (a hysteresis state at rest): no static gain
+    if np.linalg.cond(A) < 1e10:
+        gain = -np.linalg.solve(A, B)[out_idx].reshape(len(out_idx), m)
+    return {"state": x, "jacobian": A, "poles": np.linalg.eigvals(A), "gain": gain}
+
+
+register_model(LatentHiddenState)

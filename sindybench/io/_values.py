@@ -103,7 +103,8 @@ def decode_array(value, field, shape=None):
     if not isinstance(data, list) or len(data) != math.prod(dims):
         raise ValueError(f"{field}.data: expected a list of {math.prod(dims)} values (shape {dims}); got {_kind(data)}.")
     if dtype in ("float64", "float32"):
-        ok = all((isinstance(v, (int, float)) and not isinstance(v, bool)) or v in _SPECIAL for v in data)
+        ok = all((isinstance(v, (int, float)) and not isinstance(v, bool)) or (isinstance(v, str) and v in _SPECIAL)
+                 for v in data)
         values = [_SPECIAL.get(v, v) if isinstance(v, str) else v for v in data] if ok else None
     elif dtype == "int64":
         ok = all(isinstance(v, int) and not isinstance(v, bool) and -2**63 <= v < 2**63 for v in data)
@@ -291,7 +292,7 @@ def decode_value(value, field="value", *, allow_import=False, function_ok=True):
         raise ValueError(f"{field}: expected a plain value or a one-key object tagged {list(_TAGS)}; got {_kind(value)}.")
     tag, inner = next(iter(value.items()))
     if tag == "float":
-        if inner not in _SPECIAL:
+        if not isinstance(inner, str) or inner not in _SPECIAL:
             raise ValueError(f"{field}.float: expected one of {sorted(_SPECIAL)}; got {_kind(inner)}.")
         return _SPECIAL[inner]
     if tag == "tuple":
@@ -577,10 +578,10 @@ def check_limit(value, field, high=MAX_SUBSTEPS):
 
 
 def check_params(check, *args):
-    """Run an estimator's parameter check at loading; its ``ValueError`` names ``params``."""
+    """Run an estimator's parameter check at loading; its ``ValueError`` (or ``TypeError``) names ``params``."""
     try:
         return check(*args)
-    except ValueError as exc:
+    except (ValueError, TypeError) as exc:  # a stored value of the wrong type may fail a conversion
         raise ValueError(f"params: {exc}") from exc
 
 

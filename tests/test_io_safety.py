@@ -16,9 +16,12 @@ import re
 import resource
 import signal
 import sys
+import tempfile
 import time
+import tracemalloc
 import warnings
 from contextlib import contextmanager
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -32,8 +35,13 @@ from sindybench.hidden import BoucWenHiddenState, DerivativeHiddenState, Paramet
 from sindybench.libraries import PolynomialLibrary, SqrtLibrary
 from sindybench.refine import OutputErrorRefinement
 
-hypothesis = pytest.importorskip("hypothesis", reason="the test extra (hypothesis) is missing")
-st = pytest.importorskip("hypothesis.strategies")
+try:  # the fuzz suite needs Hypothesis (the test extra); the pinned cases below do not
+    import hypothesis
+    import hypothesis.strategies as st
+except ImportError:
+    hypothesis = None
+
+needs_hypothesis = pytest.mark.skipif(hypothesis is None, reason="the test extra (hypothesis) is missing")
 
 
 def upper_tank(xh, y, u, *, k1, k2):
@@ -322,6 +330,7 @@ def test_pysindy_parts_are_named_with_their_sindybench_equivalent(tmp_path):
 KINDS = ["SINDy", "SINDy-refined", "STLS", "ARX", "NNARX", "TanksHiddenState", "ParametricHiddenState",
          "BoucWenHiddenState", "DerivativeHiddenState"]
 SECONDS = 5.0  # one load and one simulation; a small file loads in well under a second
+MEBIBYTES = 200  # peak allocation of one load and one simulation (the files are a few kB)
 _TOP = re.compile(r"^(\S*\.json |format|format_version|sindybench_version|class|params|fitted)\b")
 
 
@@ -344,20 +353,21 @@ def _nested(depth):
     return value
 
 
-_NAMES = ["STLS", "SINDy", "PolynomialLibrary", "ConcatLibrary", "ProductLibrary", "TanksHiddenState", "Spectral",
-          "FiniteDifference", "OutputErrorRefinement", "os.system", "TermsLibrary"]
-SPECIAL = st.sampled_from([
-    None, True, 0, -1, 1, 2, 10**9, 2**63, -(2**63) - 1, int("9" * 400), 1e308, -1e-320, 0.5, float("inf"), "nan",
-    "inf", "", "x" * 10_000, [], {}, [0] * 1000, {"float": "nan"}, {"float": "inf"}, {"tuple": []},
-    {"dict": {}}, {"function": "this:s"}, {"function": "os:system"}, {"array": sio.encode_array(np.ones((2, 2)))},
-    {"array": {"dtype": "float64", "shape": [0, 2**40], "data": []}}, _nested(150),
-    {"estimator": {"class": "PolynomialLibrary", "params": {"degree": 10**6}}},
-])
-JSON = st.recursive(
-    st.none() | st.booleans() | st.integers(-(2**70), 2**70) | st.floats(allow_nan=False) | st.text(max_size=8),
-    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
-    max_leaves=8,
-) | SPECIAL | st.builds(lambda name: {"estimator": {"class": name, "params": {}}}, st.sampled_from(_NAMES))
+if hypothesis is not None:
+    _NAMES = ["STLS", "SINDy", "PolynomialLibrary", "ConcatLibrary", "ProductLibrary", "TanksHiddenState", "Spectral",
+              "FiniteDifference", "OutputErrorRefinement", "os.system", "TermsLibrary"]
+    SPECIAL = st.sampled_from([
+        None, True, 0, -1, 1, 2, 10**9, 2**63, -(2**63) - 1, int("9" * 400), 1e308, -1e-320, 0.5, float("inf"), "nan",
+        "inf", "", "x" * 10_000, [], {}, [0] * 1000, {"float": "nan"}, {"float": "inf"}, {"tuple": []},
+        {"dict": {}}, {"function": "this:s"}, {"function": "os:system"}, {"array": sio.encode_array(np.ones((2, 2)))},
+        {"array": {"dtype": "float64", "shape": [0, 2**40], "data": []}}, _nested(150),
+        {"estimator": {"class": "PolynomialLibrary", "params": {"degree": 10**6}}},
+    ])
+    JSON = st.recursive(
+        st.none() | st.booleans() | st.integers(-(2**70), 2**70) | st.floats(allow_nan=False) | st.text(max_size=8),
+        lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4),
+        max_leaves=8,
+    ) | SPECIAL | st.builds(lambda name: {"estimator": {"class": name, "params": {}}}, st.sampled_from(_NAMES))
 
 
 def _mutate(data, draw):
@@ -425,6 +435,7 @@ def _check_case(text, tmp_path, what):
     path = tmp_path / "fuzz.json"
     path.write_text(text)
     start = time.perf_counter()
+    tracemalloc.start()  # numpy reports its arrays to tracemalloc too
     with _time_limit(4 * SECONDS), warnings.catch_warnings():
         warnings.simplefilter("ignore")  # divergence and convergence warnings are results too
         try:
@@ -435,13 +446,18 @@ def _check_case(text, tmp_path, what):
         else:
             out = np.asarray(_use(model, np.random.default_rng(0)))
             assert out.shape[0] == 30, what
+        finally:
+            peak = tracemalloc.get_traced_memory()[1] / 2**20
+            tracemalloc.stop()
     assert time.perf_counter() - start < SECONDS, f"{what}: took {time.perf_counter() - start:.1f} s"
+    assert peak < MEBIBYTES, f"{what}: allocated {peak:.0f} MiB"
 
 
 def _max_rss_mib():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB on Linux
 
 
+@needs_hypothesis
 @pytest.mark.parametrize("kind", KINDS)
 def test_fuzz_mutated_model_files(files, tmp_path, runslow, kind):
     """Every mutated file: a loaded model that simulates, or a ValueError naming the field, fast and small."""
@@ -459,6 +475,7 @@ def test_fuzz_mutated_model_files(files, tmp_path, runslow, kind):
     assert _max_rss_mib() - rss < 500, "loading mutated files took more than 500 MiB"
 
 
+@needs_hypothesis
 @pytest.mark.parametrize("kind", KINDS)
 def test_fuzz_truncated_and_garbled_text(files, tmp_path, runslow, kind):
     """Cut or garbled JSON text is refused as invalid JSON or by field, never with a traceback."""
@@ -479,4 +496,7 @@ def test_fuzz_suite_finds_the_old_defects():
     assert not _TOP.match("int too large to convert to float") and not _TOP.match("maximum recursion depth")
     with pytest.raises(_Timeout), _time_limit(0.05):
         time.sleep(1)
+    with pytest.raises(AssertionError, match="allocated"), pytest.MonkeyPatch.context() as patch:
+        patch.setattr(sys.modules[__name__], "MEBIBYTES", 0)
+        _check_case("{}", Path(tempfile.mkdtemp()), "an empty object")
     assert math.isfinite(_max_rss_mib())

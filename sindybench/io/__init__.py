@@ -42,13 +42,10 @@ from ._files import (
     save_model,
     write_text_atomic,
 )
+from ._checks import check_fitted_kind, check_limit, check_params, check_plain
 from ._registry import register_model
 from ._values import (
     Fields,
-    check_fitted_kind,
-    check_limit,
-    check_params,
-    check_plain,
     decode_array,
     decode_value,
     encode_array,

@@ -109,7 +109,11 @@ def nnarx_from_dict(model, fitted):
     model.linear_intercept_ = fitted.array("linear_intercept", (n_out,), finite=True)
     model.n_iter_ = fitted.int("n_iter")
     sizes = model.hidden_layer_sizes
-    widths = [n_reg, *(int(h) for h in (sizes if hasattr(sizes, "__iter__") else [sizes])), n_out]
+    sizes = list(sizes) if isinstance(sizes, (list, tuple)) else [sizes]
+    if not sizes or not all(isinstance(h, int) and not isinstance(h, bool) and h >= 1 for h in sizes):
+        raise ValueError(f"params.hidden_layer_sizes: expected a tuple of integers >= 1; "
+                         f"got {model.hidden_layer_sizes!r}.")
+    widths = [n_reg, *sizes, n_out]
     model.estimators_ = [_network_from_dict(model, net, widths)
                          for net in fitted.items("networks", int(model.n_estimators))]
     model.mlp_ = model.estimators_[0]

@@ -34,10 +34,12 @@ Stored ``fitted`` entries (a new fitted attribute goes into both functions;
 
 import math
 
+import numpy as np
 from sklearn.base import clone
 
 from .._sindy_persist import fitted_parts
 from .._stls import STLS
+from .._validation import check_bounds
 from ..io import check_limit, check_params, encode_array, encode_value, fitted_to_dict
 from ..libraries import check_terms, fitted_library_from_dict, fitted_library_to_dict, terms_to_json
 from ..libraries._spec import MAX_COLUMNS
@@ -128,6 +130,14 @@ def _check_physical(hidden, params):
     if bad:
         raise ValueError(f"fitted.params[{bad[0]!r}]: expected a finite number; got {params[bad[0]]!r}.")
     try:
+        space = hidden.search_space()
+        expected = sorted(hidden.resolve_params({k: low for k, (low, _, _) in space.items()}))
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ValueError(f"fitted.hidden: {type(hidden).__name__} cannot name its parameters: {exc}") from exc
+    if sorted(params) != expected:
+        raise ValueError(f"fitted.params: expected the {type(hidden).__name__} parameters {expected}; "
+                         f"got {sorted(params)}.")
+    try:
         names = hidden.refinable(params)
         own = {k: params[k] for k in names if k in hidden._get_param_names()}
         clone(hidden).set_params(**own)._validate()
@@ -166,6 +176,15 @@ def hidden_sindy_from_dict(model, fitted):
         raise ValueError(f"fitted.states: expected the training trajectory (at least one sample of {s.n_states} "
                          "states); got 0 samples.")
     model.x0_ = fitted.array("x0", (s.n_states,), finite=True)
+    try:
+        lo, hi = check_bounds(s.bounds, s.n_states, name="fitted.structure.bounds")
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"fitted.structure.bounds: expected (lower, upper) of {s.n_states} states; {exc}") from exc
+    outside = (model.x0_ < lo) | (model.x0_ > hi)
+    if outside.any():
+        i = int(np.argmax(outside))
+        raise ValueError(f"fitted.x0: x0[{i}] = {model.x0_[i].item()!r} is outside fitted.structure.bounds "
+                         f"[{lo[i].item()!r}, {hi[i].item()!r}]; expected the first state of the training trajectory.")
     model.n_features_in_ = n_inputs
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)

@@ -28,7 +28,7 @@ Loading checks the cheap things first: the nesting depth and integer sizes of
 the JSON (:func:`check_plain`), then each field, then what it builds. A file
 may not ask for more than the limits below, so that a small file loads in a
 fraction of a second or is refused with a ``ValueError``: nesting 100 levels,
-arrays of 32 dimensions below 2**31 each, integers of 64 bits, 1000 sub-steps
+arrays of 32 dimensions below ``2**31`` each, integers of 64 bits, 1000 sub-steps
 per sample, libraries fitted on 100,000 columns, and no library that would
 build more than ``4 n + 1000`` terms where the file stores ``n``.
 """
@@ -42,13 +42,10 @@ from ._files import (
     save_model,
     write_text_atomic,
 )
+from ._checks import check_fitted_kind, check_limit, check_params, check_plain
 from ._registry import register_model
 from ._values import (
     Fields,
-    check_fitted_kind,
-    check_limit,
-    check_params,
-    check_plain,
     decode_array,
     decode_value,
     encode_array,

@@ -9,7 +9,8 @@ import numpy as np  # noqa: F401  (used by the doctests)
 from sklearn.utils.validation import check_is_fitted
 
 from ._registry import _REGISTRY, _lookup, _registered
-from ._values import Fields, _construct, _encode_params, check_plain
+from ._checks import check_plain
+from ._values import Fields, _construct, _encode_params
 
 __all__ = ["SaveLoadMixin", "load_model", "model_from_dict", "model_to_dict", "save_model", "write_text_atomic"]
 

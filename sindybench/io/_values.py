@@ -10,10 +10,6 @@ from ._registry import _REGISTRY, _function_params, _lookup, _registered
 
 __all__ = [
     "Fields",
-    "check_fitted_kind",
-    "check_limit",
-    "check_params",
-    "check_plain",
     "decode_array",
     "decode_value",
     "encode_array",
@@ -23,9 +19,7 @@ __all__ = [
 ]
 
 _TAGS = ("array", "dict", "estimator", "float", "function", "tuple")
-MAX_DEPTH = 100  # nesting of JSON lists and objects in a model file (real files: about 15)
 MAX_NDIM, MAX_DIM = 32, 2**31  # array dimensions a file may declare
-MAX_SUBSTEPS = 1000  # integration sub-steps per sample a file may ask for (each one costs a step of every run)
 _DTYPES = {"float64": np.float64, "float32": np.float32, "int64": np.int64, "bool": bool}
 _SPECIAL = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
 
@@ -103,7 +97,8 @@ def decode_array(value, field, shape=None):
     if not isinstance(data, list) or len(data) != math.prod(dims):
         raise ValueError(f"{field}.data: expected a list of {math.prod(dims)} values (shape {dims}); got {_kind(data)}.")
     if dtype in ("float64", "float32"):
-        ok = all((isinstance(v, (int, float)) and not isinstance(v, bool)) or v in _SPECIAL for v in data)
+        ok = all((isinstance(v, (int, float)) and not isinstance(v, bool)) or (isinstance(v, str) and v in _SPECIAL)
+                 for v in data)
         values = [_SPECIAL.get(v, v) if isinstance(v, str) else v for v in data] if ok else None
     elif dtype == "int64":
         ok = all(isinstance(v, int) and not isinstance(v, bool) and -2**63 <= v < 2**63 for v in data)
@@ -291,7 +286,7 @@ def decode_value(value, field="value", *, allow_import=False, function_ok=True):
         raise ValueError(f"{field}: expected a plain value or a one-key object tagged {list(_TAGS)}; got {_kind(value)}.")
     tag, inner = next(iter(value.items()))
     if tag == "float":
-        if inner not in _SPECIAL:
+        if not isinstance(inner, str) or inner not in _SPECIAL:
             raise ValueError(f"{field}.float: expected one of {sorted(_SPECIAL)}; got {_kind(inner)}.")
         return _SPECIAL[inner]
     if tag == "tuple":
@@ -480,108 +475,6 @@ class Fields:
     def fields(self, name):
         """The nested object ``name`` as :class:`Fields`."""
         return Fields(self.get(name, "an object"), self.where(name), allow_import=self.allow_import)
-
-
-def check_plain(data, field=""):
-    """Check that JSON ``data`` is plain and bounded: nesting and integers.
-
-    Lists and objects may nest at most ``MAX_DEPTH`` (100) levels and
-    integers must fit in 64 bits; a deeper or larger value (a file built to
-    exhaust the recursion limit or the float conversion) is refused with a
-    ``ValueError`` naming where it sits. Runs without recursion, in one pass.
-
-    Examples
-    --------
-    >>> check_plain({"a": [1, 2.5, "x", None]})
-    >>> nested = []
-    >>> for _ in range(200):
-    ...     nested = [nested]
-    >>> check_plain({"params": {"bounds": nested}})
-    Traceback (most recent call last):
-    ...
-    ValueError: params.bounds[0][0]...: nested more than 100 levels deep; expected a model file (about 15 levels).
-    >>> check_plain({"fitted": {"n_states": 10**30}})
-    Traceback (most recent call last):
-    ...
-    ValueError: fitted.n_states: an integer of 31 digits; expected a 64-bit integer.
-    """
-    stack = [(data, 0, field)]
-    while stack:
-        value, depth, where = stack.pop()
-        if depth > MAX_DEPTH:
-            raise ValueError(f"{where[:60]}...: nested more than {MAX_DEPTH} levels deep; expected a model file "
-                             "(about 15 levels).")
-        items = value.items() if isinstance(value, dict) else enumerate(value)
-        for key, v in items:
-            if isinstance(v, (dict, list)):
-                stack.append((v, depth + 1, _child(where, key)))
-            elif isinstance(v, int) and not -2**63 <= v < 2**63:
-                digits = int(v.bit_length() * 0.30103)  # str(v) itself is refused beyond 4300 digits
-                digits += abs(v) >= 10**digits
-                raise ValueError(f"{_child(where, key)}: an integer of {digits} digits; expected a 64-bit integer.")
-            elif not isinstance(v, (int, float, str)) and v is not None:
-                raise ValueError(f"{_child(where, key)}: a {type(v).__name__}; expected JSON data.")
-
-
-def _child(where, key):
-    if isinstance(key, str):
-        return f"{where}.{key}" if where else key
-    return f"{where}[{key}]"
-
-
-def check_fitted_kind(value, expected, field):
-    """Refuse a fitted part (optimizer, differentiation) of another class than the parameters give.
-
-    Returns ``value``.
-
-    Examples
-    --------
-    >>> from sindybench import STLS
-    >>> check_fitted_kind(STLS(), STLS, "fitted.optimizer")
-    STLS()
-    >>> check_fitted_kind([], STLS, "fitted.optimizer")
-    Traceback (most recent call last):
-    ...
-    ValueError: fitted.optimizer: expected a fitted STLS (the class the parameters name); got list.
-    """
-    if type(value) is not expected:
-        raise ValueError(f"{field}: expected a fitted {expected.__name__} (the class the parameters name); "
-                         f"got {type(value).__name__}.")
-    return value
-
-
-def check_limit(value, field, high=MAX_SUBSTEPS):
-    """Refuse a stored count (sub-steps, grid points) larger than a model file may ask for.
-
-    A setting such as ``n_substeps = 10**9`` loads in no time and then makes
-    every simulation hang; such a file is refused at loading instead.
-
-    Parameters
-    ----------
-    value : int
-        The (already validated) setting.
-    field : str
-        Where it sits in the file, for the message.
-    high : int, default=1000
-
-    Examples
-    --------
-    >>> check_limit(4, "params.n_substeps")
-    >>> check_limit(10**9, "params.n_substeps")
-    Traceback (most recent call last):
-    ...
-    ValueError: params.n_substeps = 1000000000; a model file may ask for at most 1000.
-    """
-    if isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value > high:
-        raise ValueError(f"{field} = {value}; a model file may ask for at most {high}.")
-
-
-def check_params(check, *args):
-    """Run an estimator's parameter check at loading; its ``ValueError`` names ``params``."""
-    try:
-        return check(*args)
-    except ValueError as exc:
-        raise ValueError(f"params: {exc}") from exc
 
 
 # ------------------------------------------------------ fitted estimators

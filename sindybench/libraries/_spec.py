@@ -94,7 +94,11 @@ def fitted_library_from_dict(fields, n_columns):
             f"{fields.where('library')}: {text[:200]}{'...' if len(text) > 200 else ''} would build more than "
             f"{limit} terms on {n_columns} columns; the file stores {len(terms)}. Refused before building them."
         )
-    library.fit(np.zeros((1, n_columns)))
+    try:
+        library.fit(np.zeros((1, n_columns)))
+    except (ValueError, TypeError) as exc:  # parameters a library refuses when it builds its terms
+        raise ValueError(f"{fields.where('library')}: {_short(library)[:200]} refused its parameters on "
+                         f"{n_columns} columns: {exc}") from exc
     if library.terms_ != terms:
         raise ValueError(
             f"{fields.where('terms')}: expected the {len(library.terms_)} terms of {library!r} on {n_columns} "

@@ -209,8 +209,10 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
         Lines look like ``y0' = -4.822 y0 + 0.740 y0 u0 + 1.742 u0^2``; a
         constant term shows as its number, an all-zero row as ``0``, a row
-        fixed by a Python function as ``(fixed: <strategy>)``. In a notebook
-        a fitted model displays them typeset (``_repr_latex_``).
+        fixed by a Python function as ``(fixed: <strategy>)``. A model with
+        latent states ends with one line per latent state saying how its scale
+        is fixed (``gauge: z0: the coefficient of u0 in z0' is 1 ...``). In a
+        notebook a fitted model displays them typeset (``_repr_latex_``).
 
         Parameters
         ----------
@@ -242,8 +244,14 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         >>> model.equations(precision=2, latex=True)[0]
         '\\dot{y}_0 = -2.00 \\, y_0'
         """
-        return format_equations(self._equation_rows(), precision=precision, latex=latex,
-                                errors=self._coef_errors() if errors else None)
+        lines = format_equations(self._equation_rows(), precision=precision, latex=latex,
+                                 errors=self._coef_errors() if errors else None)
+        notes = [f"gauge: {note}" for note in self._equation_notes()]
+        return lines + ([rf"\text{{{note}}}" for note in notes] if latex else notes)
+
+    def _equation_notes(self):
+        """Lines that ``equations()`` adds after the rows (none by default)."""
+        return []
 
     # -------------------------------------------------------------- refinement
     def _run_refinement(self, dynamics, u, y, *, x0, coef=None, free=None, physical=None, make_rhs=None):

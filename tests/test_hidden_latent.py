@@ -58,7 +58,8 @@ def test_hidden_tank_with_square_root_outflow(rng):
     x_eq = np.array([6.25, 4.0])  # at u = 2.5: upper level (0.8 u)^2, lower level u^2
     np.testing.assert_allclose(np.sort(inv["poles"].real), _poles(truth, x_eq, [2.5]), rtol=0.05)
     np.testing.assert_allclose(inv["gain"], [[5.0]], rtol=0.05)  # dy/du = 2 u
-    # the gauge: the coefficient of u0 in z0' is pinned at 1
+    # the gauge: the coefficient of u0 in z0' is pinned at 1, and equations() says so
+    assert model.equations()[-1] == "gauge: z0: the coefficient of u0 in z0' is 1 (scale gauge)"
     z_row = model.coef_[1]
     assert z_row[model.library_.terms_.index(((2, 0, 1.0, 0.0),))] == pytest.approx(1.0)
 

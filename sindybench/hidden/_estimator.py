@@ -429,6 +429,10 @@ class HiddenStateSINDy(DynamicsEstimator):
         check_option(self.initial_state, "initial_state", _INITIAL_STATES)
         return candidate_initial_state(self.hidden_, self._candidate_, X, y_init, self.initial_state)
 
+    def _equation_notes(self):
+        gauge = getattr(self.hidden_, "gauge", None)  # strategies with latent states say how their scale is fixed
+        return gauge().splitlines() if callable(gauge) else []
+
     def _equation_rows(self):
         check_is_fitted(self)
         names = self.state_names_ + [f"u{i}" for i in range(self.n_features_in_)]

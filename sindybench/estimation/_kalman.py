@@ -1,8 +1,9 @@
 """Continuous-discrete extended Kalman filter and Rauch-Tung-Striebel smoother.
 
 The state is propagated from sample to sample by the fitted model's own
-integrator (the simulator's step: Runge-Kutta stages, sub-steps, input hold,
-bounds) and the covariance by the exact Jacobian ``F`` of that step,
+integrator (the public one-step map of :mod:`sindybench.dynamics`, the
+simulator's step: Runge-Kutta stages, sub-steps, input hold, bounds) and the
+covariance by the exact Jacobian ``F`` of that step,
 ``P <- F P F' + Q``; each measured sample then updates the measured states
 (the model's output states, ``H`` a selection) in Joseph form. The loop over
 samples, the smoother's backward pass included, is compiled with numba.
@@ -14,7 +15,8 @@ import numpy as np
 from numba import njit
 
 from .._validation import check_signal
-from ._model_step import kernel, model_step, step_jacobian, workspace
+from ..dynamics import step_jacobian_kernel
+from ._model_step import model_step
 
 __all__ = ["FilterDivergenceError", "KalmanResult", "extended_kalman_filter", "rts_smoother"]
 
@@ -122,19 +124,16 @@ def _sandwich(A, P, tmp, out):
 
 
 @njit(cache=True)
-def _filter(x0, P0, u, y, h, Q, R, oidx, kern, xf, Pf, xp, Pp, F, innov, S_out):
+def _filter(x0, P0, u, y, dt, Q, R, oidx, sm, xf, Pf, xp, Pp, F, innov, S_out):
     """Run the filter; return (first failing sample or -1, failure code, log-likelihood).
 
     Codes: 1 the model's step diverged, 2 the innovation covariance is not
     positive definite, 3 the updated state is not finite.
     """
     n, m, N = x0.shape[0], oidx.shape[0], y.shape[0]
-    lo, hi = kern[4], kern[5]
+    lo, hi = sm.lo, sm.hi
     x = x0.copy()
     P = P0.copy()
-    x_next = np.empty(n)
-    J = np.empty((n, n))
-    work = workspace(kern, n, u.shape[1])
     S = np.empty((m, m))
     L = np.zeros((m, m))
     PHt = np.empty((n, m))
@@ -146,7 +145,8 @@ def _filter(x0, P0, u, y, h, Q, R, oidx, kern, xf, Pf, xp, Pp, F, innov, S_out):
     loglik = 0.0
     for k in range(N):
         if k > 0:
-            if step_jacobian(x, u[k - 1:k + 1], h[k - 1:k], kern, work, x_next, J) >= 0:
+            x_next, J, _, bad = step_jacobian_kernel(sm, x, u[k - 1], u[k], dt)
+            if bad:
                 return k, 1, loglik
             x[:] = x_next
             _sandwich(J, P, tmp, P)
@@ -294,12 +294,11 @@ def run_filter(model, X, y, *, Q, R, x0=None, P0=None):
     Q = check_covariance(Q, n, "Q")
     R = check_covariance(R, n_out, "R", definite=True)
     x0, P0 = _check_prior(m, x0, P0)
-    h = np.full(max(N - 1, 0), m.dt)
     arrays = {name: np.zeros(shape) for name, shape in (
         ("xf", (N, n)), ("Pf", (N, n, n)), ("xp", (N, n)), ("Pp", (N, n, n)), ("F", (N, n, n)),
         ("innov", (N, n_out)), ("S", (N, n_out, n_out)))}
     oidx = np.asarray(m.output_index, dtype=np.int64)
-    k, code, loglik = _filter(x0, P0, X, y, h, Q, R, oidx, kernel(m), *arrays.values())
+    k, code, loglik = _filter(x0, P0, X, y, m.dt, Q, R, oidx, m.step_model(), *arrays.values())
     if k >= 0:
         raise FilterDivergenceError(f"the Kalman filter diverged at sample {k} of {N}: {_CAUSES[code]}. Check the "
                                     "model (does its simulation of this record stay finite?), Q, R and the prior.",

@@ -15,7 +15,7 @@ import numpy as np
 from numba import njit
 
 from .._validation import check_signal
-from ..dynamics import step_jacobian_kernel
+from ..dynamics import jacobian_workspace, step_jacobian_into
 from ._model_step import model_step
 
 __all__ = ["FilterDivergenceError", "KalmanResult", "extended_kalman_filter", "rts_smoother"]
@@ -134,6 +134,9 @@ def _filter(x0, P0, u, y, dt, Q, R, oidx, sm, xf, Pf, xp, Pp, F, innov, S_out):
     lo, hi = sm.lo, sm.hi
     x = x0.copy()
     P = P0.copy()
+    J = np.empty((n, n))
+    no_par = np.empty((n, 0))
+    work = jacobian_workspace(sm, u.shape[1])
     S = np.empty((m, m))
     L = np.zeros((m, m))
     PHt = np.empty((n, m))
@@ -145,10 +148,8 @@ def _filter(x0, P0, u, y, dt, Q, R, oidx, sm, xf, Pf, xp, Pp, F, innov, S_out):
     loglik = 0.0
     for k in range(N):
         if k > 0:
-            x_next, J, _, bad = step_jacobian_kernel(sm, x, u[k - 1], u[k], dt)
-            if bad:
+            if step_jacobian_into(sm, x, u[k - 1], u[k], dt, work, J, no_par):
                 return k, 1, loglik
-            x[:] = x_next
             _sandwich(J, P, tmp, P)
             for i in range(n):
                 for j in range(n):

@@ -4,7 +4,7 @@ import numpy as np
 from numba import njit
 
 from .._validation import check_integer
-from ..dynamics import SimulationError, step_kernel
+from ..dynamics import SimulationError, step_into, step_workspace
 from ..metrics import rmse
 from ._kalman import extended_kalman_filter, rts_smoother
 from ._model_step import model_step
@@ -15,11 +15,12 @@ __all__ = ["k_step_rmse", "predict_k_step", "smooth_initial_state"]
 @njit(cache=True)
 def _k_step(xf, u, dt, k, sm, oidx, out):
     """``out[t] = x[t + k][oidx]`` simulated from ``xf[t]``; -1 or the first ``t`` whose run diverged."""
+    work = step_workspace(sm, u.shape[1])
+    x = np.empty(xf.shape[1])
     for t in range(out.shape[0]):
-        x = xf[t].copy()
+        x[:] = xf[t]
         for i in range(k):
-            x, bad = step_kernel(sm, x, u[t + i], u[t + i + 1], dt)
-            if bad:
+            if step_into(sm, x, u[t + i], u[t + i + 1], dt, work):
                 return t
         for a in range(oidx.shape[0]):
             out[t, a] = x[oidx[a]]

@@ -14,8 +14,10 @@ Printed side by side in one process:
    measured-state selection). Two versions of the step: (a) the public API, as a user
    writes it (``sindybench.refine.simulate_sensitivity`` over two samples, the final
    state's sensitivity to the initial one), the reference of the target; (b) the same
-   compiled one-step map as ours (``sindybench.dynamics.step_jacobian_kernel``) called from Python (a floor: filterpy's own per-sample
-   cost). Each runs on the first ``--filterpy-samples`` samples and its time is scaled
+   compiled one-step map as ours (``sindybench.dynamics.step_jacobian_kernel``) called
+   from Python (each call converts the model's flattened arrays into numba's types, the
+   cost that dominates it). Each step is called once before timing (compilation or cache
+   load), then runs on the first ``--filterpy-samples`` samples and its time is scaled
    linearly (per sample) to the whole record;
 3. the largest difference between the two filters' states over the samples both ran
    (filterpy's update is the plain ``(I - K H) P`` form, ours Joseph's: equal to rounding).
@@ -136,6 +138,7 @@ def main():
         n_ref = min(args.filterpy_samples, len(y))
         refs = {}
         for label, step in (("public API step", public_step(m)), ("compiled step", compiled_step(m))):
+            step(x0.copy(), u[:2])  # compilation (or cache load) is not part of the per-sample cost
             start, start_cpu = time.perf_counter(), time.process_time()
             states = filterpy_ekf(m, step, u[:n_ref], y[:n_ref], Q, R, x0, P0)
             scale = len(y) / n_ref

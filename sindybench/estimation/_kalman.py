@@ -154,9 +154,11 @@ def _filter(x0, P0, u, y, dt, Q, R, oidx, sm, xf, Pf, xp, Pp, F, innov, S_out):
             for i in range(n):
                 for j in range(n):
                     P[i, j] += Q[i, j]
-            F[k] = J
-        xp[k] = x
-        Pp[k] = P
+            if F.shape[0]:  # the predictions are kept for the smoother only
+                F[k] = J
+        if xp.shape[0]:
+            xp[k] = x
+            Pp[k] = P
         # update with y[k]: H picks the measured states
         for a in range(m):
             e[a] = y[k, a] - x[oidx[a]]
@@ -287,16 +289,20 @@ _CAUSES = {
 }
 
 
-def run_filter(model, X, y, *, Q, R, x0=None, P0=None):
-    """The filter with its stored predictions (the smoother's input); checks every argument."""
+def run_filter(model, X, y, *, Q, R, x0=None, P0=None, keep_predictions=False):
+    """The filter, with its predictions and step Jacobians (the smoother's input) if ``keep_predictions``.
+
+    Checks every argument.
+    """
     m = model_step(model)
     X, y = _check_record(m, X, y)
     n, n_out, N = m.n_states, len(m.output_index), y.shape[0]
     Q = check_covariance(Q, n, "Q")
     R = check_covariance(R, n_out, "R", definite=True)
     x0, P0 = _check_prior(m, x0, P0)
+    keep = int(bool(keep_predictions))
     arrays = {name: np.zeros(shape) for name, shape in (
-        ("xf", (N, n)), ("Pf", (N, n, n)), ("xp", (N, n)), ("Pp", (N, n, n)), ("F", (N, n, n)),
+        ("xf", (N, n)), ("Pf", (N, n, n)), ("xp", (N * keep, n)), ("Pp", (N * keep, n, n)), ("F", (N * keep, n, n)),
         ("innov", (N, n_out)), ("S", (N, n_out, n_out)))}
     oidx = np.asarray(m.output_index, dtype=np.int64)
     k, code, loglik = _filter(x0, P0, X, y, m.dt, Q, R, oidx, m.step_model(), *arrays.values())
@@ -390,7 +396,7 @@ def rts_smoother(model, X, y, *, Q, R, x0=None, P0=None):
     >>> np.round(res.states[0], 3).tolist()
     [1.0, 0.5]
     """
-    a, loglik = run_filter(model, X, y, Q=Q, R=R, x0=x0, P0=P0)
+    a, loglik = run_filter(model, X, y, Q=Q, R=R, x0=x0, P0=P0, keep_predictions=True)
     xs, Ps = np.empty_like(a["xf"]), np.empty_like(a["Pf"])
     if a["xf"].shape[0]:
         k = _smooth(a["xf"], a["Pf"], a["xp"], a["Pp"], a["F"], xs, Ps)

@@ -14,12 +14,16 @@ from sindybench.dynamics import (
     SimulationError,
     TermsRHS,
     coefficient_directions,
+    jacobian_workspace,
     simulate,
     step,
+    step_into,
     step_jacobian,
+    step_jacobian_into,
     step_jacobian_kernel,
     step_kernel,
     step_model,
+    step_workspace,
 )
 from sindybench.refine import simulate_sensitivity
 
@@ -101,6 +105,34 @@ def test_step_kernels_are_callable_from_numba(model, inputs):
     x, P, _ = _loop(m, np.array([0.5, 0.1]), inputs, 0.05)
     assert np.array_equal(x, simulate(model, [0.5, 0.1], inputs, 0.05, input_hold="linear")[-1])
     assert P.shape == (2, 2) and np.all(np.isfinite(P))
+
+
+@njit
+def _loop_in_place(m, x0, u, dt):
+    """The in-place forms over a whole record, the work arrays allocated once."""
+    n, n_par = x0.shape[0], m.par[0].shape[0] - 1
+    xs, Js, Ps = np.empty((u.shape[0], n)), np.empty((u.shape[0], n, n)), np.empty((u.shape[0], n, n_par))
+    x, x2 = x0.copy(), x0.copy()
+    work, work2 = jacobian_workspace(m, u.shape[1]), step_workspace(m, u.shape[1])
+    for k in range(u.shape[0] - 1):
+        bad = step_jacobian_into(m, x, u[k], u[k + 1], dt, work, Js[k], Ps[k])
+        bad2 = step_into(m, x2, u[k], u[k + 1], dt, work2)
+        if bad or bad2 or not np.array_equal(x, x2):
+            return xs[:k], Js[:k], Ps[:k]
+        xs[k + 1] = x
+    xs[0] = x0
+    return xs, Js[:-1], Ps[:-1]
+
+
+def test_in_place_steps_are_the_kernels_bit_for_bit(model, inputs):
+    """step_into / step_jacobian_into with work reused over samples give the fresh kernels' every bit."""
+    m = step_model(model, input_hold="linear", bounds=([0.0, -1.0], [1.2, 1.0]))
+    xs, Js, Ps = _loop_in_place(m, np.array([0.5, 0.1]), inputs, 0.05)
+    assert np.array_equal(xs, simulate(model, [0.5, 0.1], inputs, 0.05, input_hold="linear",
+                                       bounds=([0.0, -1.0], [1.2, 1.0])))
+    for k in (0, 7, len(Js) - 1):
+        _, jx, jp, _ = step_jacobian_kernel(m, xs[k], inputs[k], inputs[k + 1], 0.05)
+        assert np.array_equal(Js[k], jx) and np.array_equal(Ps[k], jp) and jp.shape[1] > 0
 
 
 def test_step_divergence_and_bad_input(model):

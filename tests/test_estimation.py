@@ -5,6 +5,7 @@ import pytest
 from scipy.stats import chi2
 
 from sindybench import HiddenStateSINDy, SINDy
+from sindybench.dynamics import ABS_POW, POW, SIGN, SQRT, step_jacobian_kernel, step_kernel
 from sindybench.estimation import (
     FilterDivergenceError,
     ModelStep,
@@ -17,10 +18,8 @@ from sindybench.estimation import (
     rts_smoother,
     smooth_initial_state,
 )
-from sindybench.estimation._model_step import kernel, step_jacobian, step_states, workspace
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
-from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT
 from sindybench.refine import estimate_initial_state, simulate_sensitivity
 from sindybench.simulate import TermsRHS, simulate
 
@@ -58,13 +57,12 @@ def settings(m):
 
 
 def steps(m, x0, u):
-    """The compiled step called sample by sample: states and step Jacobians."""
-    kern, n = kernel(m), m.n_states
-    work = workspace(kern, n, u.shape[1])
+    """The public one-step map the filter calls, sample by sample: states and step Jacobians."""
+    sm = m.step_model()
     xs, Fs = [np.asarray(x0, dtype=float)], []
     for k in range(len(u) - 1):
-        x_next, jac = np.empty(n), np.empty((n, n))
-        assert step_jacobian(xs[-1], u[k:k + 2], np.array([m.dt]), kern, work, x_next, jac) == -1
+        x_next, jac, jac_p, bad = step_jacobian_kernel(sm, xs[-1], u[k], u[k + 1], m.dt)
+        assert not bad and jac_p.shape == (m.n_states, 0)
         xs.append(x_next)
         Fs.append(jac)
     return np.array(xs), np.array(Fs)
@@ -72,14 +70,14 @@ def steps(m, x0, u):
 
 def noisy_record(m, u, Q, R, x0, rng):
     """x[k+1] = step(x[k]) + w[k], y = x[output_index] + v: the filter's own model, with known truth."""
-    kern, n = kernel(m), m.n_states
+    sm, n = m.step_model(), m.n_states
     x = np.empty((len(u), n))
     x[0] = x0
-    out = np.empty((2, n))
     cq = np.linalg.cholesky(Q)
     for k in range(len(u) - 1):
-        assert step_states(x[k], u[k:k + 2], np.array([m.dt]), kern, out) == -1
-        x[k + 1] = out[1] + cq @ rng.standard_normal(n)
+        x_next, bad = step_kernel(sm, x[k], u[k], u[k + 1], m.dt)
+        assert not bad
+        x[k + 1] = x_next + cq @ rng.standard_normal(n)
     y = x[:, list(m.output_index)] + rng.standard_normal((len(u), len(m.output_index))) * np.sqrt(np.diag(R))
     return x, y
 

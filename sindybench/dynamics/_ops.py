@@ -109,9 +109,11 @@ def call_rows(typingctx, address, z, par, out):
 
 @njit(cache=True, inline="always")
 def power(v, p):
-    """``v ** p``, with the small integer powers as products."""
+    """``v ** p``, with the small integer powers as products (``v ** 0 = 1`` for every ``v``, NaN included)."""
     if p == 1.0:
         return v
+    if p == 0.0:
+        return 1.0
     if p == 2.0:
         return v * v
     if p == 3.0:

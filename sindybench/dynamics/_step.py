@@ -23,6 +23,13 @@ only with ``input_hold="linear"``), ``dt`` a float; ``jac_x`` is
 (n_states, n_states), ``jac_p`` (n_states, n_params). Both allocate their
 small work arrays per call and never raise: ``diverged`` is True when a state
 left ``max_abs`` or became non-finite (``x_next`` is then that state).
+
+A loop over many samples (a filter) allocates the work once and steps in place,
+the same arithmetic without an allocation per sample:
+
+* ``work = step_workspace(m, n_inputs)``, then ``step_into(m, x, u0, u1, dt, work) -> diverged``;
+* ``work = jacobian_workspace(m, n_inputs)``, then
+  ``step_jacobian_into(m, x, u0, u1, dt, work, jac_x, jac_p) -> diverged``.
 """
 
 from typing import NamedTuple
@@ -34,8 +41,8 @@ from ._kernels import sensitivity_work, step_sensitivity, step_state
 from ._simulate import SimulationError, TermsRHS, simulation_settings
 from ._terms import terms_to_arrays
 
-__all__ = ["StepModel", "coefficient_directions", "sensitivity_arrays", "step", "step_jacobian",
-           "step_jacobian_kernel", "step_kernel", "step_model"]
+__all__ = ["StepModel", "coefficient_directions", "jacobian_workspace", "sensitivity_arrays", "step", "step_into",
+           "step_jacobian", "step_jacobian_into", "step_jacobian_kernel", "step_kernel", "step_model", "step_workspace"]
 
 
 def _directions_to_arrays(directions, n_terms, n_states):
@@ -137,50 +144,88 @@ def step_model(rhs, *, directions=None, n_substeps=1, method="rk4", input_hold="
                      par, rhs.user)
 
 
-@njit(cache=True)
-def _inputs(u0, u1):
-    u = np.empty((2, u0.shape[0]))
+@njit(cache=True, inline="always")
+def _set_inputs(u, u0, u1):
     for i in range(u0.shape[0]):
         u[0, i] = u0[i]
         u[1, i] = u1[i]
-    return u
+
+
+@njit(cache=True)
+def step_workspace(m, n_inputs):
+    """Work arrays of :func:`step_into` for a loop over samples (allocated once, numba-callable)."""
+    n = m.lo.shape[0]
+    return (np.empty((2, n_inputs)), np.empty(n + n_inputs), np.empty(m.model[0].shape[0] - 1),
+            np.zeros((m.offsets.shape[0], n)))
+
+
+@njit(cache=True)
+def step_into(m, x, u0, u1, dt, work):
+    """Advance ``x`` in place by one output sample; return ``diverged`` (numba-callable, no allocation).
+
+    ``work`` from :func:`step_workspace`; :func:`step_kernel` is this on a copy of ``x``.
+    """
+    u, z, theta, K = work
+    _set_inputs(u, u0, u1)
+    return step_state(x, u, 0, 1 if m.linear else 0, dt, m.n_sub, m.offsets, m.weights, m.lo, m.hi, m.max_abs,
+                      m.model, m.user, z, theta, K)
 
 
 @njit(cache=True)
 def step_kernel(m, x, u0, u1, dt):
     """``(F(x, u0, u1), diverged)``: one output sample of the model (numba-callable)."""
-    n = x.shape[0]
     x_next = x.copy()
-    u = _inputs(u0, u1)
-    z = np.empty(n + u.shape[1])
-    theta = np.empty(m.model[0].shape[0] - 1)
-    K = np.zeros((m.offsets.shape[0], n))
-    bad = step_state(x_next, u, 0, 1 if m.linear else 0, dt, m.n_sub, m.offsets, m.weights, m.lo, m.hi, m.max_abs,
-                     m.model, m.user, z, theta, K)
+    bad = step_into(m, x_next, u0, u1, dt, step_workspace(m, u0.shape[0]))
     return x_next, bad
+
+
+@njit(cache=True)
+def jacobian_workspace(m, n_inputs):
+    """Work arrays of :func:`step_jacobian_into` for a loop over samples (allocated once, numba-callable)."""
+    n = m.lo.shape[0]
+    n_par = m.par[0].shape[0] - 1
+    q = n + n_par
+    z, work = sensitivity_work(n, n_inputs, m.terms[0].shape[0] - 1, m.terms[1].shape[0], m.offsets.shape[0], q)
+    # parameter p of the kernel is column n + p of S: shift the directions' parameter index
+    ppar = np.zeros(q + 1, dtype=np.int64)
+    for p in range(n_par + 1):
+        ppar[n + p] = m.par[0][p]
+    return np.empty((2, n_inputs)), np.empty((n, q)), z, work, (ppar, m.par[1], m.par[2], m.par[3])
+
+
+@njit(cache=True)
+def step_jacobian_into(m, x, u0, u1, dt, work, jac_x, jac_p):
+    """Advance ``x`` in place by one output sample, ``dF/dx`` into ``jac_x``, ``dF/dp`` into ``jac_p``.
+
+    Returns ``diverged``; numba-callable, no allocation (``work`` from
+    :func:`jacobian_workspace`). :func:`step_jacobian_kernel` is this on
+    fresh arrays.
+    """
+    u, S, z, sens, par = work
+    n = x.shape[0]
+    _set_inputs(u, u0, u1)
+    for i in range(n):
+        for c in range(S.shape[1]):
+            S[i, c] = 1.0 if i == c else 0.0
+    bad = step_sensitivity(x, S, u, 0, 1 if m.linear else 0, dt, m.n_sub, m.offsets, m.weights, m.lo, m.hi,
+                           m.max_abs, m.terms, m.coef, par, m.user, z, sens)
+    for i in range(n):
+        for c in range(n):
+            jac_x[i, c] = S[i, c]
+        for p in range(jac_p.shape[1]):
+            jac_p[i, p] = S[i, n + p]
+    return bad
 
 
 @njit(cache=True)
 def step_jacobian_kernel(m, x, u0, u1, dt):
     """``(F, dF/dx, dF/dp, diverged)`` at ``(x, u0, u1)`` (numba-callable)."""
     n = x.shape[0]
-    n_par = m.par[0].shape[0] - 1
     x_next = x.copy()
-    u = _inputs(u0, u1)
-    S = np.zeros((n, n + n_par))
-    for i in range(n):
-        S[i, i] = 1.0
-    z, work = sensitivity_work(n, u.shape[1], m.terms[0].shape[0] - 1, m.terms[1].shape[0], m.offsets.shape[0],
-                               n + n_par)
-    q = n + n_par
-    # parameter p of the kernel is column n + p of S: shift the directions' parameter index
-    ppar = np.zeros(q + 1, dtype=np.int64)
-    for p in range(n_par + 1):
-        ppar[n + p] = m.par[0][p]
-    par = (ppar, m.par[1], m.par[2], m.par[3])
-    bad = step_sensitivity(x_next, S, u, 0, 1 if m.linear else 0, dt, m.n_sub, m.offsets, m.weights, m.lo, m.hi,
-                           m.max_abs, m.terms, m.coef, par, m.user, z, work)
-    return x_next, S[:, :n].copy(), S[:, n:].copy(), bad
+    jac_x = np.empty((n, n))
+    jac_p = np.empty((n, m.par[0].shape[0] - 1))
+    bad = step_jacobian_into(m, x_next, u0, u1, dt, jacobian_workspace(m, u0.shape[0]), jac_x, jac_p)
+    return x_next, jac_x, jac_p, bad
 
 
 def _check_point(m, x, u0, u1, dt, n_inputs):

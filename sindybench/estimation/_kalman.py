@@ -1,8 +1,9 @@
 """Continuous-discrete extended Kalman filter and Rauch-Tung-Striebel smoother.
 
 The state is propagated from sample to sample by the fitted model's own
-integrator (the simulator's step: Runge-Kutta stages, sub-steps, input hold,
-bounds) and the covariance by the exact Jacobian ``F`` of that step,
+integrator (the public one-step map of :mod:`sindybench.dynamics`, the
+simulator's step: Runge-Kutta stages, sub-steps, input hold, bounds) and the
+covariance by the exact Jacobian ``F`` of that step,
 ``P <- F P F' + Q``; each measured sample then updates the measured states
 (the model's output states, ``H`` a selection) in Joseph form. The loop over
 samples, the smoother's backward pass included, is compiled with numba.
@@ -14,7 +15,8 @@ import numpy as np
 from numba import njit
 
 from .._validation import check_signal
-from ._model_step import kernel, model_step, step_jacobian, workspace
+from ..dynamics import jacobian_workspace, step_jacobian_into
+from ._model_step import model_step
 
 __all__ = ["FilterDivergenceError", "KalmanResult", "extended_kalman_filter", "rts_smoother"]
 
@@ -122,19 +124,19 @@ def _sandwich(A, P, tmp, out):
 
 
 @njit(cache=True)
-def _filter(x0, P0, u, y, h, Q, R, oidx, kern, xf, Pf, xp, Pp, F, innov, S_out):
+def _filter(x0, P0, u, y, dt, Q, R, oidx, sm, xf, Pf, xp, Pp, F, innov, S_out):
     """Run the filter; return (first failing sample or -1, failure code, log-likelihood).
 
     Codes: 1 the model's step diverged, 2 the innovation covariance is not
     positive definite, 3 the updated state is not finite.
     """
     n, m, N = x0.shape[0], oidx.shape[0], y.shape[0]
-    lo, hi = kern[4], kern[5]
+    lo, hi = sm.lo, sm.hi
     x = x0.copy()
     P = P0.copy()
-    x_next = np.empty(n)
     J = np.empty((n, n))
-    work = workspace(kern, n, u.shape[1])
+    no_par = np.empty((n, 0))
+    work = jacobian_workspace(sm, u.shape[1])
     S = np.empty((m, m))
     L = np.zeros((m, m))
     PHt = np.empty((n, m))
@@ -146,16 +148,17 @@ def _filter(x0, P0, u, y, h, Q, R, oidx, kern, xf, Pf, xp, Pp, F, innov, S_out):
     loglik = 0.0
     for k in range(N):
         if k > 0:
-            if step_jacobian(x, u[k - 1:k + 1], h[k - 1:k], kern, work, x_next, J) >= 0:
+            if step_jacobian_into(sm, x, u[k - 1], u[k], dt, work, J, no_par):
                 return k, 1, loglik
-            x[:] = x_next
             _sandwich(J, P, tmp, P)
             for i in range(n):
                 for j in range(n):
                     P[i, j] += Q[i, j]
-            F[k] = J
-        xp[k] = x
-        Pp[k] = P
+            if F.shape[0]:  # the predictions are kept for the smoother only
+                F[k] = J
+        if xp.shape[0]:
+            xp[k] = x
+            Pp[k] = P
         # update with y[k]: H picks the measured states
         for a in range(m):
             e[a] = y[k, a] - x[oidx[a]]
@@ -286,20 +289,23 @@ _CAUSES = {
 }
 
 
-def run_filter(model, X, y, *, Q, R, x0=None, P0=None):
-    """The filter with its stored predictions (the smoother's input); checks every argument."""
+def run_filter(model, X, y, *, Q, R, x0=None, P0=None, keep_predictions=False):
+    """The filter, with its predictions and step Jacobians (the smoother's input) if ``keep_predictions``.
+
+    Checks every argument.
+    """
     m = model_step(model)
     X, y = _check_record(m, X, y)
     n, n_out, N = m.n_states, len(m.output_index), y.shape[0]
     Q = check_covariance(Q, n, "Q")
     R = check_covariance(R, n_out, "R", definite=True)
     x0, P0 = _check_prior(m, x0, P0)
-    h = np.full(max(N - 1, 0), m.dt)
+    keep = int(bool(keep_predictions))
     arrays = {name: np.zeros(shape) for name, shape in (
-        ("xf", (N, n)), ("Pf", (N, n, n)), ("xp", (N, n)), ("Pp", (N, n, n)), ("F", (N, n, n)),
+        ("xf", (N, n)), ("Pf", (N, n, n)), ("xp", (N * keep, n)), ("Pp", (N * keep, n, n)), ("F", (N * keep, n, n)),
         ("innov", (N, n_out)), ("S", (N, n_out, n_out)))}
     oidx = np.asarray(m.output_index, dtype=np.int64)
-    k, code, loglik = _filter(x0, P0, X, y, h, Q, R, oidx, kernel(m), *arrays.values())
+    k, code, loglik = _filter(x0, P0, X, y, m.dt, Q, R, oidx, m.step_model(), *arrays.values())
     if k >= 0:
         raise FilterDivergenceError(f"the Kalman filter diverged at sample {k} of {N}: {_CAUSES[code]}. Check the "
                                     "model (does its simulation of this record stay finite?), Q, R and the prior.",
@@ -390,7 +396,7 @@ def rts_smoother(model, X, y, *, Q, R, x0=None, P0=None):
     >>> np.round(res.states[0], 3).tolist()
     [1.0, 0.5]
     """
-    a, loglik = run_filter(model, X, y, Q=Q, R=R, x0=x0, P0=P0)
+    a, loglik = run_filter(model, X, y, Q=Q, R=R, x0=x0, P0=P0, keep_predictions=True)
     xs, Ps = np.empty_like(a["xf"]), np.empty_like(a["Pf"])
     if a["xf"].shape[0]:
         k = _smooth(a["xf"], a["Pf"], a["xp"], a["Pp"], a["F"], xs, Ps)

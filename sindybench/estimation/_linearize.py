@@ -4,7 +4,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ._model_step import kernel, model_step, rhs_jacobian, step_jacobian, with_inputs_as_states, workspace
+from ..dynamics import SimulationError, evaluate_terms, evaluate_terms_jacobian, step_jacobian_kernel
+from ._model_step import model_step
 
 __all__ = ["Linearization", "linearize"]
 
@@ -65,6 +66,14 @@ def linearize(model, x, u=None):
     -------
     Linearization
 
+    Raises
+    ------
+    ValueError
+        When ``x`` or ``u`` has the wrong length, is not finite, or ``x`` is
+        outside the model's bounds.
+    SimulationError
+        When the model's step from ``(x, u)`` diverges.
+
     Examples
     --------
     The pendulum ``x0' = x1``, ``x1' = -sin``-like ``-x0 + x0^3 / 6 + u`` at rest:
@@ -92,12 +101,15 @@ def linearize(model, x, u=None):
     if outside.any():
         i = int(np.argmax(outside))
         raise ValueError(f"x[{i}] = {x[i]:g} is outside the model's bounds [{m.lower[i]:g}, {m.upper[i]:g}].")
-    aug = with_inputs_as_states(m)
     z = np.concatenate([x, u])
-    kern = kernel(aug)
-    f, jac = rhs_jacobian(z, n + n_u, kern[7])
-    z_next, jac_d = np.empty(n + n_u), np.empty((n + n_u, n + n_u))
-    step_jacobian(z, np.zeros((2, 0)), np.array([m.dt]), kern, workspace(kern, n + n_u, 0), z_next, jac_d)
+    coef = m.rhs.coef.T[:, :, None]  # (n, n_terms, 1); only nonzero coefficients count (0 * inf is not 0)
+    f = np.where(coef[:, :, 0] != 0, coef[:, :, 0] * evaluate_terms(m.rhs.terms, z[None, :]), 0.0).sum(axis=1)
+    jac = np.where(coef != 0, coef * evaluate_terms_jacobian(m.rhs.terms, z[None, :])[0], 0.0).sum(axis=1)  # df/dz
+    # the step of the model over [x, u] with u' = 0: its state Jacobian holds d x_next / d u
+    z_next, jac_d, _, bad = step_jacobian_kernel(m.step_model(with_inputs=True), z, np.zeros(0), np.zeros(0), m.dt)
+    if bad:
+        raise SimulationError(f"the model's step from x = {x} with u = {u} diverged (state {z_next[:n]}).", step=1,
+                              state=z_next[:n])
     C = np.zeros((len(m.output_index), n))
     C[np.arange(len(m.output_index)), list(m.output_index)] = 1.0
     D = np.zeros((len(m.output_index), n_u))

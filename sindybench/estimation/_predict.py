@@ -4,25 +4,26 @@ import numpy as np
 from numba import njit
 
 from .._validation import check_integer
+from ..dynamics import SimulationError, step_into, step_workspace
 from ..metrics import rmse
-from ..simulate import SimulationError
 from ._kalman import extended_kalman_filter, rts_smoother
-from ._model_step import kernel, model_step, step_states
+from ._model_step import model_step
 
 __all__ = ["k_step_rmse", "predict_k_step", "smooth_initial_state"]
 
 
 @njit(cache=True)
-def _k_step(xf, u, dt, k, kern, oidx, out):
+def _k_step(xf, u, dt, k, sm, oidx, out):
     """``out[t] = x[t + k][oidx]`` simulated from ``xf[t]``; -1 or the first ``t`` whose run diverged."""
-    n = xf.shape[1]
-    buf = np.empty((k + 1, n))
-    h = np.full(k, dt)
+    work = step_workspace(sm, u.shape[1])
+    x = np.empty(xf.shape[1])
     for t in range(out.shape[0]):
-        if step_states(xf[t], u[t:t + k + 1], h, kern, buf) >= 0:
-            return t
+        x[:] = xf[t]
+        for i in range(k):
+            if step_into(sm, x, u[t + i], u[t + i + 1], dt, work):
+                return t
         for a in range(oidx.shape[0]):
-            out[t, a] = buf[k, oidx[a]]
+            out[t, a] = x[oidx[a]]
     return -1
 
 
@@ -80,7 +81,7 @@ def predict_k_step(model, X, y, k, *, Q, R, x0=None, P0=None):
     u = np.zeros((n_samples, 0)) if X is None else np.asarray(X, dtype=float).reshape(n_samples, -1)
     out = np.empty((n_samples - k, len(m.output_index)))
     oidx = np.asarray(m.output_index, dtype=np.int64)
-    t = _k_step(res.states, np.ascontiguousarray(u), m.dt, k, kernel(m), oidx, out)
+    t = _k_step(res.states, np.ascontiguousarray(u), m.dt, k, m.step_model(), oidx, out)
     if t >= 0:
         raise SimulationError(f"the {k}-step prediction from sample {t} diverged.", step=int(t))
     return out

@@ -8,8 +8,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..estimation._model_step import kernel, model_step
-from ..libraries._terms import ABS_POW, POW, SIGN, SQRT, STEP
+from ..dynamics import ABS_POW, POW, SIGN, SQRT, STEP
+from ..estimation import model_step
 
 __all__ = ["CasadiModel", "simulate_casadi", "to_casadi"]
 
@@ -56,9 +56,9 @@ def _factor(ca, v, op, a, b):
     raise ValueError(f"unknown factor operation {op}.")
 
 
-def _rhs_expr(ca, arrays, z, n):
-    """``f(z)`` from the simulator's flattened active terms, summed in its order."""
-    ptr, col, op, a, b, rptr, rows, vals = arrays
+def _rhs_expr(ca, terms, coef, z, n):
+    """``f(z)`` from the active terms of a :class:`~sindybench.dynamics.StepModel`, summed in the simulator's order."""
+    ptr, col, op, a, b = terms
     theta = []
     for j in range(ptr.shape[0] - 1):
         value = 1.0
@@ -68,8 +68,9 @@ def _rhs_expr(ca, arrays, z, n):
     out = []
     for i in range(n):
         acc = 0.0
-        for k in range(rptr[i], rptr[i + 1]):
-            acc = acc + theta[int(rows[k])] * float(vals[k])
+        for j in range(coef.shape[0]):
+            if coef[j, i] != 0.0:
+                acc = acc + theta[j] * float(coef[j, i])
         out.append(acc)
     return out
 
@@ -125,10 +126,11 @@ def to_casadi(model):
         raise ImportError('to_casadi needs CasADi: pip install "sindybench[casadi]" (or pip install casadi).') from exc
     m = model_step(model)
     n, n_u = m.n_states, m.n_inputs
-    _, offsets, weights, _, lo, hi, _, arrays = kernel(m)  # stage table and flattened active terms
+    sm = m.step_model()  # stage table, bounds and the active terms of the public one-step map
+    offsets, weights, lo, hi, arrays = sm.offsets, sm.weights, sm.lo, sm.hi, (sm.terms, sm.coef)
     x, u = ca.SX.sym("x", n), ca.SX.sym("u", n_u)
     z = [x[i] for i in range(n)] + [u[i] for i in range(n_u)]
-    rhs = ca.Function("rhs", [x, u], [ca.vertcat(*_rhs_expr(ca, arrays, z, n))], ["x", "u"], ["xdot"])
+    rhs = ca.Function("rhs", [x, u], [ca.vertcat(*_rhs_expr(ca, *arrays, z, n))], ["x", "u"], ["xdot"])
 
     u0, u1 = ca.SX.sym("u0", n_u), ca.SX.sym("u1", n_u)
     hs = m.dt / m.n_substeps
@@ -141,7 +143,7 @@ def to_casadi(model):
             zs = [_clip(ca, zs[i], lo[i], hi[i]) for i in range(n)]
             frac = (j + c) / m.n_substeps
             us = [u0[i] + frac * (u1[i] - u0[i]) if linear else u0[i] for i in range(n_u)]
-            k = _rhs_expr(ca, arrays, zs + us, n)
+            k = _rhs_expr(ca, *arrays, zs + us, n)
             for i in range(n):
                 held = []
                 if np.isfinite(lo[i]):

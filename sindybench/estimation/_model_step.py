@@ -1,9 +1,9 @@
 """The one place where :mod:`sindybench.estimation` reads a fitted model.
 
-:func:`model_step` reads a fitted estimator (today's attributes of
-:class:`~sindybench.SINDy` and :class:`~sindybench.HiddenStateSINDy`) into a
-:class:`ModelStep`: the compiled right-hand side of the full state, which
-states are measured, the bounds and the simulation settings.
+:func:`model_step` reads a fitted estimator's ``dynamics_`` (the
+:class:`~sindybench.dynamics.Dynamics` that every sindybench estimator
+exposes) into a :class:`ModelStep`: the compiled right-hand side of the full
+state, which states are measured, the bounds and the simulation settings.
 :meth:`ModelStep.step_model` turns it into the :class:`~sindybench.dynamics.StepModel`
 of the public one-step map (:mod:`sindybench.dynamics`), whose numba kernels
 ``step_kernel`` and ``step_jacobian_kernel`` the filter, the smoother, the
@@ -154,27 +154,19 @@ def model_step(model):
     if isinstance(model, ModelStep):
         return model
     name = type(model).__name__
-    if not hasattr(model, "coef_"):
+    dyn = getattr(model, "dynamics_", None)  # the fitted-dynamics contract of every sindybench estimator
+    if dyn is None:
         raise ValueError(f"{name} is not fitted (or not a sindybench model); expected a fitted SINDy or "
                          "HiddenStateSINDy.")
-    if hasattr(model, "structure_"):  # HiddenStateSINDy
-        s = model.structure_
-        rhs, n_inputs, output_index = model.rhs_, model.n_features_in_, s.output_index
-        lo, hi = check_bounds(s.bounds, s.n_states)
-        method, states = "rk4", model.states_
-    else:  # SINDy
-        n = model.n_states_
-        rhs = TermsRHS(model.coef_.T, model.terms_, n) if model.terms_ is not None else None
-        n_inputs, output_index = model.n_inputs_, tuple(range(n))
-        lo, hi = check_bounds(model.bounds, n)
-        method, states = model.integrator, None
-    if not isinstance(rhs, TermsRHS):
+    if not isinstance(dyn.rhs, TermsRHS):
         raise ValueError(f"{name} has a Python right-hand side (a custom library or Python fixed rows); the "
                          "estimators need the compiled one (libraries with terms_).")
-    if model.dt_ is None:
+    if dyn.dt is None:
         raise ValueError(f"{name} was fitted on non-uniform sample times; the estimators need a uniform dt.")
+    lo, hi = check_bounds(dyn.bounds, dyn.n_states)
     x0 = np.clip(np.asarray(model.x0_, dtype=float), lo, hi)
-    scale = _scale(states) if states is not None else np.ones(rhs.n_states)
-    return ModelStep(rhs=rhs, n_inputs=int(n_inputs), output_index=tuple(int(i) for i in output_index), lower=lo,
-                     upper=hi, dt=float(model.dt_), n_substeps=int(model.n_substeps), method=method,
-                     input_hold=model.input_hold, max_abs=float(model.max_abs), x0=x0, state_scale=scale)
+    states = getattr(model, "states_", None)  # the training trajectory (hidden states included), where kept
+    scale = _scale(states) if states is not None else np.ones(dyn.n_states)
+    return ModelStep(rhs=dyn.rhs, n_inputs=int(model.n_features_in_), output_index=tuple(dyn.output_index),
+                     lower=lo, upper=hi, dt=float(dyn.dt), n_substeps=int(dyn.n_substeps), method=dyn.method,
+                     input_hold=dyn.input_hold, max_abs=float(dyn.max_abs), x0=x0, state_scale=scale)

@@ -62,10 +62,11 @@ hidden = HiddenStateSINDy(
     random_state=0,
 ).fit(u, y)
 # the overflow regime of the upper tank ([x1>=10], [x1>=10] u0: its spill into the lower tank),
-# then the coefficients, k1, k2 and both initial levels refined by the simulation error
+# then the coefficients, k1, k2 and both initial levels refined by the simulation error (with a budget of
+# 100 simulations a round the refinement converges; the default 30 stops early and says so with a warning)
 overflow = ConcatLibrary([PolynomialLibrary(degree=2), SqrtLibrary(variables=[0, 1]),
                           IndicatorLibrary(variables=[1], lower=BOUNDS[1], times=[2])])
-refined = clone(hidden).set_params(library=overflow, refine=OutputErrorRefinement(),
+refined = clone(hidden).set_params(library=overflow, refine=OutputErrorRefinement(max_nfev=100),
                                    initial_state="fit").fit(u, y)
 arx = ARX(na=5, nb=5, nk=1).fit(train.u, train.y)
 models = {"SINDy, polynomial": naive, "Hidden SINDy": hidden, "Hidden SINDy, refined": refined, "ARX": arx}

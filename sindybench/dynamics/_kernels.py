@@ -159,7 +159,7 @@ def _eval(z, n, terms, coef, user, par, work, s, lo, hi):
     for f in range(col.shape[0]):  # every factor once: value and derivative
         v = z[col[f]]
         fv[f] = op_value(op[f], v, a[f], b[f], user)
-        fd[f] = op_derivative(op[f], v, fv[f], a[f], b[f], user) if n_par > 0 else 0.0
+        fd[f] = op_derivative(op[f], v, fv[f], a[f], b[f], user) if n_par > 0 and col[f] < n else 0.0  # dz: states
     for j in range(n_terms):
         value = 1.0
         for f in range(ptr[j], ptr[j + 1]):
@@ -177,11 +177,11 @@ def _eval(z, n, terms, coef, user, par, work, s, lo, hi):
                 if coef[j, i] != 0.0:
                     jac[i, c] += coef[j, i] * d
     for i in range(n):
-        acc = 0.0
-        for j in range(n_terms):
+        K[s, i] = 0.0
+    for j in range(n_terms):  # each K[s, i] summed over j ascending, as before: the same bits, coef read by rows
+        for i in range(n):
             if coef[j, i] != 0.0:  # as the state-only path, which skips zero coefficients (0 * nan)
-                acc += coef[j, i] * theta[j]
-        K[s, i] = acc
+                K[s, i] += coef[j, i] * theta[j]
     for i in range(n):
         for p in range(n_par):
             acc = 0.0

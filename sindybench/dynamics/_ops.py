@@ -176,15 +176,14 @@ def op_derivative(o, v, value, a, b, user):
 
 
 @njit(cache=True)
-def evaluate_kernel(ZT, ptr, col, op, a, b, user, out):
-    """``out[j, k]`` = term ``j`` at sample ``k`` of ``ZT`` (variables by samples)."""
-    for j in range(ptr.shape[0] - 1):
-        for k in range(ZT.shape[1]):
-            out[j, k] = 1.0
-        for f in range(ptr[j], ptr[j + 1]):
-            o, z, af, bf = op[f], ZT[col[f]], a[f], b[f]
-            for k in range(ZT.shape[1]):
-                out[j, k] = apply_op(out[j, k], o, z[k], af, bf, user)
+def evaluate_kernel(Z, ptr, col, op, a, b, user, out):
+    """``out[k, j]`` = term ``j`` at sample ``k`` of ``Z`` (samples by variables; written row by row, in place)."""
+    for k in range(Z.shape[0]):
+        for j in range(ptr.shape[0] - 1):
+            value = 1.0
+            for f in range(ptr[j], ptr[j + 1]):
+                value = apply_op(value, op[f], Z[k, col[f]], a[f], b[f], user)
+            out[k, j] = value
 
 
 @njit(cache=True)

@@ -132,9 +132,9 @@ def evaluate_terms(terms, Z):
     array([[1., 4., 6.]])
     """
     terms, Z, arrays, user = _arrays(terms, Z)
-    out = np.empty((len(terms), Z.shape[0]))
-    evaluate_kernel(np.ascontiguousarray(Z.T), *arrays, user, out)
-    return np.ascontiguousarray(out.T)
+    out = np.empty((Z.shape[0], len(terms)))
+    evaluate_kernel(Z, *arrays, user, out)
+    return out
 
 
 def evaluate_terms_jacobian(terms, Z):

@@ -170,13 +170,16 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-        y_init : array-like of shape (n_init, n_outputs), optional
-        x0 : array-like of shape (n_states,), optional
+        X : array-like of shape (n_samples, n_inputs), None, or list of ndarray
+            A list of input arrays predicts several records (``y_init`` or
+            ``x0`` then a list too, one entry per record) and returns a list.
+        y_init : array-like of shape (n_init, n_outputs), or list, optional
+        x0 : array-like of shape (n_states,), or list, optional
 
         Returns
         -------
         ndarray of shape (n_samples, n_outputs), or (n_samples,) when ``fit`` got a 1-D ``y``
+            A list of such arrays, one per record, when ``X`` is a list.
 
         Warns
         -----
@@ -218,8 +221,10 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-        y : array-like of shape (n_samples, n_outputs)
+        X : array-like of shape (n_samples, n_inputs), None, or list
+        y : array-like of shape (n_samples, n_outputs), or list of ndarray
+            With lists (several records), each record is simulated from its
+            own start and the R^2 pools the samples of all records.
         sample_weight : None
             Not supported; must be None.
 

@@ -100,7 +100,7 @@ class SINDy(DynamicsEstimator):
         Sampling interval of the training data (None for non-uniform ``t``).
     x0_ : ndarray of shape (n_states,)
         First training sample (the default initial state of :meth:`predict`;
-        refined with ``refine``).
+        refined with ``refine``); with several records, the first record's.
     refinement_ : dict or None
         Record of the refinement (see :meth:`RefinementResult.summary
         <sindybench.refine.RefinementResult.summary>`); None without ``refine``.
@@ -130,6 +130,14 @@ class SINDy(DynamicsEstimator):
     >>> model.equations(precision=2)
     ["y0' = -2.00 y0 + 1.00 u0"]
     >>> round(model.score(u, y), 4)
+    1.0
+
+    Several records (lists of arrays), each differentiated on its own:
+
+    >>> y2 = simulate(truth, [-1.0], -u, dt=0.01, input_hold="linear")
+    >>> model.fit([u, -u], [y, y2]).equations(precision=2)
+    ["y0' = -2.00 y0 + 1.00 u0"]
+    >>> round(model.score([u, -u], [y, y2]), 4)
     1.0
     """
 
@@ -194,16 +202,28 @@ class SINDy(DynamicsEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-            Inputs ``u``; None or zero columns for an autonomous system.
-        y : array-like of shape (n_samples, n_states) or (n_samples,)
-            Measured states.
+        X : array-like of shape (n_samples, n_inputs), None, or list
+            Inputs ``u``; None or zero columns for an autonomous system. With
+            several records: a list of input arrays (or of None), one per
+            record of ``y``, or None.
+        y : array-like of shape (n_samples, n_states) or (n_samples,), or list of ndarray
+            Measured states. A Python list of NumPy arrays is several records
+            of one system (pysindy's convention; a list of numbers or of lists
+            is one record): each record is differentiated separately (never
+            across the seam between records) and the library rows of all
+            records are stacked into one regression. Lists rather than a
+            record-id column because scikit-learn's checks and splitters cut
+            one array by rows; cross-validate over records by passing lists
+            per fold (see the user guide). Several records need a uniform
+            ``dt`` and no ``refine`` (``ValueError``: the refinement takes one
+            record); ``x0_`` is then the first record's first state.
         dt : float, optional
             Sampling interval (overrides the constructor's ``dt``).
         t : array-like of shape (n_samples,), optional
-            Strictly increasing sample times, instead of ``dt``.
-        x_dot : array-like of shape (n_samples, n_states), optional
-            Known derivatives of ``y``; skips ``differentiation``.
+            Strictly increasing sample times, instead of ``dt`` (one record only).
+        x_dot : array-like of shape (n_samples, n_states), or list, optional
+            Known derivatives of ``y`` (a list of arrays for several records);
+            skips ``differentiation``.
 
         Returns
         -------

@@ -74,9 +74,18 @@ def test_predict_and_score_on_lists(records):
     assert isinstance(pred, list) and len(pred) == 2
     np.testing.assert_array_equal(pred[1], model.predict(u2, y_init=y2[:1]))
     pooled = model.score([u1, u2], [y1, y2])
-    assert 0.99 < pooled <= 1.0
+    y_all, p_all = np.vstack([y1, y2]), np.vstack(pred)
+    expected = 1 - np.sum((y_all - p_all) ** 2) / np.sum((y_all - y_all.mean()) ** 2)
+    assert pooled == pytest.approx(expected, rel=1e-12)
+    assert 0.99 < pooled < 1.0
     with pytest.raises(ValueError, match="needs y_init or x0"):
         model.predict([u1, u2])
+
+
+def test_a_list_of_lists_stays_one_record(records):
+    (u1, y1), _ = records
+    as_lists = _model().fit(u1.tolist(), y1.tolist())
+    np.testing.assert_array_equal(as_lists.coef_, _model().fit(u1, y1).coef_)
 
 
 def test_autonomous_records():

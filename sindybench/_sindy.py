@@ -272,7 +272,7 @@ class SINDy(DynamicsEstimator):
             raise ValueError("several records need a uniform step dt; sample times t are not supported with lists.")
         if self.refine is not None:
             raise ValueError("refine is not supported with several records yet (the simulation-error refinement "
-                             "takes one record); fit each record set without refine, or refine on one record.")
+                             "takes one record); fit the records without refine, or fit and refine on one record.")
         records = []
         for i, (X_i, y_i) in enumerate(zip(X, y)):
             check_array_like(X_i, f"X[{i}]")

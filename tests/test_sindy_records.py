@@ -5,6 +5,7 @@ import pytest
 
 from sindybench import SINDy, STLS
 from sindybench.libraries import PolynomialLibrary
+from sindybench.refine import OutputErrorRefinement
 from sindybench.simulate import simulate
 
 DT = 0.01
@@ -38,6 +39,8 @@ def _error(model):
 
 
 def test_two_records_identify_what_neither_does_alone(records):
+    # alone: some coefficient off by more than 0.3 (measured 0.60 and 0.61); together: every
+    # true term within 2 % (measured 1.8 %), the zero terms exactly zero
     (u1, y1), (u2, y2) = records
     assert _error(_model().fit(u1, y1)) > 0.3
     assert _error(_model().fit(u2, y2)) > 0.3
@@ -108,5 +111,4 @@ def test_bad_records(records):
     with pytest.raises(ValueError, match="record 1 has 2 states"):
         _model().fit([u1, u2], [y1, np.hstack([y2, y2])])
     with pytest.raises(ValueError, match="refine is not supported with several records"):
-        from sindybench.refine import OutputErrorRefinement
         SINDy(dt=DT, refine=OutputErrorRefinement()).fit([u1, u2], [y1, y2])

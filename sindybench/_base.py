@@ -17,16 +17,33 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from ._divergence import warn_divergence
+from ._divergence import DivergenceWarning, warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
 from ._validation import check_inputs_outputs, check_model_inputs, check_signal
 from .io import SaveLoadMixin
-from .metrics import make_simulation_scorer
+from .metrics import make_simulation_scorer, r2
 from .refine._report import UncertaintyMixin
 from .simulate import SimulationError
 
 __all__ = ["DynamicsEstimator"]
+
+
+def is_records(y):
+    """Whether ``y`` holds several records: a non-empty Python list of NumPy arrays (pysindy's convention).
+
+    A list of numbers or of lists stays one record (one array), as scikit-learn passes it.
+    """
+    return isinstance(y, list) and len(y) > 0 and all(isinstance(r, np.ndarray) for r in y)
+
+
+def _per_record(value, n_records, name):
+    if value is None:
+        return [None] * n_records
+    if not isinstance(value, list) or len(value) != n_records:
+        raise ValueError(f"with {n_records} records, {name} must be a list of {n_records} entries (one per record) "
+                         f"or None; got {type(value).__name__}.")
+    return value
 
 
 class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin,
@@ -153,13 +170,16 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-        y_init : array-like of shape (n_init, n_outputs), optional
-        x0 : array-like of shape (n_states,), optional
+        X : array-like of shape (n_samples, n_inputs), None, or list of ndarray
+            A list of input arrays predicts several records (``y_init`` or
+            ``x0`` then a list too, one entry per record) and returns a list.
+        y_init : array-like of shape (n_init, n_outputs), or list, optional
+        x0 : array-like of shape (n_states,), or list, optional
 
         Returns
         -------
         ndarray of shape (n_samples, n_outputs), or (n_samples,) when ``fit`` got a 1-D ``y``
+            A list of such arrays, one per record, when ``X`` is a list.
 
         Warns
         -----
@@ -169,6 +189,8 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         check_is_fitted(self)
         if x0 is not None and y_init is not None:
             raise ValueError("give x0 or y_init, not both.")
+        if is_records(X) or is_records(y_init):
+            return self._predict_records(X, y_init, x0)
         if x0 is None and y_init is None:
             warnings.warn(
                 "predict without y_init or x0 starts from the first training state x0_; "
@@ -181,6 +203,16 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         y_pred = warn_divergence(states[:, list(self.output_index_)], type(self).__name__)
         return y_pred[:, 0] if getattr(self, "_y_1d", False) else y_pred
 
+    def _predict_records(self, X, y_init, x0):
+        """``predict`` of each record of the lists ``X`` and ``y_init`` (or ``x0``); a list."""
+        n_records = len(X) if isinstance(X, list) else len(y_init)
+        if x0 is None and y_init is None:
+            raise ValueError("predict on several records needs y_init or x0, a list with one entry per record; "
+                             "x0_ is only the first training record's state.")
+        X = _per_record(X, n_records, "X")
+        starts = _per_record(y_init if x0 is None else x0, n_records, "y_init" if x0 is None else "x0")
+        return [self.predict(X_i, **({"y_init": s} if x0 is None else {"x0": s})) for X_i, s in zip(X, starts)]
+
     def score(self, X, y, sample_weight=None):
         """R^2 of the open-loop simulation started from the start of ``y``.
 
@@ -189,8 +221,10 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-        y : array-like of shape (n_samples, n_outputs)
+        X : array-like of shape (n_samples, n_inputs), None, or list
+        y : array-like of shape (n_samples, n_outputs), or list of ndarray
+            With lists (several records), each record is simulated from its
+            own start and the R^2 pools the samples of all records.
         sample_weight : None
             Not supported; must be None.
 
@@ -200,8 +234,23 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         """
         if sample_weight is not None:
             raise ValueError(f"sample_weight is not supported by {type(self).__name__}.score; expected None.")
+        if is_records(y):
+            return self._score_records(X, y)
         X, y = check_inputs_outputs(X, y)
         return make_simulation_scorer("r2")(self, X, y)
+
+    def _score_records(self, X, y):
+        """R^2 pooled over the records: each simulated from its own start, the samples scored together."""
+        X = _per_record(X, len(y), "X")
+        pairs = [check_inputs_outputs(X_i, y_i, x_name=f"X[{i}]", y_name=f"y[{i}]")
+                 for i, (X_i, y_i) in enumerate(zip(X, y))]
+        with warnings.catch_warnings():  # a diverged simulation scores -inf, no warning
+            warnings.simplefilter("ignore", DivergenceWarning)
+            y_pred = [self.predict(X_i, y_init=y_i).reshape(y_i.shape[0], -1) for X_i, y_i in pairs]
+        y_pred = np.vstack(y_pred)
+        if not np.all(np.isfinite(y_pred)):
+            return -np.inf
+        return r2(np.vstack([y_i for _, y_i in pairs]), y_pred)
 
     # ----------------------------------------------------------------- display
     def equations(self, precision=3, *, latex=False, errors=False):

@@ -7,7 +7,7 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
-from ._base import DynamicsEstimator
+from ._base import DynamicsEstimator, is_records
 from ._equations import EquationRow
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
 from .optimizers import STLS
@@ -100,7 +100,7 @@ class SINDy(DynamicsEstimator):
         Sampling interval of the training data (None for non-uniform ``t``).
     x0_ : ndarray of shape (n_states,)
         First training sample (the default initial state of :meth:`predict`;
-        refined with ``refine``).
+        refined with ``refine``); with several records, the first record's.
     refinement_ : dict or None
         Record of the refinement (see :meth:`RefinementResult.summary
         <sindybench.refine.RefinementResult.summary>`); None without ``refine``.
@@ -130,6 +130,14 @@ class SINDy(DynamicsEstimator):
     >>> model.equations(precision=2)
     ["y0' = -2.00 y0 + 1.00 u0"]
     >>> round(model.score(u, y), 4)
+    1.0
+
+    Several records (lists of arrays), each differentiated on its own:
+
+    >>> y2 = simulate(truth, [-1.0], -u, dt=0.01, input_hold="linear")
+    >>> model.fit([u, -u], [y, y2]).equations(precision=2)
+    ["y0' = -2.00 y0 + 1.00 u0"]
+    >>> round(model.score([u, -u], [y, y2]), 4)
     1.0
     """
 
@@ -194,16 +202,28 @@ class SINDy(DynamicsEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-            Inputs ``u``; None or zero columns for an autonomous system.
-        y : array-like of shape (n_samples, n_states) or (n_samples,)
-            Measured states.
+        X : array-like of shape (n_samples, n_inputs), None, or list
+            Inputs ``u``; None or zero columns for an autonomous system. With
+            several records: a list of input arrays (or of None), one per
+            record of ``y``, or None.
+        y : array-like of shape (n_samples, n_states) or (n_samples,), or list of ndarray
+            Measured states. A Python list of NumPy arrays is several records
+            of one system (pysindy's convention; a list of numbers or of lists
+            is one record): each record is differentiated separately (never
+            across the seam between records) and the library rows of all
+            records are stacked into one regression. Lists rather than a
+            record-id column because scikit-learn's checks and splitters cut
+            one array by rows; cross-validate over records by passing lists
+            per fold (see the user guide). Several records need a uniform
+            ``dt`` and no ``refine`` (``ValueError``: the refinement takes one
+            record); ``x0_`` is then the first record's first state.
         dt : float, optional
             Sampling interval (overrides the constructor's ``dt``).
         t : array-like of shape (n_samples,), optional
-            Strictly increasing sample times, instead of ``dt``.
-        x_dot : array-like of shape (n_samples, n_states), optional
-            Known derivatives of ``y``; skips ``differentiation``.
+            Strictly increasing sample times, instead of ``dt`` (one record only).
+        x_dot : array-like of shape (n_samples, n_states), or list, optional
+            Known derivatives of ``y`` (a list of arrays for several records);
+            skips ``differentiation``.
 
         Returns
         -------
@@ -213,6 +233,8 @@ class SINDy(DynamicsEstimator):
             raise ValueError(
                 "SINDy requires y to be passed, but the target y is None; expected the measured states."
             )
+        if is_records(y):
+            return self._fit_records(X, y, dt=dt, t=t, x_dot=x_dot)
         check_array_like(X, "X")
         check_array_like(y, "y")
         y_1d = np.asarray(y).ndim == 1
@@ -224,9 +246,6 @@ class SINDy(DynamicsEstimator):
             raise ValueError("refine needs uniformly sampled data (dt); got sample times t.")
         if n_samples < 3 and x_dot is None:
             raise ValueError(f"y has {n_samples} sample(s); expected at least 3 to estimate derivatives.")
-        out_names = _check_names(self.output_names, n_states, "y", "output_names")
-        in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
-
         differentiation = clone(as_differentiation(self.differentiation))
         if x_dot is None:
             x_dot = differentiation.derivative(y, dt=dt, t=t)
@@ -235,15 +254,71 @@ class SINDy(DynamicsEstimator):
             x_dot = check_signal(x_dot, "x_dot", n_samples=n_samples)
             if x_dot.shape[1] != n_states:
                 raise ValueError(f"x_dot has {x_dot.shape[1]} columns; expected {n_states} (one per state in y).")
+        fitted_dt = dt if dt is not None else uniform_step(t)
+        return self._fit_stacked(differentiation, X, y, x_dot, fitted_dt, y_1d, refine_on=(X, y))
 
+    def _fit_records(self, X, y, *, dt, t, x_dot):
+        """``fit`` on several records: per-record derivatives, one regression on the stacked rows."""
+        n_records = len(y)
+        if X is None:
+            X = [None] * n_records
+        if not isinstance(X, list) or len(X) != n_records:
+            n_x = len(X) if isinstance(X, list) else type(X).__name__
+            raise ValueError(f"y is a list of {n_records} records, so X must be None or a list of {n_records} "
+                             f"input arrays (or None), one per record; got {n_x}.")
+        if x_dot is not None and (not isinstance(x_dot, list) or len(x_dot) != n_records):
+            raise ValueError(f"with {n_records} records, x_dot must be a list of {n_records} arrays or None.")
+        if t is not None:
+            raise ValueError("several records need a uniform step dt; sample times t are not supported with lists.")
+        if self.refine is not None:
+            raise ValueError("refine is not supported with several records yet (the simulation-error refinement "
+                             "takes one record); fit the records without refine, or fit and refine on one record.")
+        records = []
+        for i, (X_i, y_i) in enumerate(zip(X, y)):
+            check_array_like(X_i, f"X[{i}]")
+            check_array_like(y_i, f"y[{i}]")
+            records.append(check_inputs_outputs(X_i, y_i, x_name=f"X[{i}]", y_name=f"y[{i}]"))
+        y_1d = all(np.asarray(y_i).ndim == 1 for y_i in y)
+        n_states, n_inputs = records[0][1].shape[1], records[0][0].shape[1]
+        for i, (X_i, y_i) in enumerate(records):
+            if y_i.shape[1] != n_states or X_i.shape[1] != n_inputs:
+                raise ValueError(f"record {i} has {y_i.shape[1]} states and {X_i.shape[1]} inputs; expected "
+                                 f"{n_states} and {n_inputs} as in record 0.")
+        self._check_params(n_states)
+        dt, _ = self._resolve_time(dt, None, records[0][1].shape[0], self.dt)
+        differentiation = clone(as_differentiation(self.differentiation))
+        derivatives = []
+        for i, (X_i, y_i) in enumerate(records):
+            n_i = y_i.shape[0]
+            if x_dot is not None:
+                d_i = check_signal(x_dot[i], f"x_dot[{i}]", n_samples=n_i)
+                if d_i.shape[1] != n_states:
+                    raise ValueError(f"x_dot[{i}] has {d_i.shape[1]} columns; expected {n_states}.")
+            elif n_i < 3:
+                raise ValueError(f"record {i} has {n_i} sample(s); expected at least 3 to estimate derivatives.")
+            else:
+                try:
+                    d_i = differentiation.derivative(y_i, dt=dt, t=None)
+                except ValueError as exc:
+                    raise ValueError(f"record {i}: {exc}") from exc
+                d_i = check_signal(d_i, f"derivative of y[{i}]", n_samples=n_i)
+            derivatives.append(d_i)
+        X_all = np.vstack([X_i for X_i, _ in records])
+        y_all = np.vstack([y_i for _, y_i in records])
+        return self._fit_stacked(differentiation, X_all, y_all, np.vstack(derivatives), dt, y_1d, refine_on=None)
+
+    def _fit_stacked(self, differentiation, X, y, x_dot, fitted_dt, y_1d, refine_on):
+        """Regress ``x_dot`` on the library of the rows ``[y, X]``; ``x0_`` is ``y[0]`` (the first record's)."""
+        n_states = y.shape[1]
+        out_names = _check_names(self.output_names, n_states, "y", "output_names")
+        in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
         library = clone(as_library(self.library))
         optimizer = clone(STLS() if self.optimizer is None else self.optimizer)
         coef = fit_sparse(library, optimizer, np.hstack([y, X]), x_dot, what="library output Theta([y, u])")
-        fitted_dt = dt if dt is not None else uniform_step(t)
         dynamics = self._assemble(library, coef, out_names, fitted_dt)
         x0, refinement = y[0].copy(), None
         if self.refine is not None:
-            coef, x0, refinement = self._refine(dynamics, X, y, coef, x0)
+            coef, x0, refinement = self._refine(dynamics, *refine_on, coef, x0)
         coef_ = coef.T.copy()
         dynamics = self._assemble(library, coef_.T, out_names, fitted_dt)  # as _rebuild_model does
 

@@ -698,6 +698,7 @@ def test_quick_run_best_model(quick_run, name):
         assert set(band["coverage"]) == set(results["test_sets"])
         for cov in band["coverage"].values():
             assert cov["status"] == "ok" and 0.0 <= cov["coverage"] <= 1.0 and cov["mean_width"] > 0
+            assert cov["measurement_coverage"] >= cov["coverage"] - 0.05  # the residuals widen the band
     else:
         assert band["status"].startswith("skipped: ") and benchmark.band_skip_reason in band["status"]
     text = (quick_run / name / "results.md").read_text()

@@ -133,7 +133,9 @@ def _band(estimator, X, y, tests, test_info, *, n_members, seed):
     info = {"n_members": n_members, "alpha": 0.05, "coverage": {},
             "protocol": (f"95 % band of a {n_members}-member circular-block bootstrap ensemble of the row (refit on "
                          "the estimation record, refinement included), each member started from the first n_init "
-                         "test samples; coverage = fraction of the scored test outputs inside the band")}
+                         "test samples; coverage = fraction of the scored test outputs inside the band of the model's output; "
+                         "measurement_coverage: inside the band with block-resampled training residuals added "
+                         "(prediction_band(noise=True), a band for new measurements)")}
     try:
         from ..uncertainty import BootstrapEnsemble, prediction_band
 
@@ -149,13 +151,16 @@ def _band(estimator, X, y, tests, test_info, *, n_members, seed):
         n_init, first = test_info[name]["n_init"], test_info[name]["score_from"]
         try:
             band = prediction_band(ens, u, y_init=yt[:n_init])
+            noisy = prediction_band(ens, u, y_init=yt[:n_init], noise=True, random_state=seed)
         except Exception as exc:
             info["coverage"][name] = {"coverage": None, "status": _failed(exc)}
             continue
-        lo, hi = band.lower[first:, band.outputs], band.upper[first:, band.outputs]
-        inside = (yt[first:] >= lo) & (yt[first:] <= hi)
-        info["coverage"][name] = {"coverage": float(np.mean(inside)), "n_diverged": band.n_diverged,
-                                  "mean_width": float(np.mean(hi - lo)), "status": "ok"}
+        entry = {"n_diverged": band.n_diverged, "status": "ok"}
+        for tag, b in (("", band), ("measurement_", noisy)):
+            lo, hi = b.lower[first:, b.outputs], b.upper[first:, b.outputs]
+            entry[tag + "coverage"] = float(np.mean((yt[first:] >= lo) & (yt[first:] <= hi)))
+            entry[tag + "mean_width"] = float(np.mean(hi - lo))
+        info["coverage"][name] = entry
     info.update(status="ok", time_s=time.perf_counter() - start)
     return info
 
@@ -255,7 +260,8 @@ def best_model_markdown(best, h="##"):
             + "."]
     band = best.get("band", {})
     if band.get("status") == "ok":
-        cov = ", ".join(f"`{k}` {_num(v['coverage'], '.3f')}" for k, v in band["coverage"].items())
+        cov = ", ".join(f"`{k}` {_num(v['coverage'], '.3f')} (with the residuals: "
+                        f"{_num(v.get('measurement_coverage'), '.3f')})" for k, v in band["coverage"].items())
         out.append(f"95 % prediction band ({band['protocol']}; {band['n_failed']} failed fits): coverage {cov}.")
     else:
         out.append(f"95 % prediction band: {band.get('status', '-')}.")

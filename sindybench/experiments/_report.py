@@ -21,6 +21,7 @@ import numpy as np
 
 from .._process import owner, owner_is_gone
 from ..plotting import plot_hysteresis, plot_simulation
+from ._best import best_model_markdown
 
 __all__ = [
     "check_output_dir",
@@ -279,6 +280,7 @@ def results_markdown(results, *, heading_level=1):
         )
         out.append("")
         out.append(_markdown_table(comparison_rows(results, name)))
+    out += best_model_markdown(results.get("best_model"), f"{h}#")
     out += ["", f"{h}# Models", ""]
     for m in results["models"]:
         trials = f"{m['n_trials']} search trials" if m["n_trials"] else "no outer search"

@@ -19,6 +19,7 @@ from sklearn.exceptions import ConvergenceWarning
 from .. import __version__
 from .._json import jsonable
 from ..metrics import fit_index, r2, rmse
+from ._best import report_best_model
 from ._published import published
 
 __all__ = ["DataNotFoundError", "evaluate", "fit_model", "load_data", "run_benchmark", "test_sets"]
@@ -352,5 +353,6 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
             entry["scores"][name] = scores
             entry["published"][name] = published(benchmark.name, spec.key, name)
         results["models"].append(entry)
+    results["best_model"] = report_best_model(benchmark, results, fitted, X, y, n_train, tests, quick=quick, seed=seed)
     results["wall_time_s"] = time.perf_counter() - start
     return results, fitted, simulations

@@ -96,6 +96,15 @@ class Benchmark:
         With ``--quick``, evaluate on these test sets only (``None``: all).
     notes : str
         Paragraph for the report: what the study did, what differs here.
+    reported_model : str or None
+        Key of the row that gets the extra reports (k-step prediction, smoothed
+        start, standard errors, prediction band), designated by its structure,
+        never by a test score (``None``: no extra reports).
+    band_members, band_members_quick : int
+        Members of that row's bootstrap ensemble (full and ``--quick`` runs;
+        0 skips the band, with ``band_skip_reason`` in the report).
+    band_skip_reason : str
+        Why the band is skipped or smaller, for the report.
     """
 
     name: str
@@ -109,6 +118,10 @@ class Benchmark:
     n_train_quick: int | None = None
     test_sets_quick: tuple | None = None
     notes: str = ""
+    reported_model: str | None = None
+    band_members: int = 20
+    band_members_quick: int = 5
+    band_skip_reason: str = ""
 
     def model(self, key):
         """Return the model spec called ``key``."""

@@ -1,0 +1,268 @@
+"""Extra reports for one designated row per benchmark: k-step prediction, a smoothed start, uncertainty.
+
+The row is declared in the benchmark's module (``Benchmark.reported_model``),
+fixed by its structure (the richest physical model, refined) before any test
+score is seen: never chosen on the test set. For that row the runner adds,
+each under its own protocol name:
+
+- the k-step-ahead RMSE for a few horizons (the extended Kalman filter on the
+  test record's own outputs, :func:`sindybench.estimation.k_step_rmse`);
+- the free-run score from the initial state the RTS smoother gives over the
+  first ``n_init`` test samples only
+  (:func:`sindybench.estimation.smooth_initial_state`);
+- the standard errors of its refined parameters (``model.standard_errors()``);
+- the coverage of the test outputs by the 95 % band of a small block-bootstrap
+  ensemble (:class:`sindybench.uncertainty.BootstrapEnsemble`).
+
+The noise covariances ``Q`` and ``R`` of the filter and smoother are estimated
+on the first training samples (:func:`sindybench.estimation.estimate_noise`).
+"""
+
+import logging
+import time
+
+import numpy as np
+from sklearn.base import clone
+
+from ..metrics import fit_index, r2, rmse
+
+__all__ = ["HORIZONS", "K_STEP_SAMPLES", "report_best_model", "smoothed_start_scores"]
+
+logger = logging.getLogger(__name__)
+
+HORIZONS = (1, 10, 100)
+"""The k-step-ahead horizons reported (in samples)."""
+
+K_STEP_SAMPLES = 20000
+"""The k-step scores cover at most the first this many samples of a test record (Bouc-Wen's sine sweep has 153,000)."""
+
+NOISE_SAMPLES = 2000
+"""Training samples on which ``Q`` and ``R`` are estimated (the likelihood search runs the filter many times)."""
+
+NOISE_ITER = 120
+"""Nelder-Mead iterations of the noise estimate."""
+
+
+def k_step_protocol(k):
+    """The protocol name of the k-step-ahead score."""
+    return (f"k-step ahead, k={k}: extended Kalman filter on the test record's own outputs up to t, "
+            f"free run of k samples; RMSE over y[k:], on the first {K_STEP_SAMPLES} samples of longer records")
+
+
+SMOOTHED_PROTOCOL = ("free run from the smoothed initial state: RTS smoother over the first n_init test samples "
+                     "only, scored as the free run")
+
+
+def _scores(y, y_pred, first):
+    return {"rmse": rmse(y[first:], y_pred[first:]), "r2": r2(y[first:], y_pred[first:]),
+            "fit_index": fit_index(y[first:], y_pred[first:]), "status": "ok"}
+
+
+def _failed(exc):
+    return f"failed: {type(exc).__name__}: {exc}"
+
+
+def smoothed_start_scores(estimator, test, n_init, *, Q, R, score_from=0):
+    """Free run from the RTS-smoothed initial state of the first ``n_init`` samples; scores and the state.
+
+    Only ``test["u"][:n_init]`` and ``test["y"][:n_init]`` reach the smoother.
+
+    Returns
+    -------
+    scores : dict
+        ``rmse``, ``r2``, ``fit_index`` over the samples from ``score_from`` on,
+        ``status``.
+    x0 : ndarray of shape (n_states,) or None
+    """
+    from ..estimation import model_step, smooth_initial_state
+
+    u = np.asarray(test["u"], float)
+    u = u.reshape(len(u), -1)
+    y = np.asarray(test["y"], float).reshape(len(u), -1)
+    try:
+        x0 = smooth_initial_state(estimator, u[:n_init], y[:n_init], Q=Q, R=R)
+        states = estimator.simulate(u, x0=x0, on_divergence="nan")
+        y_pred = np.asarray(states, float)[:, list(model_step(estimator).output_index)]
+    except Exception as exc:  # a diverging filter is a result, not a crash
+        return {"rmse": None, "r2": None, "fit_index": None, "status": _failed(exc)}, None
+    if not np.all(np.isfinite(y_pred)):
+        return {"rmse": None, "r2": None, "fit_index": None, "status": "diverged (non-finite simulation)"}, x0
+    return _scores(y, y_pred, score_from), x0
+
+
+def _noise(estimator, X, y):
+    from ..estimation import estimate_noise
+
+    start = time.perf_counter()
+    Q, R = estimate_noise(estimator, X, y, max_samples=NOISE_SAMPLES, max_iter=NOISE_ITER)
+    return Q, R, {"method": f"estimation.estimate_noise on the first {min(NOISE_SAMPLES, len(y))} training samples "
+                            f"({NOISE_ITER} Nelder-Mead iterations): diagonal Q and R of the largest innovation "
+                            "likelihood",
+                  "Q_diag": np.diag(Q).tolist(), "R_diag": np.diag(R).tolist(),
+                  "time_s": time.perf_counter() - start}
+
+
+def _k_step(estimator, test, Q, R, horizons):
+    from ..estimation import k_step_rmse
+
+    u = np.asarray(test["u"], float)
+    u = u.reshape(len(u), -1)[:K_STEP_SAMPLES]
+    y = np.asarray(test["y"], float).reshape(len(test["y"]), -1)[:K_STEP_SAMPLES]
+    out = {}
+    for k in horizons:
+        try:
+            value = float(k_step_rmse(estimator, u, y, k, Q=Q, R=R))
+            out[str(k)] = {"rmse": value, "status": "ok", "protocol": k_step_protocol(k)}
+        except Exception as exc:
+            out[str(k)] = {"rmse": None, "status": _failed(exc), "protocol": k_step_protocol(k)}
+    return out
+
+
+def _standard_errors(estimator):
+    method = getattr(estimator, "standard_errors", None)
+    if method is None or getattr(estimator, "refinement_", None) is None:
+        return None, "not a refined row: no covariance at a simulation-error optimum"
+    try:
+        return {k: float(v) for k, v in method().items()}, "ok"
+    except Exception as exc:
+        return None, _failed(exc)
+
+
+def _band(estimator, X, y, tests, test_info, *, n_members, seed):
+    start = time.perf_counter()
+    info = {"n_members": n_members, "alpha": 0.05, "coverage": {},
+            "protocol": (f"95 % band of a {n_members}-member circular-block bootstrap ensemble of the row (refit on "
+                         "the estimation record, refinement included), each member started from the first n_init "
+                         "test samples; coverage = fraction of the scored test outputs inside the band of the model's output; "
+                         "measurement_coverage: inside the band with block-resampled training residuals added "
+                         "(prediction_band(noise=True), a band for new measurements)")}
+    try:
+        from ..uncertainty import BootstrapEnsemble, prediction_band
+
+        ens = BootstrapEnsemble(clone(estimator), n_members=n_members, random_state=seed).fit(X, y)
+    except Exception as exc:
+        info.update(status=_failed(exc), time_s=time.perf_counter() - start)
+        return info
+    info.update(n_failed=int(ens.n_failed_), block_length=int(ens.block_length_))
+    for name, test in tests.items():
+        u = np.asarray(test["u"], float)
+        u = u.reshape(len(u), -1)
+        yt = np.asarray(test["y"], float).reshape(len(u), -1)
+        n_init, first = test_info[name]["n_init"], test_info[name]["score_from"]
+        try:
+            band = prediction_band(ens, u, y_init=yt[:n_init])
+            noisy = prediction_band(ens, u, y_init=yt[:n_init], noise=True, random_state=seed)
+        except Exception as exc:
+            info["coverage"][name] = {"coverage": None, "status": _failed(exc)}
+            continue
+        entry = {"n_diverged": band.n_diverged, "status": "ok"}
+        for tag, b in (("", band), ("measurement_", noisy)):
+            lo, hi = b.lower[first:, b.outputs], b.upper[first:, b.outputs]
+            entry[tag + "coverage"] = float(np.mean((yt[first:] >= lo) & (yt[first:] <= hi)))
+            entry[tag + "mean_width"] = float(np.mean(hi - lo))
+        info["coverage"][name] = entry
+    info.update(status="ok", time_s=time.perf_counter() - start)
+    return info
+
+
+def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick, seed=0):
+    """The extra reports of the benchmark's designated row (see the module docstring).
+
+    Parameters
+    ----------
+    benchmark : Benchmark
+    results : dict
+        The runner's results (its ``test_sets`` and ``models``).
+    fitted : dict
+        ``{model key: fitted estimator or None}``.
+    X, y : ndarray
+        The estimation record (training + validation block); the first
+        ``n_train`` samples are the training block.
+    tests : dict
+        ``{test name: Bunch}`` as evaluated.
+    quick : bool
+    seed : int
+
+    Returns
+    -------
+    dict or None
+        ``None`` when the benchmark designates no row.
+    """
+    key = benchmark.reported_model
+    if key is None:
+        return None
+    spec = benchmark.model(key)
+    out = {"key": key, "label": spec.label,
+           "choice": "designated in the benchmark's module (Benchmark.reported_model) by its structure, not by "
+                     "any test score",
+           "horizons": list(HORIZONS), "smoothed_protocol": SMOOTHED_PROTOCOL}
+    estimator = fitted.get(key)
+    if estimator is None:
+        out["status"] = "not fitted"
+        return out
+    start = time.perf_counter()
+    cap = spec.train_cap(quick=quick)
+    keep = slice(None) if cap is None or cap >= n_train else np.r_[:cap, n_train:len(y)]
+    Xk, yk = X[keep], y[keep]
+    try:
+        Q, R, out["noise"] = _noise(estimator, X[:n_train], y[:n_train])
+    except Exception as exc:
+        out["noise"] = {"status": _failed(exc)}
+        Q = R = None
+    out["k_step"], out["smoothed_start"] = {}, {}
+    for name, test in tests.items():
+        if Q is None:
+            break
+        info = results["test_sets"][name]
+        out["k_step"][name] = _k_step(estimator, test, Q, R, HORIZONS)
+        out["smoothed_start"][name] = smoothed_start_scores(
+            estimator, test, info["n_init"], Q=Q, R=R, score_from=info["score_from"])[0]
+    out["standard_errors"], out["standard_errors_status"] = _standard_errors(estimator)
+    n_members = benchmark.band_members_quick if quick else benchmark.band_members
+    if n_members:
+        out["band"] = _band(estimator, Xk, yk, tests, results["test_sets"], n_members=n_members, seed=seed)
+    else:
+        out["band"] = {"n_members": 0, "status": "skipped: " + (benchmark.band_skip_reason or "no band members")}
+    out["time_s"] = time.perf_counter() - start
+    out["status"] = "ok"
+    return out
+
+
+def _num(value, fmt=".4g"):
+    return "-" if value is None else format(value, fmt)
+
+
+def best_model_markdown(best, h="##"):
+    """Markdown lines of the designated row's extra reports (empty without one)."""
+    if not best:
+        return []
+    out = ["", f"{h} Designated row `{best['key']}`: prediction modes and uncertainty", "",
+           f"{best['label']}; {best['choice']}."]
+    if best.get("status") != "ok":
+        return out + ["", f"Not reported: {best.get('status')}."]
+    noise = best.get("noise", {})
+    out.append("Noise covariances: " + (noise["method"] + f"; Q diagonal {[float(f'{q:.3g}') for q in noise['Q_diag']]}, "
+                                         f"R diagonal {[float(f'{r:.3g}') for r in noise['R_diag']]}."
+                                         if "method" in noise else noise.get("status", "-")))
+    if best["k_step"]:
+        ks = best["horizons"]
+        out += ["", "Protocols: " + "; ".join(f"`k={k}`: {k_step_protocol(k)}" for k in ks)
+                + f"; `smoothed start`: {best['smoothed_protocol']}.", "",
+                "| test set | " + " | ".join(f"RMSE k={k}" for k in ks) + " | smoothed start RMSE | fit index |",
+                "|" + "---|" * (len(ks) + 3)]
+        for name, rows in best["k_step"].items():
+            sm = best["smoothed_start"][name]
+            cells = [_num(rows[str(k)]["rmse"]) for k in ks]
+            out.append(f"| {name} | " + " | ".join(cells) + f" | {_num(sm['rmse'])} | {_num(sm['fit_index'], '.2f')} |")
+    se = best.get("standard_errors")
+    out += ["", "Standard errors of the refined parameters (Jacobian at the optimum, white residuals): "
+            + (", ".join(f"{k} {v:.3g}" for k, v in se.items()) if se else best.get("standard_errors_status", "-"))
+            + "."]
+    band = best.get("band", {})
+    if band.get("status") == "ok":
+        cov = ", ".join(f"`{k}` {_num(v['coverage'], '.3f')} (with the residuals: "
+                        f"{_num(v.get('measurement_coverage'), '.3f')})" for k, v in band["coverage"].items())
+        out.append(f"95 % prediction band ({band['protocol']}; {band['n_failed']} failed fits): coverage {cov}.")
+    else:
+        out.append(f"95 % prediction band: {band.get('status', '-')}.")
+    return out

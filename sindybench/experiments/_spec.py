@@ -119,7 +119,7 @@ class Benchmark:
     test_sets_quick: tuple | None = None
     notes: str = ""
     reported_model: str | None = None
-    band_members: int = 20
+    band_members: int = 10
     band_members_quick: int = 5
     band_skip_reason: str = ""
 

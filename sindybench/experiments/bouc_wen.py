@@ -104,7 +104,7 @@ BENCHMARK = Benchmark(
     n_init=10,
     reported_model="hidden_bouc_wen_refined",  # the richest physical structure, refined (fixed before any test score)
     band_members=0, band_members_quick=0,
-    band_skip_reason="each member refits the 40,000-sample refinement (about 2 s): 20 members would take most of the run's time budget",
+    band_skip_reason="each member refits the 40,000-sample refinement (about 2 s): 10 members would take a third of the run's time budget",
     hysteresis_test="sine",
     n_train_quick=None,
     models=(

@@ -106,7 +106,7 @@ BENCHMARK = Benchmark(
     n_init=20,
     reported_model="sindy_friction_position_refined",  # the richest physical structure, refined (fixed before any test score)
     band_members=0, band_members_quick=0,
-    band_skip_reason="each member refits the 24,000-sample refinement (about 2 s): 20 members would take most of the run's time budget",
+    band_skip_reason="each member refits the 24,000-sample refinement (about 2 s): 10 members would take a third of the run's time budget",
     models=(
         ModelSpec("sindy_poly", "SINDy, 1st order", _first_order,
                   stls_space(threshold=(1e-4, 1e2), alpha=(1e-10, 1e-2)), n_trials=10, n_trials_quick=3,

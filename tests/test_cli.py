@@ -769,8 +769,13 @@ def _finished(trials):
     return {t.number: (t.params, t.value) for t in trials if t.state.name in ("COMPLETE", "PRUNED")}
 
 
+@pytest.mark.slow  # known race, see below; the quick versions: tests/test_tune_processes.py (killed workers)
 def test_cli_workers_share_a_postgresql_study_and_survive_a_kill(postgres_url, data_home, tmp_path):
     """Two ``sindybench run --storage postgresql+psycopg://...`` share the searches; one is SIGKILLed.
+
+    Known race (about 1 run in 5 here): a kill that lands after Optuna created a trial and before
+    sindybench tagged it with its worker leaves an untagged RUNNING trial, which holds its place in
+    the budget until the database heartbeat fails it; the search then ends one trial short.
 
     The killed run is started again (same command) while the other still runs. The
     trial in flight at the kill stays RUNNING until a worker on this host sees that

@@ -369,7 +369,7 @@ def _run_study(study, objective, search_space, *, n_trials, timeout, n_jobs, sho
             study.stop()
 
     remaining = n_trials - count_claimed(study)
-    if remaining > 0:
+    while remaining > 0:
         logger.info("study %r: running up to %d of %d trials", study.study_name, remaining, n_trials)
         study.optimize(
             objective,
@@ -380,6 +380,13 @@ def _run_study(study, objective, search_space, *, n_trials, timeout, n_jobs, sho
             callbacks=[stop_at_budget],
             show_progress_bar=show_progress_bar,
         )
+        if timeout is not None:
+            break
+        # a place held by a dead worker's RUNNING trial is given back only once that trial is marked FAIL,
+        # possibly after this worker stood down for it: run what is still missing (every trial run here
+        # either finishes, which claims a place, or stands down because all places are claimed)
+        fail_dead_workers(study)
+        remaining = n_trials - count_claimed(study)
     complete = study.get_trials(deepcopy=False, states=(optuna.trial.TrialState.COMPLETE,))
     if not complete:
         raise AllTrialsFailedError(

@@ -5,14 +5,11 @@ This module keeps the public names where they have always been:
 :class:`SimulationError`.
 """
 
-from .dynamics._simulate import (  # noqa: F401 - the private names are used by the estimators
+from .dynamics._simulate import (  # noqa: F401 - _HOLDS and _METHODS: the estimators' option checks
     _HOLDS,
     _METHODS,
-    _STAGES,
     SimulationError,
     TermsRHS,
-    _check_steps,
-    _check_x0,
     make_rhs,
     simulate,
 )

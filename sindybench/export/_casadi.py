@@ -43,7 +43,7 @@ class CasadiModel(NamedTuple):
 
 
 def _factor(ca, v, op, a, b):
-    """One factor as the simulator values it (``simulate._terms_rhs``)."""
+    """One factor as the simulator values it (:func:`sindybench.dynamics._ops.op_value`)."""
     if op in (POW, ABS_POW):
         w = ca.fabs(v) if op == ABS_POW else v
         return w if a == 1.0 else w * w if a == 2.0 else w * w * w if a == 3.0 else w**a

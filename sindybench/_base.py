@@ -20,21 +20,13 @@ from sklearn.utils.validation import check_is_fitted
 from ._divergence import DivergenceWarning, warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
-from ._validation import check_inputs_outputs, check_model_inputs, check_signal
+from ._validation import check_inputs_outputs, check_model_inputs, check_signal, is_records
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer, r2
 from .refine._report import UncertaintyMixin
 from .simulate import SimulationError
 
-__all__ = ["DynamicsEstimator"]
-
-
-def is_records(y):
-    """Whether ``y`` holds several records: a non-empty Python list of NumPy arrays (pysindy's convention).
-
-    A list of numbers or of lists stays one record (one array), as scikit-learn passes it.
-    """
-    return isinstance(y, list) and len(y) > 0 and all(isinstance(r, np.ndarray) for r in y)
+__all__ = ["DynamicsEstimator", "is_records"]
 
 
 def _per_record(value, n_records, name):

@@ -215,8 +215,9 @@ class SINDy(DynamicsEstimator):
             record-id column because scikit-learn's checks and splitters cut
             one array by rows; cross-validate over records by passing lists
             per fold (see the user guide). Several records need a uniform
-            ``dt`` and no ``refine`` (``ValueError``: the refinement takes one
-            record); ``x0_`` is then the first record's first state.
+            ``dt``; ``refine`` then refines the shared coefficients on all
+            records with one initial state each (multiple shooting takes one
+            record); ``x0_`` is the first record's first state.
         dt : float, optional
             Sampling interval (overrides the constructor's ``dt``).
         t : array-like of shape (n_samples,), optional
@@ -270,9 +271,6 @@ class SINDy(DynamicsEstimator):
             raise ValueError(f"with {n_records} records, x_dot must be a list of {n_records} arrays or None.")
         if t is not None:
             raise ValueError("several records need a uniform step dt; sample times t are not supported with lists.")
-        if self.refine is not None:
-            raise ValueError("refine is not supported with several records yet (the simulation-error refinement "
-                             "takes one record); fit the records without refine, or fit and refine on one record.")
         records = []
         for i, (X_i, y_i) in enumerate(zip(X, y)):
             check_array_like(X_i, f"X[{i}]")
@@ -305,7 +303,8 @@ class SINDy(DynamicsEstimator):
             derivatives.append(d_i)
         X_all = np.vstack([X_i for X_i, _ in records])
         y_all = np.vstack([y_i for _, y_i in records])
-        return self._fit_stacked(differentiation, X_all, y_all, np.vstack(derivatives), dt, y_1d, refine_on=None)
+        refine_on = ([X_i for X_i, _ in records], [y_i for _, y_i in records])
+        return self._fit_stacked(differentiation, X_all, y_all, np.vstack(derivatives), dt, y_1d, refine_on=refine_on)
 
     def _fit_stacked(self, differentiation, X, y, x_dot, fitted_dt, y_1d, refine_on):
         """Regress ``x_dot`` on the library of the rows ``[y, X]``; ``x0_`` is ``y[0]`` (the first record's)."""
@@ -347,9 +346,14 @@ class SINDy(DynamicsEstimator):
         self.dynamics_ = self._assemble(self.library_, self.coef_.T, self.output_names_, self.dt_)
 
     def _refine(self, dynamics, X, y, coef, x0):
-        """``(coef, x0, record)`` refined by simulation error (see ``refine``); kept as given if it diverges."""
+        """``(coef, x0, record)`` refined by simulation error (see ``refine``); kept as given if it diverges.
+
+        With several records (lists ``X`` and ``y``), one initial state per
+        record; ``x0`` is the first record's.
+        """
         lo, hi = check_bounds(self.bounds, dynamics.n_states)
-        result, record = self._run_refinement(dynamics, X, y, x0=np.clip(y[0], lo, hi))
+        starts = [np.clip(y_i[0], lo, hi) for y_i in y] if is_records(y) else np.clip(y[0], lo, hi)
+        result, record = self._run_refinement(dynamics, X, y, x0=starts)
         if result is None:
             return coef, x0, record
         return result.coef.copy(), result.x0, result.summary()

@@ -23,12 +23,21 @@ __all__ = [
     "check_positive",
     "check_signal",
     "check_time",
+    "is_records",
     "uniform_step",
     "validate_named",
 ]
 
 # Relative spread of the sampling steps below which sample times count as uniform.
 UNIFORM_RTOL = 1e-6
+
+
+def is_records(y):
+    """Whether ``y`` holds several records: a non-empty Python list of NumPy arrays (pysindy's convention).
+
+    A list of numbers or of lists stays one record (one array), as scikit-learn passes it.
+    """
+    return isinstance(y, list) and len(y) > 0 and all(isinstance(r, np.ndarray) for r in y)
 
 
 def check_signal(a, name, *, allow_none=False, n_samples=None, ensure_2d=True):

@@ -624,7 +624,7 @@ def test_python_rhs_multiple_shooting_jacobian_matches_the_sensitivities(noisy_d
 
     python = refine_simulation_error(None, TRUE_COEF, u, y, DT, x0=TRUE_X0, free=FREE, make_rhs=make_rhs,
                                      n_segments=2, max_nfev=40)
-    exact = core._Problem(DUFFING, python.coef, FREE, None, python.x0, np.arange(2), u, y, DT, (0,),
+    exact = core._Problem(DUFFING, python.coef, FREE, None, [python.x0], np.arange(2), [u], [y], DT, (0,),
                           {"settings": {"n_substeps": 1, "method": "rk4", "input_hold": "zoh", "bounds": None,
                                         "max_abs": np.inf}, "make_rhs": None}, [(0, 200)])
     J = exact.jacobian(python.values)

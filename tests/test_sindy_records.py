@@ -110,5 +110,5 @@ def test_bad_records(records):
         _model().fit([u1, u2[:-1]], [y1, y2])
     with pytest.raises(ValueError, match="record 1 has 2 states"):
         _model().fit([u1, u2], [y1, np.hstack([y2, y2])])
-    with pytest.raises(ValueError, match="refine is not supported with several records"):
-        SINDy(dt=DT, refine=OutputErrorRefinement()).fit([u1, u2], [y1, y2])
+    with pytest.raises(ValueError, match="multiple shooting .* takes one record"):
+        SINDy(dt=DT, refine=OutputErrorRefinement(n_segments=2)).fit([u1, u2], [y1, y2])

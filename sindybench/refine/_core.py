@@ -35,7 +35,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from sklearn.exceptions import ConvergenceWarning
 
-from .._validation import check_bounds, check_integer, check_positive, check_signal
+from .._validation import check_bounds, check_integer, check_positive, check_signal, is_records
 from ..libraries import evaluate_terms
 from ..simulate import SimulationError, TermsRHS, simulate
 from ._result import RefinementResult
@@ -74,21 +74,33 @@ class Physical(NamedTuple):
 
 
 class _Problem:
-    """Parameter vector ``p = (physical, free coefficients, free x0 of each segment)`` and its residuals."""
+    """Parameter vector ``p = (physical, free coefficients, free x0 of each record, segment starts)``.
 
-    def __init__(self, terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, segments):
+    ``x0s``, ``us`` and ``ys`` hold one entry per record; each record's
+    residuals are scaled by its own output spread and the records' residuals
+    are stacked in record order. Multiple shooting (``segments``) takes one
+    record.
+    """
+
+    def __init__(self, terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, segments):
         self.terms, self.coef, self.physical = terms, coef, physical
         self.free = np.argwhere(free)  # (n_free, 2) of (term, state)
-        self.x0, self.free_x0 = x0, np.asarray(free_x0, dtype=np.int64)
-        self.u, self.y, self.dt, self.sim = u, y, dt, sim
+        self.x0s, self.free_x0 = x0s, np.asarray(free_x0, dtype=np.int64)
+        self.us, self.ys, self.dt, self.sim = us, ys, dt, sim
+        self.x0, self.u, self.y = x0s[0], us[0], ys[0]  # the first record (multiple shooting's one record)
+        self.n_records = len(us)
         self.oidx = np.asarray(output_index, dtype=np.int64)
         self.n_states = coef.shape[1]
         self.n_phys = 0 if physical is None else len(physical.names)
         self.n_model = self.n_phys + len(self.free)
+        self.n_x0 = self.free_x0.size * self.n_records
         self.segments = segments
-        spread = np.std(y, axis=0)
-        self.y_scale = np.where(spread > 0, spread, 1.0)
-        self.n_res = y.size
+        self.y_scales = []
+        for y_r in ys:
+            spread = np.std(y_r, axis=0)
+            self.y_scales.append(np.where(spread > 0, spread, 1.0))
+        self.y_scale = self.y_scales[0]
+        self.n_res = sum(y_r.size for y_r in ys)
         # multiple shooting: the later segments' free initial states and the continuity weights (see _build)
         self.x_segments, self.weight = [], np.ones(self.n_states)
         self.compiled = terms is not None and (physical is None or physical.make_rhs is None)
@@ -98,21 +110,24 @@ class _Problem:
         """Descriptions of the entries of ``p``: physical, coefficient, initial state, segment starts."""
         out = [] if self.physical is None else [("physical", str(n)) for n in self.physical.names]
         out += [("coef", int(j), int(i)) for j, i in self.free]
-        out += [("x0", int(i)) for i in self.free_x0]
+        if self.n_records == 1:
+            out += [("x0", int(i)) for i in self.free_x0]
+        else:  # ("x0", state, record)
+            out += [("x0", int(i), r) for r in range(self.n_records) for i in self.free_x0]
         out += [("segment", s + 1, i) for s in range(len(self.x_segments)) for i in range(self.n_states)]
         return tuple(out)
 
     def pack(self):
         parts = [] if self.physical is None else [np.asarray(self.physical.values, dtype=float)]
         parts.append(self.coef[self.free[:, 0], self.free[:, 1]])
-        parts.append(self.x0[self.free_x0])
+        parts.extend(x0[self.free_x0] for x0 in self.x0s)
         parts.extend(self.x_segments)
         return np.concatenate(parts)
 
     def bounds(self, lo, hi):
         n_free = len(self.free)
-        lower = [np.full(n_free, -np.inf), lo[self.free_x0]] + [lo] * len(self.x_segments)
-        upper = [np.full(n_free, np.inf), hi[self.free_x0]] + [hi] * len(self.x_segments)
+        lower = [np.full(n_free, -np.inf)] + [lo[self.free_x0]] * self.n_records + [lo] * len(self.x_segments)
+        upper = [np.full(n_free, np.inf)] + [hi[self.free_x0]] * self.n_records + [hi] * len(self.x_segments)
         if self.physical is not None:
             lower.insert(0, np.asarray(self.physical.lower, dtype=float))
             upper.insert(0, np.asarray(self.physical.upper, dtype=float))
@@ -139,12 +154,20 @@ class _Problem:
             D[self.n_phys + e, j, i] = 1.0
         return D
 
+    def record_starts(self, p):
+        """Initial state of each record."""
+        out, k = [], self.n_model
+        for x0 in self.x0s:
+            x0 = x0.copy()
+            x0[self.free_x0] = p[k : k + self.free_x0.size]
+            out.append(x0)
+            k += self.free_x0.size
+        return out
+
     def starts(self, p):
-        """Initial state of each segment."""
-        x0 = self.x0.copy()
-        n0 = self.n_model + self.free_x0.size
-        x0[self.free_x0] = p[self.n_model : n0]
-        out = [x0]
+        """Initial state of each segment (of the first record)."""
+        n0 = self.n_model + self.n_x0
+        out = [self.record_starts(p)[0]]
         for s in range(len(self.x_segments)):
             out.append(p[n0 + s * self.n_states : n0 + (s + 1) * self.n_states])
         return out
@@ -157,14 +180,16 @@ class _Problem:
 
     # ----------------------------------------------------------- residuals
     def open_loop(self, p):
-        """The whole record simulated from the first segment's start (NaN after a divergence)."""
+        """Each whole record simulated from its start (NaN after a divergence); a list."""
+        rhs = self.rhs(p)
         with np.errstate(all="ignore"):
-            return simulate(self.rhs(p), self.starts(p)[0], self.u, self.dt, on_divergence="nan",
-                            **self.sim["settings"])
+            return [simulate(rhs, x0, u, self.dt, on_divergence="nan", **self.sim["settings"])
+                    for x0, u in zip(self.record_starts(p), self.us)]
 
-    def output_cost(self, x):
-        """Half the mean squared scaled output error of the trajectory ``x`` (diverged samples penalized)."""
-        r = ((x[:, self.oidx] - self.y) / self.y_scale).ravel() / np.sqrt(self.n_res)
+    def output_cost(self, xs):
+        """Half the mean squared scaled output error of the trajectories ``xs`` (diverged samples penalized)."""
+        r = np.concatenate([((x[:, self.oidx] - y) / scale).ravel()
+                            for x, y, scale in zip(xs, self.ys, self.y_scales)]) / np.sqrt(self.n_res)
         r = np.where(np.isfinite(r), r, _DIVERGED / np.sqrt(self.n_res))
         return 0.5 * float(r @ r)
 
@@ -175,6 +200,11 @@ class _Problem:
         return r, c
 
     def residuals(self, p):
+        if self.n_records > 1:
+            out = np.concatenate([((x[:, self.oidx] - y) / scale).ravel()
+                                  for x, y, scale in zip(self.open_loop(p), self.ys, self.y_scales)])
+            out = out / np.sqrt(self.n_res)
+            return np.where(np.isfinite(out), out, _DIVERGED / np.sqrt(self.n_res))
         rhs = self.rhs(p)
         starts = self.starts(p)
         res, cont = [], []
@@ -190,6 +220,8 @@ class _Problem:
 
     def jacobian(self, p):
         """Exact Jacobian from the forward sensitivities (compiled models)."""
+        if self.n_records > 1:
+            return self._records_jacobian(p)
         rhs, D, starts = self.rhs(p), self.directions(p), self.starts(p)
         n, n_out = self.n_states, self.oidx.size
         n_seg = len(self.segments)
@@ -216,6 +248,23 @@ class _Problem:
                 J_cont[crow, nxt : nxt + n] -= np.diag(self.weight)
         return np.vstack([J_out, J_cont]) / np.sqrt(self.n_res)
 
+    def _records_jacobian(self, p):
+        """The output rows of every record, stacked; a record's rows see its own initial state only."""
+        rhs, D = self.rhs(p), self.directions(p)
+        J = np.zeros((self.n_res, p.size))
+        row, n_free = 0, self.free_x0.size
+        for r, (x0, u, scale) in enumerate(zip(self.record_starts(p), self.us, self.y_scales)):
+            _, S, _ = simulate_sensitivity(rhs, x0, u, self.dt, directions=D, free_x0=self.free_x0,
+                                           output_index=self.oidx, on_divergence="nan", **self.sim["settings"])
+            if not np.all(np.isfinite(S)):
+                raise SimulationError(f"the sensitivities of an accepted refinement step are not finite "
+                                      f"(record {r}).", step=-1)
+            cols = np.r_[np.arange(self.n_model), self.n_model + r * n_free + np.arange(n_free)]
+            m = S.shape[0] * S.shape[1]
+            J[row : row + m, cols] = (S / scale[None, :, None]).reshape(m, -1)
+            row += m
+        return J / np.sqrt(self.n_res)
+
 
 def _segments(n, n_segments):
     edges = np.linspace(0, n, n_segments + 1).round().astype(int)
@@ -223,7 +272,10 @@ def _segments(n, n_segments):
 
 
 def _contributions(terms, C, x, u, free, rows):
-    """RMS of each free entry's term times its coefficient, relative to its state's derivative RMS."""
+    """RMS of each free entry's term times its coefficient, relative to its state's derivative RMS.
+
+    ``x`` and ``u``: the trajectory and inputs (of all records, stacked).
+    """
     theta = evaluate_terms(terms, np.hstack([x, u]))
     rhs = theta @ C
     scale = np.sqrt(np.mean(rhs[rows] ** 2, axis=0))
@@ -248,12 +300,18 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     coef : array-like of shape (n_terms, n_states)
         Starting coefficients, without the physical part (which
         ``physical.coef(values)`` adds).
-    u : array-like of shape (n_samples, n_inputs)
-    y : array-like of shape (n_samples, n_outputs)
-        Measured outputs: the states ``output_index``.
+    u : array-like of shape (n_samples, n_inputs), or list
+    y : array-like of shape (n_samples, n_outputs), or list of ndarray
+        Measured outputs: the states ``output_index``. Lists of arrays (``u``
+        and ``y`` alike) are several records of one system: the coefficients
+        and physical parameters are shared, each record has its own initial
+        state (free as one record's), its residuals are scaled by its own
+        output spread, and the records' residuals (and the Jacobian's rows)
+        are stacked in record order.
     dt : float
-    x0 : array-like of shape (n_states,)
-        Starting initial state (hidden states included).
+    x0 : array-like of shape (n_states,), or (n_records, n_states)
+        Starting initial state (hidden states included); one per record
+        with several records.
     output_index : sequence of int, default=(0,)
     free : array-like of bool of shape (n_terms, n_states), optional
         Entries refined one by one; default: the nonzero entries of ``coef``.
@@ -265,7 +323,7 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         ``make_rhs(C) -> f(x, u)`` for Python right-hand sides without
         physical parameters.
     n_segments : int, default=1
-        Multiple-shooting segments (1 = single shooting).
+        Multiple-shooting segments (1 = single shooting; one record only).
     continuity_weight : float, default=1.0
         Weight of the continuity residuals (per state spread) relative to the
         output residuals (per output spread).
@@ -311,17 +369,25 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     ([-1.0, 2.0], 0.5, 'sensitivity')
     >>> res.parameters, res.standard_errors().shape  # exact data: errors ~ 0
     ((('coef', 0, 0), ('coef', 1, 0), ('x0', 0)), (3,))
+
+    Two records, one initial state each:
+
+    >>> y2 = simulate(TermsRHS([[-1.0], [2.0]], terms, 1), [-1.0], -u, 0.05)
+    >>> res = refine_simulation_error(terms, [[-0.8], [1.7]], [u, -u], [y, y2], 0.05, x0=[[0.0], [0.0]])
+    >>> np.round(res.coef.ravel(), 6).tolist(), np.round(res.initial_states.ravel(), 6).tolist()
+    ([-1.0, 2.0], [0.5, -1.0])
+    >>> res.parameters[2:]
+    (('x0', 0, 0), ('x0', 0, 1))
     """
-    u = np.ascontiguousarray(check_signal(u, "u"))
-    y = check_signal(y, "y", n_samples=u.shape[0])
     coef = np.asarray(coef, dtype=float)
     if coef.ndim == 1:
         coef = coef.reshape(-1, 1)
     n_states = coef.shape[1]
-    x0 = np.asarray(x0, dtype=float).reshape(-1)
-    if x0.shape[0] != n_states:
-        raise ValueError(f"x0 has {x0.shape[0]} entries; expected {n_states} (one per column of coef).")
+    us, ys, x0s = _check_records(u, y, x0, n_states)
+    y = ys[0]
     output_index = tuple(int(i) for i in output_index)
+    if any(y_r.shape[1] != y.shape[1] for y_r in ys):
+        raise ValueError(f"the records' y have {[y_r.shape[1] for y_r in ys]} columns; expected the same number.")
     if len(output_index) != y.shape[1] or min(output_index) < 0 or max(output_index) >= n_states:
         raise ValueError(
             f"output_index={output_index} does not match y with {y.shape[1]} columns and {n_states} states; "
@@ -335,7 +401,10 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     free_x0 = np.arange(n_states) if free_x0 is None else np.asarray(free_x0, dtype=np.int64).reshape(-1)
     if free_x0.size and (free_x0.min() < 0 or free_x0.max() >= n_states or np.unique(free_x0).size < free_x0.size):
         raise ValueError(f"free_x0 = {free_x0.tolist()}; expected distinct state indices in [0, {n_states - 1}].")
-    n_segments = check_integer(n_segments, "n_segments", high=max(1, u.shape[0] // 10))
+    n_segments = check_integer(n_segments, "n_segments", high=max(1, us[0].shape[0] // 10))
+    if n_segments > 1 and len(us) > 1:
+        raise ValueError(f"multiple shooting (n_segments={n_segments}) takes one record; got {len(us)} records. "
+                         "Expected n_segments=1 with several records.")
     check_positive(continuity_weight, "continuity_weight")
     prune = check_positive(prune, "prune", strict=False)
     max_nfev = check_integer(max_nfev, "max_nfev")
@@ -345,7 +414,7 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
 
     pruned, nfev, njev, initial_cost = [], 0, 0, None
     while True:
-        problem, x = _build(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, n_segments,
+        problem, x = _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, n_segments,
                             continuity_weight, lo, hi)
         if initial_cost is None:
             initial_cost = problem.output_cost(x)
@@ -360,7 +429,7 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         nfev, njev = nfev + fit.nfev, njev + (fit.njev or 0)
         p = fit.x
         coef_all = problem.matrix(p)
-        x0 = problem.starts(p)[0]
+        x0s = problem.record_starts(p)
         if physical is not None:
             physical = physical._replace(values=p[: problem.n_phys])
         coef = coef_all - (physical.coef(physical.values) if physical is not None else 0.0)
@@ -369,8 +438,9 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         x = problem.open_loop(p)
         if prune <= 0 or terms is None or not problem.free.size:
             break
-        rows = np.all(np.isfinite(x), axis=1)
-        small = _contributions(terms, coef_all, x, u, problem.free, rows) < prune
+        x_all = np.vstack(x)
+        rows = np.all(np.isfinite(x_all), axis=1)
+        small = _contributions(terms, coef_all, x_all, np.vstack(us), problem.free, rows) < prune
         if not small.any():
             break
         for j, i in problem.free[small]:
@@ -386,12 +456,38 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
                       f"(cost {initial_cost:.4g} -> {problem.output_cost(x):.4g}); raise max_nfev "
                       "(refine__max_nfev) for a converged model.", ConvergenceWarning, stacklevel=2)
     jac, res, columns = _output_jacobian(problem, fit)
-    return RefinementResult(coef=coef_all, physical=phys, x0=x0, initial_cost=initial_cost,
+    return RefinementResult(coef=coef_all, physical=phys, x0=x0s[0], initial_cost=initial_cost,
                             cost=problem.output_cost(x), nfev=nfev, njev=njev, status=int(fit.status),
                             message=str(fit.message), jacobian="sensitivity" if problem.compiled else "2-point",
                             pruned=pruned, jac=jac, residuals=res, parameters=problem.parameters()[:columns],
                             values=fit.x[:columns].copy(), at_bound=fit.active_mask[:columns] != 0,
-                            budget_exhausted=budget, n_outputs=len(output_index))
+                            budget_exhausted=budget, n_outputs=len(output_index),
+                            initial_states=np.array(x0s) if len(x0s) > 1 else None,
+                            record_samples=tuple(y_r.shape[0] for y_r in ys) if len(ys) > 1 else None)
+
+
+def _check_records(u, y, x0, n_states):
+    """``(us, ys, x0s)``: lists with one entry per record (one record when ``y`` is not a list of arrays)."""
+    if not is_records(y):
+        u = np.ascontiguousarray(check_signal(u, "u"))
+        y = check_signal(y, "y", n_samples=u.shape[0])
+        x0 = np.asarray(x0, dtype=float).reshape(-1)
+        if x0.shape[0] != n_states:
+            raise ValueError(f"x0 has {x0.shape[0]} entries; expected {n_states} (one per column of coef).")
+        return [u], [y], [x0]
+    n = len(y)
+    if not isinstance(u, list) or len(u) != n:
+        raise ValueError(f"y is a list of {n} records, so u must be a list of {n} input arrays (one per record); "
+                         f"got {type(u).__name__}{f' of {len(u)}' if isinstance(u, list) else ''}.")
+    x0s = np.asarray(x0, dtype=float)
+    if x0s.shape != (n, n_states):
+        raise ValueError(f"x0 has shape {x0s.shape}; expected ({n}, {n_states}): one initial state per record "
+                         "(a list of arrays or a 2-D array).")
+    us, ys = [], []
+    for r, (u_r, y_r) in enumerate(zip(u, y)):
+        us.append(np.ascontiguousarray(check_signal(u_r, f"u[{r}]")))
+        ys.append(check_signal(y_r, f"y[{r}]", n_samples=us[-1].shape[0]))
+    return us, ys, [x0s[r].copy() for r in range(n)]
 
 
 def _output_jacobian(problem, fit):
@@ -402,7 +498,7 @@ def _output_jacobian(problem, fit):
     parameter by forward differences on the Python path); the later
     segments' starts and the continuity residuals drop out.
     """
-    columns = problem.n_model + problem.free_x0.size
+    columns = problem.n_model + problem.n_x0
     if len(problem.segments) == 1:
         return fit.jac, fit.fun[: problem.n_res], columns
     single = copy.copy(problem)
@@ -420,26 +516,29 @@ def _output_jacobian(problem, fit):
     return J, r, columns
 
 
-def _build(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim, n_segments, continuity_weight,
+def _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, n_segments, continuity_weight,
            lo, hi):
-    """The problem of one refinement round and the starting model's open-loop trajectory.
+    """The problem of one refinement round and the starting model's open-loop trajectories (one per record).
 
-    That one simulation checks the start, scales the continuity residuals by
+    That simulation checks the start, scales the continuity residuals by
     the states' spread and starts the later segments of multiple shooting.
     """
-    problem = _Problem(terms, coef, free, physical, x0, free_x0, u, y, dt, output_index, sim,
-                       _segments(u.shape[0], n_segments))
-    x = problem.open_loop(problem.pack())
-    finite = np.all(np.isfinite(x), axis=1)
-    if not finite.all():
-        what = ("cannot start multiple shooting: the starting model diverges on the record." if n_segments > 1 else
-                "cannot refine: the starting model's simulation diverges on the record; "
-                "expected a model that simulates the training data.")
-        raise SimulationError(what, step=int(np.argmin(finite)))
+    problem = _Problem(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim,
+                       _segments(us[0].shape[0], n_segments))
+    xs = problem.open_loop(problem.pack())
+    for r, x_r in enumerate(xs):
+        finite = np.all(np.isfinite(x_r), axis=1)
+        if not finite.all():
+            where = "the record" if len(xs) == 1 else f"record {r}"
+            what = (f"cannot start multiple shooting: the starting model diverges on {where}." if n_segments > 1 else
+                    f"cannot refine: the starting model's simulation diverges on {where}; "
+                    "expected a model that simulates the training data.")
+            raise SimulationError(what, step=int(np.argmin(finite)))
+    x = xs[0]
     spread = np.std(x, axis=0)
     problem.weight = continuity_weight / np.where(spread > 0, spread, 1.0)
     problem.x_segments = [np.clip(x[a], lo, hi) for a, _ in problem.segments[1:]]
-    return problem, x
+    return problem, xs
 
 
 def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None, n_substeps=1, method="rk4",

@@ -123,8 +123,27 @@ def _default_lags(R):
     return int(max(np.floor(4.0 * (R.shape[0] / 100.0) ** (2.0 / 9.0)), 2 * insignificant_lag(R)))
 
 
+def _block_lags(g, R, blocks, lags):
+    """The lagged terms of the Newey-West sum, within each record block of the rows of ``g`` and ``R``."""
+    edges = np.concatenate([[0], np.cumsum(np.asarray(blocks, dtype=int))])
+    if edges[-1] != g.shape[0]:
+        raise ValueError(f"blocks {list(blocks)} sum to {edges[-1]} samples; expected {g.shape[0]}.")
+    parts = [slice(a, b) for a, b in zip(edges[:-1], edges[1:])]
+    if lags is None:
+        lags = max(_default_lags(R[part]) for part in parts)
+    lags = int(lags)
+    out = np.zeros((g.shape[1], g.shape[1]))
+    for part in parts:
+        gb = g[part]
+        for lag in range(1, min(lags, gb.shape[0] - 1) + 1):
+            w = 1.0 - lag / (lags + 1.0)
+            cross = gb[lag:].T @ gb[:-lag]
+            out += w * (cross + cross.T)
+    return out
+
+
 def parameter_covariance(jac, residuals, parameters, values, *, n_outputs=1, kind="white", lags=None, rcond=1e-9,
-                         at_bound=None):
+                         at_bound=None, blocks=None):
     """Covariance of least-squares parameters from the Jacobian and residuals at the optimum.
 
     Parameters
@@ -146,6 +165,10 @@ def parameter_covariance(jac, residuals, parameters, values, *, n_outputs=1, kin
     rcond : float, default=1e-9
         Relative cut-off of the singular values of ``jac``.
     at_bound : array-like of bool, optional
+    blocks : sequence of int, optional
+        Samples of each record when the rows stack several records (in
+        order): the ``"hac"`` estimate sums lagged products within a record
+        only, and its default ``lags`` is the longest of the records'.
 
     Returns
     -------
@@ -187,11 +210,14 @@ def parameter_covariance(jac, residuals, parameters, values, *, n_outputs=1, kin
         g = (U[:, keep] * r[:, None]).reshape(n, n_outputs, rank).sum(axis=1)  # score contributions per sample
         g = g * np.sqrt(m / dof)
         meat = g.T @ g
-        lags = _default_lags(R) if lags is None else int(lags)
-        for lag in range(1, min(lags, n - 1) + 1):
-            w = 1.0 - lag / (lags + 1.0)
-            cross = g[lag:].T @ g[:-lag]
-            meat += w * (cross + cross.T)
+        if blocks is None or len(blocks) == 1:
+            lags = _default_lags(R) if lags is None else int(lags)
+            for lag in range(1, min(lags, n - 1) + 1):
+                w = 1.0 - lag / (lags + 1.0)
+                cross = g[lag:].T @ g[:-lag]
+                meat += w * (cross + cross.T)
+        else:
+            meat += _block_lags(g, R, blocks, lags)
     matrix = pinv_t @ meat @ pinv_t.T
     matrix = 0.5 * (matrix + matrix.T)
     at_bound = np.zeros(p, dtype=bool) if at_bound is None else np.asarray(at_bound, dtype=bool).reshape(p)

@@ -19,7 +19,7 @@ class RefinementResult(NamedTuple):
     physical : dict
         Refined physical parameters by name.
     x0 : ndarray of shape (n_states,)
-        Refined initial state.
+        Refined initial state (with several records, the first record's).
     initial_cost, cost : float
         Half the mean squared scaled output error of an open-loop simulation
         of the whole record before and after (scaled by the output's standard
@@ -46,7 +46,8 @@ class RefinementResult(NamedTuple):
         Those output residuals.
     parameters : tuple
         The columns of ``jac``: ``("physical", name)``, ``("coef", term,
-        state)``, ``("x0", state)``.
+        state)``, ``("x0", state)`` (several records: ``("x0", state,
+        record)``).
     values : ndarray of shape (n_parameters,) or None
         Their refined values.
     at_bound : ndarray of bool of shape (n_parameters,) or None
@@ -57,6 +58,13 @@ class RefinementResult(NamedTuple):
         :class:`~sklearn.exceptions.ConvergenceWarning` was issued).
     n_outputs : int
         Outputs (rows of ``jac`` per sample).
+    initial_states : ndarray of shape (n_records, n_states) or None
+        With several records: the refined initial state of each record
+        (``x0`` is the first row); None for one record.
+    record_samples : tuple of int or None
+        With several records: the samples of each record, in the order of
+        the rows of ``jac`` (the ``"hac"`` covariance sums lagged products
+        within a record only); None for one record.
     """
 
     coef: np.ndarray
@@ -77,6 +85,8 @@ class RefinementResult(NamedTuple):
     at_bound: np.ndarray = None
     budget_exhausted: bool = False
     n_outputs: int = 1
+    initial_states: np.ndarray = None
+    record_samples: tuple = None
 
     def summary(self):
         """JSON-able record (no arrays; the covariances, ``"white"`` and ``"hac"``, as nested lists)."""
@@ -87,6 +97,8 @@ class RefinementResult(NamedTuple):
         if self.jac is not None:
             out["budget_exhausted"] = bool(self.budget_exhausted)
             out["covariance"] = {kind: self.covariance(kind).to_dict() for kind in ("white", "hac")}
+        if self.initial_states is not None:
+            out["initial_states"] = np.asarray(self.initial_states, dtype=float).tolist()
         return out
 
     def covariance(self, kind="white", *, lags=None):
@@ -109,7 +121,8 @@ class RefinementResult(NamedTuple):
             raise ValueError("this refinement record keeps no Jacobian; expected a record of "
                              "refine_simulation_error.")
         return parameter_covariance(self.jac, self.residuals, self.parameters, self.values,
-                                    n_outputs=self.n_outputs, kind=kind, lags=lags, at_bound=self.at_bound)
+                                    n_outputs=self.n_outputs, kind=kind, lags=lags, at_bound=self.at_bound,
+                                    blocks=self.record_samples)
 
     def standard_errors(self, kind="white"):
         """Standard errors of :attr:`parameters` (see :meth:`covariance`)."""

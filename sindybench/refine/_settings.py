@@ -4,7 +4,7 @@ import numbers
 
 from sklearn.base import BaseEstimator
 
-from .._validation import check_bool, check_integer, check_positive
+from .._validation import check_bool, check_integer, check_positive, is_records
 from ..io import register_model
 from ._core import refine_simulation_error
 
@@ -19,7 +19,8 @@ class OutputErrorRefinement(BaseEstimator):
     the inner search), the nonzero coefficients, the strategy's physical
     parameters and the initial state (hidden states included) are refined
     by :func:`~sindybench.refine.refine_simulation_error` on the training
-    record. Its parameters are nested (``refine__max_nfev``,
+    record (on every training record, with one initial state each, when
+    ``fit`` got several records). Its parameters are nested (``refine__max_nfev``,
     ``refine__prune``), so they can be searched like any other.
 
     Parameters
@@ -40,8 +41,8 @@ class OutputErrorRefinement(BaseEstimator):
     initial_state : bool, default=True
         Refine the initial state of the training record.
     max_samples : int or None, default=None
-        Refine on the first ``max_samples`` samples only (faster on long
-        records); None = all.
+        Refine on the first ``max_samples`` samples only (of each record;
+        faster on long records); None = all.
 
     Examples
     --------
@@ -74,18 +75,24 @@ class OutputErrorRefinement(BaseEstimator):
     def run(self, terms, coef, u, y, dt, *, x0, output_index, free=None, physical=None, make_rhs=None, **settings):
         """Refine with these settings (see :func:`~sindybench.refine.refine_simulation_error`)."""
         self._validate()
-        n = u.shape[0] if self.max_samples is None else min(self.max_samples, u.shape[0])
         if physical is not None and not self.physical:  # held at their values
             coef = coef + physical.coef(physical.values)
             if physical.make_rhs is not None:
                 make_rhs = _Held(physical.make_rhs, physical.values)
             physical = None
+        if is_records(y):  # several records: the first max_samples of each
+            u, y = [self._head(u_r) for u_r in u], [self._head(y_r) for y_r in y]
+        else:
+            u, y = self._head(u), self._head(y)
         return refine_simulation_error(
-            terms, coef, u[:n], y[:n], dt, x0=x0, output_index=output_index, free=free,
+            terms, coef, u, y, dt, x0=x0, output_index=output_index, free=free,
             physical=physical, free_x0=None if self.initial_state else [],
             make_rhs=make_rhs, n_segments=self.n_segments, continuity_weight=self.continuity_weight,
             prune=self.prune, max_nfev=self.max_nfev, **settings,
         )
+
+    def _head(self, a):
+        return a if self.max_samples is None else a[: self.max_samples]
 
 
 class _Held:

@@ -20,6 +20,7 @@ from ._validation import (
     check_integer,
     check_option,
     check_positive,
+    check_records,
     check_signal,
     check_time,
     uniform_step,
@@ -261,27 +262,14 @@ class SINDy(DynamicsEstimator):
     def _fit_records(self, X, y, *, dt, t, x_dot):
         """``fit`` on several records: per-record derivatives, one regression on the stacked rows."""
         n_records = len(y)
-        if X is None:
-            X = [None] * n_records
-        if not isinstance(X, list) or len(X) != n_records:
-            n_x = len(X) if isinstance(X, list) else type(X).__name__
-            raise ValueError(f"y is a list of {n_records} records, so X must be None or a list of {n_records} "
-                             f"input arrays (or None), one per record; got {n_x}.")
+        Xs, ys = check_records(X, y, y_kind="states")
         if x_dot is not None and (not isinstance(x_dot, list) or len(x_dot) != n_records):
             raise ValueError(f"with {n_records} records, x_dot must be a list of {n_records} arrays or None.")
         if t is not None:
             raise ValueError("several records need a uniform step dt; sample times t are not supported with lists.")
-        records = []
-        for i, (X_i, y_i) in enumerate(zip(X, y)):
-            check_array_like(X_i, f"X[{i}]")
-            check_array_like(y_i, f"y[{i}]")
-            records.append(check_inputs_outputs(X_i, y_i, x_name=f"X[{i}]", y_name=f"y[{i}]"))
+        records = list(zip(Xs, ys))
         y_1d = all(np.asarray(y_i).ndim == 1 for y_i in y)
-        n_states, n_inputs = records[0][1].shape[1], records[0][0].shape[1]
-        for i, (X_i, y_i) in enumerate(records):
-            if y_i.shape[1] != n_states or X_i.shape[1] != n_inputs:
-                raise ValueError(f"record {i} has {y_i.shape[1]} states and {X_i.shape[1]} inputs; expected "
-                                 f"{n_states} and {n_inputs} as in record 0.")
+        n_states = ys[0].shape[1]
         self._check_params(n_states)
         dt, _ = self._resolve_time(dt, None, records[0][1].shape[0], self.dt)
         differentiation = clone(as_differentiation(self.differentiation))

@@ -21,6 +21,7 @@ __all__ = [
     "check_n_samples",
     "check_option",
     "check_positive",
+    "check_records",
     "check_signal",
     "check_time",
     "is_records",
@@ -38,6 +39,38 @@ def is_records(y):
     A list of numbers or of lists stays one record (one array), as scikit-learn passes it.
     """
     return isinstance(y, list) and len(y) > 0 and all(isinstance(r, np.ndarray) for r in y)
+
+
+def check_records(X, y, *, y_kind="states"):
+    """Lists ``(Xs, ys)`` of 2-D arrays, one per record of the list ``y``, with the columns of record 0.
+
+    ``X`` is None (no inputs) or a list with one entry (an array or None) per
+    record. ``y_kind`` names the columns of ``y`` in the messages.
+
+    Examples
+    --------
+    >>> Xs, ys = check_records(None, [np.zeros(5), np.ones(3)])
+    >>> [X.shape for X in Xs], [y.shape for y in ys]
+    ([(5, 0), (3, 0)], [(5, 1), (3, 1)])
+    """
+    n_records = len(y)
+    if X is None:
+        X = [None] * n_records
+    if not isinstance(X, list) or len(X) != n_records:
+        n_x = len(X) if isinstance(X, list) else type(X).__name__
+        raise ValueError(f"y is a list of {n_records} records, so X must be None or a list of {n_records} "
+                         f"input arrays (or None), one per record; got {n_x}.")
+    Xs, ys = [], []
+    for i, (X_i, y_i) in enumerate(zip(X, y)):
+        check_array_like(X_i, f"X[{i}]")
+        check_array_like(y_i, f"y[{i}]")
+        X_i, y_i = check_inputs_outputs(X_i, y_i, x_name=f"X[{i}]", y_name=f"y[{i}]")
+        if i and (y_i.shape[1] != ys[0].shape[1] or X_i.shape[1] != Xs[0].shape[1]):
+            raise ValueError(f"record {i} has {y_i.shape[1]} {y_kind} and {X_i.shape[1]} inputs; expected "
+                             f"{ys[0].shape[1]} and {Xs[0].shape[1]} as in record 0.")
+        Xs.append(X_i)
+        ys.append(y_i)
+    return Xs, ys
 
 
 def check_signal(a, name, *, allow_none=False, n_samples=None, ensure_2d=True):

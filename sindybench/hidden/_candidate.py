@@ -18,13 +18,15 @@ from ._base import Design, ModelView, Structure
 from ._derivative import Derivative
 from ._refinement import initial_state
 
-__all__ = ["Candidate", "candidate_initial_state", "fit_candidate", "structure_dynamics"]
+__all__ = ["Candidate", "candidate_initial_state", "fit_candidate", "fit_candidate_records", "structure_dynamics"]
 
 
 class Candidate(NamedTuple):
     """One fitted model for given physical parameters.
 
-    ``coef`` has shape (n_library_terms, n_learned).
+    ``coef`` has shape (n_library_terms, n_learned). ``design`` is the
+    (first) record's; ``designs`` holds every record's when the candidate
+    was fitted on several records (None for one record).
     """
 
     params: dict
@@ -36,6 +38,7 @@ class Candidate(NamedTuple):
     derivative: Derivative
     design: Design
     dynamics: Dynamics
+    designs: tuple = None
 
 
 def structure_dynamics(structure, library, coef, simulation):
@@ -72,7 +75,44 @@ def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, 
     Candidate
     """
     structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
-    design = hidden.design(X, y, simulation["dt"], derivative=derivative, params=params)
+    design, states, targets, rows = _record_design(hidden, structure, params, derivative, X, y, n_rows,
+                                                   simulation["dt"])
+    coef = fit_sparse(library, optimizer, np.hstack([states, X]), targets, rows=rows,
+                      feature_filter=design.feature_filter, what="library output Theta([x, u])")
+    return Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
+                     differentiation=derivative.differentiation, coef=coef, derivative=derivative, design=design,
+                     dynamics=structure_dynamics(structure, library, coef, simulation))
+
+
+def fit_candidate_records(hidden, params, library, optimizer, derivative, Xs, ys, n_rows, simulation):
+    """:func:`fit_candidate` on several records: one design per record, one regression on the stacked rows.
+
+    ``Xs``, ``ys`` and ``n_rows`` hold one entry per record; the strategy's
+    design (hidden-state reconstruction, ``Design.rows``, feature filter)
+    runs on each record alone, so nothing is differentiated, filtered or
+    reconstructed across the seam between two records.
+    """
+    structure = hidden.structure(params, n_outputs=ys[0].shape[1], n_inputs=Xs[0].shape[1])
+    parts = []
+    for i, (X, y, n) in enumerate(zip(Xs, ys, n_rows)):
+        try:
+            parts.append(_record_design(hidden, structure, params, derivative, X, y, n, simulation["dt"]))
+        except ValueError as exc:
+            raise ValueError(f"record {i}: {exc}") from exc
+    designs = tuple(p[0] for p in parts)
+    filters = [d.feature_filter for d in designs]
+    feature_filter = None if all(f is None for f in filters) else _RecordFilters(filters, [len(y) for y in ys])
+    coef = fit_sparse(library, optimizer, np.hstack([np.vstack([p[1] for p in parts]), np.vstack(Xs)]),
+                      np.vstack([p[2] for p in parts]), rows=np.concatenate([p[3] for p in parts]),
+                      feature_filter=feature_filter, what="library output Theta([x, u])")
+    return Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
+                     differentiation=derivative.differentiation, coef=coef, derivative=derivative, design=designs[0],
+                     dynamics=structure_dynamics(structure, library, coef, simulation), designs=designs)
+
+
+def _record_design(hidden, structure, params, derivative, X, y, n_rows, dt):
+    """The strategy's design of one record, its checked states and targets, and its regression rows."""
+    design = hidden.design(X, y, dt, derivative=derivative, params=params)
     states = check_signal(design.states, "strategy states", n_samples=y.shape[0])
     targets = check_signal(design.targets, "strategy targets", n_samples=y.shape[0])
     if states.shape[1] != structure.n_states or targets.shape[1] != len(structure.learned):
@@ -86,11 +126,22 @@ def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, 
         keep = np.zeros(y.shape[0], dtype=bool)
         keep[design.rows] = True
         rows &= keep
-    coef = fit_sparse(library, optimizer, np.hstack([states, X]), targets, rows=rows,
-                      feature_filter=design.feature_filter, what="library output Theta([x, u])")
-    return Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
-                     differentiation=derivative.differentiation, coef=coef, derivative=derivative, design=design,
-                     dynamics=structure_dynamics(structure, library, coef, simulation))
+    return design, states, targets, rows
+
+
+class _RecordFilters:
+    """``theta -> theta`` with each record's feature filter applied to its own block of rows (None: unfiltered)."""
+
+    def __init__(self, filters, lengths):
+        self.filters, self.lengths = filters, lengths
+
+    def __call__(self, theta):
+        out, start = [], 0
+        for f, n in zip(self.filters, self.lengths):
+            block = theta[start : start + n]
+            out.append(block if f is None else np.asarray(f(block), dtype=float).reshape(block.shape))
+            start += n
+        return np.vstack(out)
 
 
 def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):

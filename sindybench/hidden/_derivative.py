@@ -10,7 +10,8 @@ class Derivative:
 
     Orders above 2 chain second and first derivatives. While an array is
     ``pinned`` (the measured outputs, during the inner search), derivatives of
-    arrays equal to it are computed once and then copied from a memo.
+    arrays equal to it are computed once and then copied from a memo; a list
+    of arrays (several records) pins each of them.
 
     Examples
     --------
@@ -26,8 +27,11 @@ class Derivative:
         self.pinned, self._memo = None, {}
 
     def pin(self, a):
-        """Memoize derivatives of ``a`` (None stops and clears the memo)."""
-        self.pinned = None if a is None else np.asarray(a, dtype=float)
+        """Memoize derivatives of ``a``, an array or a list of arrays (None stops and clears the memo)."""
+        if isinstance(a, list):
+            self.pinned = [np.asarray(r, dtype=float) for r in a]
+        else:
+            self.pinned = None if a is None else np.asarray(a, dtype=float)
         self._memo = {}
 
     def __call__(self, a, order=1):
@@ -35,6 +39,14 @@ class Derivative:
         if order == 0:
             return a.copy()
         p = self.pinned
+        if isinstance(p, list):  # several records: the memo is keyed by the record too
+            for i, r in enumerate(p):
+                if a.size == r.size and np.array_equal(a.reshape(r.shape), r):
+                    key = (i, order, a.shape)
+                    if key not in self._memo:
+                        self._memo[key] = self._compute(a, order)
+                    return self._memo[key].copy()
+            return self._compute(a, order)
         if p is not None and a.size == p.size and np.array_equal(a.reshape(p.shape), p):
             key = (order, a.shape)
             if key not in self._memo:

@@ -7,7 +7,7 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
-from .._base import DynamicsEstimator
+from .._base import DynamicsEstimator, is_records
 from .._equations import EquationRow
 from ..optimizers import STLS
 from .._validation import (
@@ -19,6 +19,7 @@ from .._validation import (
     check_integer,
     check_option,
     check_positive,
+    check_records,
 )
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
@@ -26,7 +27,7 @@ from ..libraries import as_library, term_name
 from ..simulate import _HOLDS
 from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy
-from ._candidate import Candidate, candidate_initial_state, fit_candidate, structure_dynamics
+from ._candidate import Candidate, candidate_initial_state, fit_candidate, fit_candidate_records, structure_dynamics
 from ._derivative import Derivative
 from ._objective import SEARCH_PENALTY, VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
@@ -74,7 +75,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         Sampling interval (required, here or in ``fit``).
     validation_size : float or int, default=0.2
         Validation block at the end of the training data: a fraction in
-        (0, 1) or a number of samples. Used only when something is searched.
+        (0, 1) or a number of samples (at the end of each record, with
+        several records). Used only when something is searched.
     validation : {"block", "continued", "full"}, default="block"
         How a candidate is scored in the inner search (normalized RMSE of an
         open-loop simulation of the outputs):
@@ -156,11 +158,14 @@ class HiddenStateSINDy(DynamicsEstimator):
         Right-hand side of the full state (``dynamics_.rhs``).
     states_ : ndarray of shape (n_samples, n_states)
         State trajectory reconstructed on the training data (with ``refine``,
-        the refined model's simulation of it from ``x0_``).
+        the refined model's simulation of it from ``x0_``); with several
+        records, the records' trajectories stacked in order.
     hidden_states_ : ndarray of shape (n_samples, n_hidden)
         The reconstructed hidden (not measured) states on the training data.
     x0_ : ndarray of shape (n_states,)
-        First training state (refined with ``refine``).
+        First training state (refined with ``refine``); with several
+        records, the first record's (``refinement_["initial_states"]``
+        holds every record's refined one).
     refinement_ : dict or None
         Record of the refinement (costs before and after, simulations,
         status, refined physical parameters, pruned terms); None without
@@ -268,7 +273,7 @@ class HiddenStateSINDy(DynamicsEstimator):
             raise ValueError(f"search_params names unknown parameters {unknown}; expected names from get_params().")
         return dt, space
 
-    def _n_validation(self, n_samples):
+    def _n_validation(self, n_samples, record=None):
         v = self.validation_size
         if isinstance(v, bool) or not isinstance(v, numbers.Real):
             raise ValueError(f"validation_size must be a fraction in (0, 1) or a number of samples; got {v!r}.")
@@ -276,8 +281,9 @@ class HiddenStateSINDy(DynamicsEstimator):
         if v != n_val and not 0 < v < 1:
             raise ValueError(f"validation_size must be a fraction in (0, 1) or an integer; got {v!r}.")
         if not 2 <= n_val <= n_samples - 2:
+            where = "" if record is None else f"record {record}: "
             raise ValueError(
-                f"validation_size={v!r} gives {n_val} validation samples out of {n_samples}; "
+                f"{where}validation_size={v!r} gives {n_val} validation samples out of {n_samples}; "
                 "expected at least 2 on each side of the split."
             )
         return n_val
@@ -290,10 +296,20 @@ class HiddenStateSINDy(DynamicsEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_inputs) or None
-            Inputs ``u``.
-        y : array-like of shape (n_samples, n_outputs)
-            Measured outputs.
+        X : array-like of shape (n_samples, n_inputs), None, or list
+            Inputs ``u``; with several records a list of input arrays (or
+            of None), one per record of ``y``, or None.
+        y : array-like of shape (n_samples, n_outputs), or list of ndarray
+            Measured outputs. A Python list of NumPy arrays is several
+            records of one system (as in :meth:`SINDy.fit
+            <sindybench.SINDy.fit>`): the strategy's design (derivatives,
+            hidden-state reconstruction, ``Design.rows``, feature filter)
+            runs on each record alone and the regression rows of all
+            records are stacked into one model; with a search, each record
+            keeps its own validation block (``validation_size`` of that
+            record) and a candidate's score pools the blocks of all records,
+            each simulated from its own start; ``refine`` refines the shared
+            model on all records with one initial state each.
         dt : float, optional
             Sampling interval (overrides the constructor's ``dt``).
 
@@ -301,14 +317,19 @@ class HiddenStateSINDy(DynamicsEstimator):
         -------
         self
         """
-        X, y1 = _check_fit_data(X, y)
+        records = is_records(y)
+        X, y1 = check_records(X, y, y_kind="outputs") if records else _check_fit_data(X, y)
         dt, est_space = self._check_params(dt)
         hidden = clone(self.hidden) if self.hidden is not None else _default_strategy()
         hidden._validate()
-        hidden._validate_data(X, y1)
+        for i, (X_r, y_r) in enumerate(zip(X, y1) if records else [(X, y1)]):
+            try:
+                hidden._validate_data(X_r, y_r)
+            except ValueError as exc:
+                raise ValueError(f"record {i}: {exc}" if records else str(exc)) from exc
         space = {_HIDDEN_PREFIX + k: ("float", lo, hi, log) for k, (lo, hi, log) in hidden.search_space().items()}
         space.update(est_space)
-        n = y1.shape[0]
+        n = [y_r.shape[0] for y_r in y1] if records else y1.shape[0]
         best_params, search_results = {}, []
         n_rows = n
         # the outputs' derivatives do not depend on a trial unless the differentiation is searched
@@ -317,7 +338,8 @@ class HiddenStateSINDy(DynamicsEstimator):
             derivative = Derivative(clone(as_differentiation(self.differentiation)), dt)
             derivative.pin(y1)
         if space:
-            n_fit = n - self._n_validation(n)
+            n_fit = [n_r - self._n_validation(n_r, record=i) for i, n_r in enumerate(n)] if records else \
+                n - self._n_validation(n)
             objective = SearchObjective(lambda values: self._candidate(hidden, values, X, y1, dt, n_fit, derivative),
                                         hidden, X, y1, n_fit, self.validation)
             with np.errstate(all="ignore"):
@@ -333,11 +355,25 @@ class HiddenStateSINDy(DynamicsEstimator):
             n_rows = n if self.refit else n_fit
         cand = self._candidate(hidden, best_params, X, y1, dt, n_rows, derivative)
         cand.derivative.pin(None)
-        states = np.asarray(cand.design.states, dtype=float)
-        x0, refinement = states[0].copy(), None
+        if records:  # the records' states stacked; x0_ is the first record's
+            states = np.vstack([np.asarray(d.states, dtype=float) for d in cand.designs])
+            starts = [np.asarray(d.states[0], dtype=float).copy() for d in cand.designs]
+            x0 = starts[0]
+        else:
+            states = np.asarray(cand.design.states, dtype=float)
+            x0 = states[0].copy()
+        refinement = None
         if self.refine is not None:
-            cand, x0_refined, refinement = self._refine(hidden, cand, X[:n_rows], y1[:n_rows])
-            if x0_refined is not None:  # the refined model's own trajectory replaces the reconstruction
+            if records:
+                head = ([X_r[:k] for X_r, k in zip(X, n_rows)], [y_r[:k] for y_r, k in zip(y1, n_rows)])
+            else:
+                head = (X[:n_rows], y1[:n_rows])
+            cand, x0_refined, refinement = self._refine(hidden, cand, *head)
+            if x0_refined is not None and records:
+                x0 = x0_refined[0]
+                states = np.vstack([cand.dynamics.simulate(X_r, x0_r, on_divergence="nan")
+                                    for X_r, x0_r in zip(X, x0_refined)])
+            elif x0_refined is not None:  # the refined model's own trajectory replaces the reconstruction
                 x0 = x0_refined
                 states = cand.dynamics.simulate(X, x0, on_divergence="nan")
 
@@ -350,9 +386,9 @@ class HiddenStateSINDy(DynamicsEstimator):
         self.states_ = states
         self.x0_ = x0
         self.dt_ = dt
-        self.n_features_in_ = X.shape[1]
+        self.n_features_in_ = (X[0] if records else X).shape[1]
         self.refinement_ = refinement
-        self._y_1d = np.asarray(y).ndim == 1
+        self._y_1d = all(y_r.ndim == 1 for y_r in y) if records else np.asarray(y).ndim == 1
         self._rebuild_model()
         return self
 
@@ -368,30 +404,39 @@ class HiddenStateSINDy(DynamicsEstimator):
         return dict(dt=dt, n_substeps=self.n_substeps, input_hold=self.input_hold, max_abs=self.max_abs)
 
     def _candidate(self, hidden, values, X, y, dt, n_rows, derivative=None):
+        """The candidate of ``values``; ``X``, ``y`` and ``n_rows`` are lists for several records."""
         hvals = {k[len(_HIDDEN_PREFIX) :]: v for k, v in values.items() if k.startswith(_HIDDEN_PREFIX)}
         est_values = {k: v for k, v in values.items() if not k.startswith(_HIDDEN_PREFIX)}
         library, optimizer, differentiation = self._components(est_values)
         library = clone(as_library(library if library is not None else hidden.default_library()))
         if derivative is None:
             derivative = Derivative(differentiation, dt)
-        return fit_candidate(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
-                             self._simulation(dt))
+        fit = fit_candidate_records if isinstance(y, list) else fit_candidate
+        return fit(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
+                   self._simulation(dt))
 
     def _refine(self, hidden, cand, X, y):
         """The candidate refined by simulation error, its refined first state and the refinement record.
 
         A model whose simulation of the training record diverges cannot be
         refined: it is kept as fitted by equation error (first state None),
-        with a warning.
+        with a warning. With several records (lists ``X`` and ``y``) the
+        refined first states are an array (n_records, n_states).
         """
         simulation = self._simulation(cand.dynamics.dt)
-        problem = refinement_problem(cand, hidden, y.shape[1], X.shape[1],
+        first_X, first_y = (X[0], y[0]) if isinstance(y, list) else (X, y)
+        n_outputs, n_inputs = first_y.shape[1], first_X.shape[1]
+        problem = refinement_problem(cand, hidden, n_outputs, n_inputs,
                                      build=lambda s, coef: structure_dynamics(s, cand.library, coef, simulation))
+        if cand.designs is not None:  # several records: one initial state each
+            problem["x0"] = np.array([np.asarray(d.states[0], dtype=float) for d in cand.designs])
         result, record = self._run_refinement(cand.dynamics, X, y, **problem)
         if result is None:
             return cand, None, record
         params, coef, x0 = refined_values(cand, result)
-        structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
+        if cand.designs is not None:  # several records (one record in a list too): (n_records, n_states)
+            x0 = result.initial_states if result.initial_states is not None else result.x0[None]
+        structure = hidden.structure(params, n_outputs=n_outputs, n_inputs=n_inputs)
         cand = cand._replace(params=params, structure=structure, coef=coef,
                              dynamics=structure_dynamics(structure, cand.library, coef, simulation))
         logger.info("refinement: cost %.3g -> %.3g in %d simulations (%s)", result.initial_cost, result.cost,

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 
 from ._divergence import DivergenceWarning
-from ._validation import check_integer, check_option, check_signal
+from ._validation import check_integer, check_option, check_signal, is_records
 
 __all__ = ["fit_index", "make_simulation_scorer", "nrmse", "r2", "rmse"]
 
@@ -171,9 +171,14 @@ class _SimulationScorer:
         with warnings.catch_warnings():  # a diverged simulation scores -inf, no warning
             warnings.simplefilter("ignore", DivergenceWarning)
             y_pred = estimator.predict(X, y_init=y)
+        skip = self.skip
+        if is_records(y):  # several records, each simulated from its own start: the samples pooled
+            y_pred = np.vstack([np.asarray(p, dtype=float).reshape(len(r), -1)[skip:] for p, r in zip(y_pred, y)])
+            y = np.vstack([np.asarray(r, dtype=float).reshape(len(r), -1)[skip:] for r in y])
+            skip = 0
         if not np.all(np.isfinite(y_pred)):
             return -np.inf
-        value = func(y, y_pred, skip=self.skip)
+        value = func(y, y_pred, skip=skip)
         return value if greater_is_better else -value
 
     def __repr__(self):
@@ -187,6 +192,9 @@ def make_simulation_scorer(metric="rmse", *, skip=0):
     by the inputs ``X`` and initialised from the start of the measured ``y``,
     then compared with all of ``y``. Error metrics are negated so that greater
     is better, as scikit-learn expects; a diverged simulation scores ``-inf``.
+    With several records (``X`` and ``y`` lists of arrays) each record is
+    simulated from its own start and the metric pools the samples of all
+    records (``skip`` leaves out the first samples of each).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Model selection scored by open-loop simulation: splitters, search spaces, ``tune``."""
 
 from ._space import Categorical, IntRange, LogNormal, LogUniform, Normal, Uniform
-from ._split import HoldoutSplit
+from ._split import HoldoutSplit, LeaveOneRecordOut
 from ._storage import check_storage
 from ._tune import AllTrialsFailedError, tune
 
@@ -10,6 +10,7 @@ __all__ = [
     "Categorical",
     "HoldoutSplit",
     "IntRange",
+    "LeaveOneRecordOut",
     "LogNormal",
     "LogUniform",
     "Normal",

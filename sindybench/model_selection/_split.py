@@ -1,11 +1,11 @@
-"""Time-series hold-out splitter: the last block of the record validates."""
+"""Splitters: the last block of a record validates (``HoldoutSplit``), or each record in turn (``LeaveOneRecordOut``)."""
 
 import numbers
 
 import numpy as np
 from sklearn.model_selection import BaseCrossValidator
 
-__all__ = ["HoldoutSplit"]
+__all__ = ["HoldoutSplit", "LeaveOneRecordOut"]
 
 
 class HoldoutSplit(BaseCrossValidator):
@@ -84,3 +84,56 @@ class HoldoutSplit(BaseCrossValidator):
     def get_n_splits(self, X=None, y=None, groups=None):
         """Number of splits: always 1."""
         return 1
+
+
+class LeaveOneRecordOut(BaseCrossValidator):
+    """Cross-validation over records: each record validates once, the others train.
+
+    For several records of one system passed as lists of arrays (``fit([u1,
+    u2, u3], [y1, y2, y3])``): the indices it yields pick *records* from the
+    lists, not samples, so a model is always scored on a whole record it
+    was not fitted on, simulated from that record's own start. Pass it as
+    ``cv=`` to :func:`~sindybench.model_selection.tune` with lists ``X`` and
+    ``y`` (its default there). Lists rather than a record-id column: the
+    scikit-learn checks and splitters cut one array by rows, and a seam
+    between two records must never be differentiated, reconstructed or
+    simulated across; see the user guide.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> ys = [np.zeros((50, 1)), np.zeros((80, 1)), np.zeros((60, 1))]
+    >>> [(train.tolist(), test.tolist()) for train, test in LeaveOneRecordOut().split(ys)]
+    [([1, 2], [0]), ([0, 2], [1]), ([0, 1], [2])]
+    """
+
+    def split(self, X, y=None, groups=None):
+        """Yield ``(train, validation)`` arrays of record indices.
+
+        Parameters
+        ----------
+        X : list
+            The records' inputs (or outputs: only their number counts); None
+            takes the number of records from ``y``.
+        y : list, optional
+        groups : ignored
+
+        Yields
+        ------
+        train, validation : ndarray of int
+        """
+        n = self.get_n_splits(X, y)
+        records = np.arange(n)
+        for k in range(n):
+            yield np.delete(records, k), records[k : k + 1]
+
+    def get_n_splits(self, X=None, y=None, groups=None):
+        """Number of records (at least 2)."""
+        ref = y if X is None else X
+        if not isinstance(ref, list):
+            raise ValueError(f"LeaveOneRecordOut splits records given as lists of arrays; got "
+                             f"{type(ref).__name__}. Expected X or y as a list with one array per record.")
+        if len(ref) < 2:
+            raise ValueError(f"LeaveOneRecordOut needs at least 2 records to train on one and validate on "
+                             f"another; got {len(ref)}.")
+        return len(ref)

@@ -8,15 +8,15 @@ import re
 import numpy as np
 import optuna
 from sklearn.base import clone
-from sklearn.model_selection import TimeSeriesSplit
+from sklearn.model_selection import KFold, TimeSeriesSplit
 
 from .._json import jsonable
 from .._progress import show_progress
-from .._validation import check_bool, check_integer
+from .._validation import check_bool, check_integer, is_records
 from ..metrics import make_simulation_scorer
 from ._sampler import make_sampler
 from ._space import check_search_space, sample_params
-from ._split import HoldoutSplit
+from ._split import HoldoutSplit, LeaveOneRecordOut
 from ._storage import (
     count_claimed,
     describe_storage,
@@ -68,10 +68,11 @@ def _check_args(n_trials, timeout, n_jobs, random_state, scoring):
 
 
 def _splits(cv, X, y):
+    records = is_records(y)
     if cv is None:
-        cv = HoldoutSplit()
+        cv = LeaveOneRecordOut() if records else HoldoutSplit()
     elif isinstance(cv, numbers.Integral) and not isinstance(cv, bool):
-        cv = TimeSeriesSplit(n_splits=int(cv))
+        cv = KFold(n_splits=int(cv)) if records else TimeSeriesSplit(n_splits=int(cv))
     ref = y if X is None else X
     splits = list(cv.split(ref, y)) if hasattr(cv, "split") else list(cv)
     if not splits:
@@ -80,6 +81,9 @@ def _splits(cv, X, y):
 
 
 def _take(a, idx):
+    """Rows ``idx`` of an array, or records ``idx`` of a list of records."""
+    if isinstance(a, list):
+        return [a[i] for i in idx]
     return None if a is None else a[idx]
 
 
@@ -109,9 +113,9 @@ def _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials, ru
             try:
                 model = clone(estimator).set_params(**params)
                 stage = "fit"
-                model.fit(_take(X, train), y[train])
+                model.fit(_take(X, train), _take(y, train))
                 stage = "simulation"
-                score = float(scorer(model, _take(X, test), y[test]))
+                score = float(scorer(model, _take(X, test), _take(y, test)))
             except Exception as exc:  # a failed fit or simulation ends the trial, never the study
                 _fail(trial, f"{stage} failed on split {k}: {type(exc).__name__}: {exc}")
             if not np.isfinite(score):
@@ -121,6 +125,20 @@ def _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials, ru
         return sign * float(np.mean(scores))
 
     return objective
+
+
+def _check_record_lists(X, y):
+    """Several records: ``X`` None or a list of as many entries as ``y``, each with the samples of its record."""
+    if X is None:
+        return
+    if not isinstance(X, list) or len(X) != len(y):
+        got = f"a list of {len(X)}" if isinstance(X, list) else type(X).__name__
+        raise ValueError(f"y is a list of {len(y)} records, so X must be None or a list of {len(y)} input arrays; "
+                         f"got {got}.")
+    for i, (X_i, y_i) in enumerate(zip(X, y)):
+        if X_i is not None and len(X_i) != len(y_i):
+            raise ValueError(f"record {i}: X[{i}] has {len(X_i)} samples and y[{i}] has {len(y_i)}; expected the "
+                             "same number of samples.")
 
 
 def _open_study(storage, study_name, estimator, search_space, direction, scoring, random_state):
@@ -229,14 +247,22 @@ def tune(
         serves ``optuna_integration.OptunaSearchCV``), names as in
         ``set_params`` (``"optimizer__threshold"``). Or a callable ``f(trial) -> dict`` of
         parameter values for conditional spaces.
-    X : array-like of shape (n_samples, n_inputs) or None
+    X : array-like of shape (n_samples, n_inputs), None, or list
         Inputs.
-    y : array-like of shape (n_samples, n_outputs)
-        Measured outputs.
+    y : array-like of shape (n_samples, n_outputs), or list of ndarray
+        Measured outputs. Lists of arrays (``X`` a list too, or None) are
+        several records of one system: the splits then pick whole records
+        (fit on the training records, score on the held-out ones, each
+        simulated from its own start and the samples pooled), for an
+        estimator whose ``fit`` takes lists (``SINDy``,
+        ``HiddenStateSINDy``).
     cv : splitter, int or iterable, default=None
-        ``None``: :class:`HoldoutSplit` (the last 20 % validates); an int:
-        ``TimeSeriesSplit(n_splits=cv)``; any scikit-learn splitter or list of
-        ``(train, validation)`` index pairs. The trial value is the mean over splits.
+        ``None``: :class:`HoldoutSplit` (the last 20 % validates), or with
+        several records :class:`LeaveOneRecordOut`; an int:
+        ``TimeSeriesSplit(n_splits=cv)`` (records: ``KFold(n_splits=cv)``
+        over the records, in order); any scikit-learn splitter or list of
+        ``(train, validation)`` index pairs (record indices with lists). The
+        trial value is the mean over splits.
     scoring : {"rmse", "nrmse", "r2", "fit_index"} or callable, default="rmse"
         A simulation metric (minimised for rmse and nrmse, maximised
         otherwise, the study's values are the metric itself), or a scorer
@@ -273,7 +299,7 @@ def tune(
         draw it, a notebook or a terminal, never into a log file or a pipe;
         the environment variable ``SINDYBENCH_PROGRESS=0`` turns bars off.
     refit : bool, default=True
-        Fit the best estimator on all of ``X, y``. ``False`` returns it
+        Fit the best estimator on all of ``X, y`` (every record). ``False`` returns it
         unfitted, for a caller that fits it on other data (the study fits the
         chosen model on the training block only), saving one fit.
 
@@ -329,10 +355,14 @@ def tune(
     check_bool(refit, "refit")
     show_progress_bar = show_progress(show_progress_bar)
     check_search_space(search_space, estimator)
-    X = None if X is None else np.asarray(X)
-    y = np.asarray(y)
-    if X is not None and X.shape[0] != y.shape[0]:
-        raise ValueError(f"X has {X.shape[0]} samples and y has {y.shape[0]}; expected the same number of samples.")
+    if is_records(y):
+        _check_record_lists(X, y)
+    else:
+        X = None if X is None else np.asarray(X)
+        y = np.asarray(y)
+        if X is not None and X.shape[0] != y.shape[0]:
+            raise ValueError(f"X has {X.shape[0]} samples and y has {y.shape[0]}; expected the same number of "
+                             "samples.")
     splits = _splits(cv, X, y)
     opened = make_storage(storage)
     try:

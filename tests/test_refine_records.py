@@ -116,3 +116,5 @@ def test_sindy_refines_on_several_records(records):
     np.testing.assert_array_equal(model.x0_, model.refinement_["initial_states"][0])
     assert model.score([u1, u2], [y1, y2]) > plain.score([u1, u2], [y1, y2])
     assert model.refinement_["cost"] < model.refinement_["initial_cost"]
+    errors = model.standard_errors()
+    assert {"y0(0) [record 0]", "y0(0) [record 1]"} <= set(errors) and all(v > 0 for v in errors.values())

@@ -9,7 +9,8 @@ work with every estimator without knowing it:
 
 * a physical parameter by its name (``"k1"``, ``"m"``);
 * a coefficient as ``"<state>': <feature>"`` (``"x1': sqrt(x1)"``);
-* an initial state as ``"<state>(0)"``.
+* an initial state as ``"<state>(0)"`` (with several records,
+  ``"<state>(0) [record <i>]"``).
 """
 
 import numpy as np
@@ -52,6 +53,8 @@ def parameter_names(parameters, rows):
         elif q[0] == "coef":
             row = rows[int(q[2])]
             out.append(f"{row.name}': {row.features[int(q[1])]}")
+        elif len(q) > 2:  # several records: ("x0", state, record)
+            out.append(f"{rows[int(q[1])].name}(0) [record {int(q[2])}]")
         else:
             out.append(f"{rows[int(q[1])].name}(0)")
     return out

@@ -1,4 +1,4 @@
-"""Splitters: the last block of a record validates (``HoldoutSplit``), or each record in turn (``LeaveOneRecordOut``)."""
+"""Splitters: the last block of a record validates (``HoldoutSplit``), or each record (``LeaveOneRecordOut``)."""
 
 import numbers
 

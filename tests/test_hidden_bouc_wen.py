@@ -9,6 +9,7 @@ from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import BoucWenHiddenState
 from sindybench.metrics import rmse
+from sindybench.search import LogUniform, Uniform
 from sindybench.systems import BoucWen, multisine
 
 DT = 1.0 / 750.0
@@ -62,8 +63,8 @@ def test_structure_rows():
 
 def test_search_space_uses_default_bounds():
     space = BoucWenHiddenState(m=2.0, bounds={"k": (1e4, 1e5)}).search_space()
-    assert space["k"] == (1e4, 1e5, False)
-    assert space["c"][:2] == (0.1, 1000.0) and set(space) == {"c", "k"}
+    assert space["k"] == Uniform(1e4, 1e5)
+    assert space["c"] == LogUniform(0.1, 1000.0) and set(space) == {"c", "k"}
 
 
 def test_true_parameters_recover_the_bouc_wen_law(synthetic):

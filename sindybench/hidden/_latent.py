@@ -35,9 +35,9 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from .._validation import check_bounds
-from ..search import as_dimension
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
+from ..search import as_dimension
 from ..simulate import TermsRHS, simulate
 from ._base import Design, HiddenStrategy, Structure, linear_term
 

@@ -152,7 +152,7 @@ class ParametricHiddenState(HiddenStrategy):
         return out
 
     def _x0_specs(self):
-        """One entry per hidden state: a range ``Uniform(low, high)``."""
+        """One entry per hidden state: a range ``Uniform(low, high)`` (or a fixed float, in subclasses)."""
         x0 = self.x0_bounds
         if x0 is None:
             raise ValueError("x0_bounds is None; expected (low, high) for each hidden state.")

@@ -6,8 +6,8 @@ import numpy as np
 
 from .._validation import check_bounds
 from ..io import register_model
-from ..search import Uniform
 from ..libraries import POW, SQRT, ConcatLibrary, PolynomialLibrary, SqrtLibrary
+from ..search import Uniform
 from ..simulate import TermsRHS, simulate
 from ._base import Structure
 from ._parametric import ParametricHiddenState, _check_range

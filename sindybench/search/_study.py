@@ -15,8 +15,6 @@ import numpy as np
 import optuna
 from optuna.samplers import BaseSampler, TPESampler
 
-from ._space import sample_params
-
 __all__ = ["TrialSeededTPE", "create_study", "make_sampler"]
 
 #: Optuna's own default number of random (startup) trials before TPE models the results.

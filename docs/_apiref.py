@@ -17,6 +17,7 @@ MODULES = (
     ("sindybench.uncertainty", "Uncertainty: ensembles and prediction bands"),
     ("sindybench.metrics", "Metrics and scorers"),
     ("sindybench.plotting", "Plotting"),
+    ("sindybench.search", "Search spaces and the Optuna driver"),
     ("sindybench.model_selection", "Model selection"),
     ("sindybench.baselines", "Baselines"),
     ("sindybench.io", "Saving and loading models"),

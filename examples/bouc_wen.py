@@ -39,10 +39,11 @@ from sindybench.hidden import BoucWenHiddenState
 from sindybench.metrics import rmse
 from sindybench.plotting import plot_hidden_states, plot_hysteresis, plot_search_history, plot_simulation
 from sindybench.refine import OutputErrorRefinement
+from sindybench.search import LogUniform
 
 QUICK = os.environ.get("SINDYBENCH_QUICK", "") not in ("", "0")
 TRUE = {"m": 2.0, "c": 10.0, "k": 5e4}
-GUESS_BOUNDS = {"m": (1.0, 5.0, True), "c": (1.0, 100.0, True), "k": (1e4, 1e5, True)}  # (low, high, log)
+GUESS_BOUNDS = {"m": LogUniform(1.0, 5.0), "c": LogUniform(1.0, 100.0), "k": LogUniform(1e4, 1e5)}  # searched ranges
 STUDY_RMSE = {"searched m, c, k": (11.26e-4, 1.83e-4, 1.72e-4), "Ideal (true m, c, k)": (8.87e-4, 2.52e-4, 3.03e-4)}
 
 

@@ -8,6 +8,7 @@ from sklearn.exceptions import NotFittedError
 from sindybench import STLS, DivergenceWarning, HiddenStateSINDy, SimulationError
 from sindybench.hidden import DerivativeHiddenState, ParametricHiddenState
 from sindybench.libraries import PolynomialLibrary
+from sindybench.search import LogUniform, Normal, Uniform
 from sindybench.simulate import TermsRHS, simulate
 
 DT = 0.01
@@ -207,3 +208,57 @@ def test_long_horizon_validation_scores_from_the_training_start(oscillator):
     assert np.isfinite(y_sim).all()
     scores = {v: m.search_results_[0][1] for v, m in fits.items()}
     assert len(set(scores.values())) == 3  # three different criteria
+
+
+@pytest.mark.parametrize("local_trials", [0, 3])
+def test_search_params_as_dimensions_search_as_the_tuples(oscillator, local_trials):
+    u, y, _ = oscillator
+    kw = dict(n_trials=7, local_trials=local_trials, validation_size=300, random_state=3)
+    old = _model(search_params={"optimizer__threshold": (1e-3, 1.0, True)}, **kw).fit(u, y)
+    new = _model(search_params={"optimizer__threshold": LogUniform(1e-3, 1.0)}, **kw).fit(u, y)
+    assert new.best_params_ == old.best_params_ and new.search_results_ == old.search_results_
+    np.testing.assert_array_equal(new.coef_, old.coef_)
+    assert isinstance(new.search_params["optimizer__threshold"], LogUniform)  # fit never rewrites a parameter
+
+
+def test_strategy_ranges_as_dimensions_search_as_the_tuples(oscillator):
+    u, y, _ = oscillator
+    old = _leaky_model((0.1, 3.0, True), n_trials=8, local_trials=3).fit(u[:600], y[:600])
+    new = _leaky_model(LogUniform(0.1, 3.0), n_trials=8, local_trials=3).fit(u[:600], y[:600])
+    assert new.best_params_ == old.best_params_
+    assert new.search_results_ == old.search_results_
+
+
+def test_a_normal_prior_inside_the_search(oscillator):
+    u, y, _ = oscillator
+    prior = Normal(1.0, 0.3)
+    model = _leaky_model(prior, n_trials=10, local_trials=4).fit(u[:600], y[:600])
+    low, high = prior.support()
+    values = [v["hidden__a"] for v, _ in model.search_results_]
+    assert len(values) == 10 and all(low <= a <= high for a in values)
+    assert len(set(values[6:])) > 1  # the local search moved the prior's value (on its quantile)
+    assert model.params_["a"] == model.best_params_["hidden__a"]
+    assert min(s for _, s in model.search_results_) < 1.0
+
+
+@pytest.mark.parametrize(
+    "search_params, match",
+    [({"optimizer__threshold": Uniform(0.0, 1.0), "hidden__a": (0.0, 1.0)}, "name strategy parameters"),
+     ({"optimizer__threshold": "wide"}, r"search_params\['optimizer__threshold'\] = 'wide'; expected \(low, high\)"),
+     (lambda trial: {}, "search_params must be a dict name -> dimension")],
+)
+def test_bad_search_params_say_what_is_expected(oscillator, search_params, match):
+    u, y, _ = oscillator
+    with pytest.raises(ValueError, match=match):
+        _model(search_params=search_params, n_trials=2).fit(u[:300], y[:300])
+
+
+def test_dimensions_in_the_parameters_are_saved_with_the_model(oscillator):
+    from sindybench.io import model_from_dict, model_to_dict
+
+    u, y, _ = oscillator
+    model = _leaky_model(Normal(1.0, 0.3), n_trials=4, search_params={"optimizer__threshold": LogUniform(1e-4, 1e-1)})
+    model.fit(u[:600], y[:600])
+    loaded = model_from_dict(model_to_dict(model), allow_import=True)
+    assert loaded.search_params == model.search_params and loaded.hidden.params == {"a": Normal(1.0, 0.3)}
+    np.testing.assert_array_equal(loaded.predict(u[:600], y_init=y[:50]), model.predict(u[:600], y_init=y[:50]))

@@ -9,6 +9,7 @@ from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import BoucWenHiddenState
 from sindybench.metrics import rmse
+from sindybench.search import LogNormal, LogUniform, Normal, Uniform
 from sindybench.systems import BoucWen, multisine
 
 DT = 1.0 / 750.0
@@ -62,8 +63,21 @@ def test_structure_rows():
 
 def test_search_space_uses_default_bounds():
     space = BoucWenHiddenState(m=2.0, bounds={"k": (1e4, 1e5)}).search_space()
-    assert space["k"] == (1e4, 1e5, False)
-    assert space["c"][:2] == (0.1, 1000.0) and set(space) == {"c", "k"}
+    assert space["k"] == Uniform(1e4, 1e5)
+    assert space["c"] == LogUniform(0.1, 1000.0) and set(space) == {"c", "k"}
+
+
+def test_bounds_as_dimensions_search_as_the_tuples():
+    assert BoucWenHiddenState(m=2.0, bounds={"k": LogNormal(np.log(5e4), 0.5)}).search_space() == {
+        "c": LogUniform(0.1, 1000.0), "k": LogNormal(np.log(5e4), 0.5)}
+    u = multisine(512, random_state=np.random.default_rng(0))
+    y = BoucWen().simulate(u, periodic=True)
+    fits = [_model(BoucWenHiddenState(m=2.0, c=10.0, bounds={"k": k}), len(u), n_trials=4, random_state=0).fit(u, y)
+            for k in ((1e4, 1e5, True), LogUniform(1e4, 1e5))]
+    assert fits[0].best_params_ == fits[1].best_params_ and set(fits[0].best_params_) == {"hidden__k"}
+    np.testing.assert_array_equal(fits[0].coef_, fits[1].coef_)
+    with pytest.raises(ValueError, match=r"bounds\['k'\] starts at -5.*expected a range of positive values"):
+        BoucWenHiddenState(k=None, bounds={"k": Normal(5.0, 2.5)})._validate()
 
 
 def test_true_parameters_recover_the_bouc_wen_law(synthetic):

@@ -8,6 +8,7 @@ from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import LatentHiddenState, latent_invariants
 from sindybench.libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary, term_name
 from sindybench.refine import OutputErrorRefinement
+from sindybench.search import LogNormal, LogUniform, Uniform
 from sindybench.simulate import simulate
 
 
@@ -149,3 +150,13 @@ def test_hidden_hysteresis_state_driven_by_the_velocity(rng):
     found, true = (np.sort_complex(np.linalg.eigvals(a)) for a in (inv["jacobian"], _jacobian(truth, np.zeros(3))))
     np.testing.assert_allclose(found, true, rtol=0.05, atol=1e-3)  # 0 and the roots of s^2 + 0.5 s + 10
     assert inv["gain"] is None
+
+
+def test_bounds_pairs_are_log_scaled_and_dimensions_kept():
+    space = LatentHiddenState(bounds={"tau": (1e-2, 1.0)}).search_space()
+    assert space == {"tau": LogUniform(1e-2, 1.0)}
+    prior = LogNormal(0.0, 1.0)
+    assert LatentHiddenState(bounds={"tau": prior}).search_space() == {"tau": prior}
+    with pytest.raises(ValueError, match=r"bounds\['tau'\] = Uniform\(low=-1.0, high=1.0\) reaches -1.0; expected "
+                                         r"positive values only \(tau > 0\)"):
+        LatentHiddenState(bounds={"tau": Uniform(-1.0, 1.0)})._validate()

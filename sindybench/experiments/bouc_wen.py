@@ -8,6 +8,7 @@ multisine record, validation the next 960; tests: the low-frequency sine
 (from rest), the official multisine and the sine sweep.
 """
 
+from ..search import LogUniform
 from ._common import REFINE_NFEV_QUICK, arx_model, arx_space, nnarx_model, nnarx_space, refinement, stls_space
 from ._spec import Benchmark, ModelSpec
 
@@ -15,7 +16,7 @@ __all__ = ["BENCHMARK"]
 
 TRUE_MCK = {"m": 2.0, "c": 10.0, "k": 5e4}
 # plausible physical guesses (a factor of a few around the truth), as the study searched them
-MCK_BOUNDS = {"m": (1.0, 5.0, True), "c": (1.0, 100.0, True), "k": (1e4, 1e5, True)}
+MCK_BOUNDS = {"m": LogUniform(1.0, 5.0), "c": LogUniform(1.0, 100.0), "k": LogUniform(1e4, 1e5)}
 
 
 def _load(**kwargs):
@@ -79,7 +80,7 @@ def _latent(*, random_state, quick, dt, n_val, n_samples):
     from ..refine import OutputErrorRefinement
 
     return HiddenStateSINDy(
-        hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": (1e-4, 1.0)}),
+        hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": LogUniform(1e-4, 1.0)}),
         library=ConcatLibrary([PolynomialLibrary(degree=1), AbsProductLibrary(pairs=[(1, 2)])]),
         optimizer=STLS(threshold=1e-6, normalize_columns=True), differentiation=Spectral(cutoff=150.0),
         dt=dt, n_substeps=2, input_hold="linear", validation_size=n_val, n_trials=6 if quick else 12,

@@ -123,13 +123,14 @@ def _latent(*, random_state, quick, dt, n_val, n_samples):
     from .. import STLS, HiddenStateSINDy
     from ..hidden import LatentHiddenState
     from ..refine import OutputErrorRefinement
+    from ..search import LogUniform
 
     return HiddenStateSINDy(
         hidden=LatentHiddenState(scale="range", latent_bounds=_BOUNDS, output_bounds=_BOUNDS,
-                                 bounds={"tau": (4.0, 1000.0), "gain": (1e-4, 1e-1)}),
+                                 bounds={"tau": LogUniform(4.0, 1000.0), "gain": LogUniform(1e-4, 1e-1)}),
         library=_generic(), optimizer=STLS(threshold=0.0), dt=dt, n_substeps=4,
         validation_size=n_val, validation="full", n_trials=_TRIALS_QUICK if quick else 60,
-        local_trials=20, search_params={"optimizer__threshold": (1e-5, 1e-1, True)}, random_state=random_state,
+        local_trials=20, search_params={"optimizer__threshold": LogUniform(1e-5, 1e-1)}, random_state=random_state,
         refine=OutputErrorRefinement(prune=0.1, max_nfev=REFINE_NFEV_QUICK if quick else 100), initial_state="fit",
     )
 

@@ -69,6 +69,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 from sklearn.base import BaseEstimator
 
+from ..search import as_dimension
+
 __all__ = ["Design", "HiddenStrategy", "ModelView", "Structure", "linear_term"]
 
 
@@ -174,7 +176,9 @@ class HiddenStrategy(BaseEstimator):
 
     Subclasses define ``_physical`` (names of searchable constructor parameters)
     and, when any of them may be ``None``, a ``bounds`` constructor parameter: a
-    dict ``name -> (low, high)`` or ``(low, high, log)``.
+    dict ``name -> dimension`` (``Uniform``, ``LogUniform``, ``Normal``,
+    ``LogNormal`` of :mod:`sindybench.search`), or the older ``(low, high)`` /
+    ``(low, high, log)``.
     """
 
     _physical = ()
@@ -187,23 +191,20 @@ class HiddenStrategy(BaseEstimator):
 
     def _validate(self):
         """Check constructor parameters; raise ``ValueError`` with a clear message."""
-        space = self.search_space()
+        self.search_space()  # a bad range raises here
         for name in self._physical:
             value = getattr(self, name)
             if value is not None and not np.all(np.isfinite(np.asarray(value, dtype=float))):
                 raise ValueError(f"{name} must be finite or None (searched); got {value!r}.")
-        for name, (low, high, _) in space.items():
-            if not low < high:
-                raise ValueError(f"bounds[{name!r}] = ({low!r}, {high!r}); expected low < high.")
 
     def _validate_data(self, u, y):
         """Checks that need the training inputs ``u`` and outputs ``y`` (2-D); raise ``ValueError``."""
 
     def search_space(self):
-        """Searched physical parameters: ``name -> (low, high, log)``.
+        """Searched physical parameters: ``name -> dimension`` (see :mod:`sindybench.search`).
 
         The default lists the ``_physical`` parameters that are ``None``, with
-        their range from ``self.bounds``.
+        their range from ``self.bounds`` (read by :func:`~sindybench.search.as_dimension`).
         """
         bounds = getattr(self, "bounds", None) or {}
         space = {}
@@ -215,14 +216,7 @@ class HiddenStrategy(BaseEstimator):
                     f"{name}=None asks for a search but bounds has no entry {name!r}; "
                     f"expected bounds={{{name!r}: (low, high)}} or a fixed value."
                 )
-            entry = tuple(bounds[name])
-            if len(entry) not in (2, 3):
-                raise ValueError(f"bounds[{name!r}] = {entry!r}; expected (low, high) or (low, high, log).")
-            low, high = float(entry[0]), float(entry[1])
-            log = bool(entry[2]) if len(entry) == 3 else False
-            if log and low <= 0:
-                raise ValueError(f"bounds[{name!r}] = {entry!r} is log-scaled; expected low > 0.")
-            space[name] = (low, high, log)
+            space[name] = as_dimension(bounds[name], name=f"bounds[{name!r}]", real=True)
         return space
 
     def resolve_params(self, values=None):

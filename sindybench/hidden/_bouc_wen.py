@@ -36,13 +36,14 @@ from scipy.optimize import least_squares
 
 from .._validation import check_bool, check_integer
 from ..io import register_model
+from ..search import LogUniform
 from ._base import Design, HiddenStrategy, Structure, linear_term
 
 __all__ = ["BoucWenHiddenState", "DEFAULT_BOUNDS"]
 
 #: Search ranges used for ``m``, ``c``, ``k`` when ``bounds`` has no entry for them:
-#: ``name -> (low, high, log)`` in SI units, wide around the benchmark's values.
-DEFAULT_BOUNDS = {"m": (0.1, 20.0, True), "c": (0.1, 1000.0, True), "k": (1e3, 1e6, True)}
+#: ``name -> dimension`` in SI units, wide around the benchmark's values.
+DEFAULT_BOUNDS = {"m": LogUniform(0.1, 20.0), "c": LogUniform(0.1, 1000.0), "k": LogUniform(1e3, 1e6)}
 
 # columns of the library input Z = [y, v, z, u]
 _Y, _V, _Z, _U = 0, 1, 2, 3
@@ -73,8 +74,10 @@ class BoucWenHiddenState(HiddenStrategy):
         Mass, viscous damping and linear stiffness. ``None`` = searched within
         ``bounds`` by :class:`~sindybench.HiddenStateSINDy`.
     bounds : dict or None, default=None
-        ``name -> (low, high)`` or ``(low, high, log)`` for the searched
-        parameters; entries missing here come from :data:`DEFAULT_BOUNDS`.
+        ``name -> dimension`` for the searched parameters (``LogUniform(1e4,
+        1e5)``, a ``LogNormal`` prior, ... of :mod:`sindybench.search`; the
+        older ``(low, high)`` or ``(low, high, log)`` still work); entries
+        missing here come from :data:`DEFAULT_BOUNDS`.
     n_init : int, default=10
         Number of first output samples used to set the initial state on new data.
     refine_init : bool, default=True
@@ -142,7 +145,8 @@ class BoucWenHiddenState(HiddenStrategy):
     def search_space(self):
         """Searched parameters with their ranges (``bounds`` over :data:`DEFAULT_BOUNDS`)."""
         if self.bounds is not None and not isinstance(self.bounds, dict):
-            raise ValueError(f"bounds must be a dict name -> (low, high[, log]) or None; got {self.bounds!r}.")
+            raise ValueError(f"bounds must be a dict name -> dimension (LogUniform(low, high), ...) or "
+                             f"(low, high[, log]), or None; got {self.bounds!r}.")
         merged = copy.copy(self)
         merged.bounds = {**DEFAULT_BOUNDS, **(self.bounds or {})}
         return super(BoucWenHiddenState, merged).search_space()
@@ -155,7 +159,8 @@ class BoucWenHiddenState(HiddenStrategy):
                 op = ">" if strict else ">="
                 raise ValueError(f"{name} must be a number {op} 0 or None (searched); got {value!r}.")
         super()._validate()
-        for name, (low, _, _) in self.search_space().items():
+        for name, dim in self.search_space().items():
+            low = dim.support()[0]
             if low < 0 or (name == "m" and low == 0):
                 raise ValueError(f"bounds[{name!r}] starts at {low!r}; expected a range of positive values.")
         check_integer(self.n_init, "n_init")

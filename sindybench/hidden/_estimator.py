@@ -24,6 +24,7 @@ from .._validation import (
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name
+from ..search import check_search_space, minimize
 from ..simulate import _HOLDS
 from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy
@@ -32,7 +33,6 @@ from ._derivative import Derivative
 from ._objective import SEARCH_PENALTY, VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
 from ._refinement import refined_values, refinement_problem
-from ._search import check_space, minimize
 
 __all__ = ["HiddenStateSINDy"]
 
@@ -97,15 +97,19 @@ class HiddenStateSINDy(DynamicsEstimator):
         Candidates evaluated by the inner search.
     local_trials : int, default=0
         How many of the ``n_trials`` refine the best TPE candidates locally
-        (bounded Nelder-Mead on the float parameters from the 3 best distinct
-        candidates); the other ``n_trials - local_trials`` are TPE trials.
+        (bounded Nelder-Mead on the real parameters from the 3 best distinct
+        candidates, Normal and LogNormal priors on their quantile; integers and
+        choices keep their values); the other ``n_trials - local_trials`` are TPE trials.
         Useful when good candidates lie in narrow valleys.
     random_state : int, RandomState or None, default=None
         Seed of the TPE sampler.
     search_params : dict, optional
-        Further parameters of this estimator to search jointly, by nested name
-        (``"differentiation__window_length": (5, 41)``,
-        ``"optimizer__threshold": (1e-3, 1.0, True)``, a list = choices).
+        Further parameters of this estimator to search jointly, by nested
+        name: ``{"optimizer__threshold": LogUniform(1e-3, 1.0),
+        "differentiation__window_length": IntRange(5, 41)}``, with the
+        dimensions of :mod:`sindybench.search` (``Normal`` and ``LogNormal``
+        priors too). The older spellings still work (:func:`~sindybench.search.as_dimension`):
+        ``(5, 41)`` integers, ``(1e-3, 1.0, True)`` a log-scaled float, a list of choices.
     refit : bool, default=True
         Refit the best candidate on all the training data (else keep the fit
         without the validation block).
@@ -260,7 +264,7 @@ class HiddenStateSINDy(DynamicsEstimator):
             raise ValueError(
                 f"refine must be an OutputErrorRefinement or None; got {type(self.refine).__name__}."
             )
-        space = check_space(self.search_params)
+        space = _check_search_params(self.search_params)
         bad = [k for k in space if k.startswith(_HIDDEN_PREFIX)]
         if bad:
             raise ValueError(
@@ -327,7 +331,7 @@ class HiddenStateSINDy(DynamicsEstimator):
                 hidden._validate_data(X_r, y_r)
             except ValueError as exc:
                 raise ValueError(f"record {i}: {exc}" if records else str(exc)) from exc
-        space = {_HIDDEN_PREFIX + k: ("float", lo, hi, log) for k, (lo, hi, log) in hidden.search_space().items()}
+        space = {_HIDDEN_PREFIX + k: dim for k, dim in hidden.search_space().items()}
         space.update(est_space)
         n = [y_r.shape[0] for y_r in y1] if records else y1.shape[0]
         best_params, search_results = {}, []
@@ -500,6 +504,16 @@ class HiddenStateSINDy(DynamicsEstimator):
 
 def _default_strategy():
     return DerivativeHiddenState(order=2)
+
+
+def _check_search_params(search_params):
+    """``search_params`` as a dict ``name -> dimension`` (empty for None)."""
+    if search_params is None or (isinstance(search_params, dict) and not search_params):
+        return {}
+    if not isinstance(search_params, dict):
+        raise ValueError(f"search_params must be a dict name -> dimension (Uniform, LogUniform, IntRange, Categorical, "
+                         f"Normal, LogNormal, or (low, high[, log]) or a list of choices); got {search_params!r}.")
+    return check_search_space(search_params, name="search_params", convert=True)
 
 
 def _check_fit_data(X, y):

@@ -37,6 +37,7 @@ from scipy.optimize import least_squares
 from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
+from ..search import as_dimension
 from ..simulate import TermsRHS, simulate
 from ._base import Design, HiddenStrategy, Structure, linear_term
 
@@ -73,8 +74,10 @@ class LatentHiddenState(HiddenStrategy):
         searched within ``bounds["gain"]`` (log scale). Unused with
         ``scale="driver"`` (the gain is the gauge, 1).
     bounds : dict, optional
-        Search ranges (log scale): ``"tau"`` (time units of ``dt``; default
-        ``(1e-3, 1e3)``) and ``"gain"`` (default ``(1e-3, 1e3)``).
+        Search ranges: ``"tau"`` (time units of ``dt``; default
+        ``(1e-3, 1e3)``) and ``"gain"`` (default ``(1e-3, 1e3)``); a pair
+        ``(low, high)`` is searched on a log scale, a dimension of
+        :mod:`sindybench.search` (``LogNormal`` prior, ...) as it says.
     latent_bounds : (float, float), optional
         Simulation bounds of every latent state (in the gauge's units), e.g.
         ``(0, inf)`` for a level that cannot go negative; None = unbounded.
@@ -278,7 +281,7 @@ _SCALES = ("driver", "range")
 
 
 def _space(strategy, bounds, names):
-    """The searched parameters among ``names`` with their ranges, log-scaled."""
+    """The searched parameters among ``names`` with their dimensions (``(low, high)``: log-scaled)."""
     space = {}
     for name in names:
         if getattr(strategy, name) is not None:
@@ -286,10 +289,11 @@ def _space(strategy, bounds, names):
         if name not in bounds:
             raise ValueError(f"{name}=None asks for a search but bounds has no entry {name!r}; "
                              f"expected bounds={{{name!r}: (low, high)}} or a fixed value.")
-        low, high = (float(v) for v in tuple(bounds[name])[:2])
-        if not 0 < low < high:
-            raise ValueError(f"bounds[{name!r}] = {bounds[name]!r}; expected 0 < low < high (log-scaled search).")
-        space[name] = (low, high, True)
+        dim = as_dimension(bounds[name], name=f"bounds[{name!r}]", real=True, log=True)
+        if not dim.support()[0] > 0:
+            raise ValueError(f"bounds[{name!r}] = {bounds[name]!r} reaches {dim.support()[0]!r}; expected positive "
+                             f"values only ({name} > 0).")
+        space[name] = dim
     return space
 
 

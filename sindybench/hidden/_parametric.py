@@ -13,6 +13,7 @@ from .._validation import check_bounds, check_integer, check_option
 from ..io import register_model
 from ..dynamics._rows import RowsRHS
 from ..dynamics._user import OpCompileError
+from ..search import LogUniform, Uniform, as_dimension
 from ..simulate import simulate
 from ._base import Design, HiddenStrategy, Structure
 
@@ -21,27 +22,18 @@ __all__ = ["ParametricHiddenState"]
 _INITS = ("simulation", "derivative")
 
 
-def _check_range(spec, name):
-    try:
-        entry = tuple(spec)
-    except TypeError:
-        entry = ()
-    if len(entry) not in (2, 3) or not all(isinstance(v, numbers.Real) and not isinstance(v, bool)
-                                           for v in entry[:2]):
-        raise ValueError(f"{name} = {spec!r}; expected a number or (low, high) or (low, high, log).")
-    low, high = float(entry[0]), float(entry[1])
-    log = bool(entry[2]) if len(entry) == 3 else False
-    if not (np.isfinite(low) and np.isfinite(high) and low < high):
-        raise ValueError(f"{name} = {spec!r}; expected finite low < high.")
-    if log and low <= 0:
-        raise ValueError(f"{name} = {spec!r} is log-scaled; expected low > 0.")
-    return low, high, log
+def _check_range(spec, name, *, log=None):
+    """A searched range as a dimension (:func:`~sindybench.search.as_dimension`)."""
+    return as_dimension(spec, name=name, real=True, log=log)
 
 
-def _middle(spec):
-    """The middle of a searched range ``(low, high, log)`` (geometric for log ranges)."""
-    low, high, log = spec
-    return float(np.sqrt(low * high)) if log else 0.5 * (low + high)
+def _middle(dim):
+    """The middle of a searched range (geometric for log ranges, the median of a prior)."""
+    if isinstance(dim, LogUniform):
+        return float(np.sqrt(dim.low * dim.high))
+    if isinstance(dim, Uniform):
+        return 0.5 * (dim.low + dim.high)
+    return dim.from_unit(0.5)
 
 
 class _HiddenRows:
@@ -97,7 +89,9 @@ class ParametricHiddenState(HiddenStrategy):
         numba (the model then simulates on the compiled path); a function numba
         cannot compile runs on the Python path, with a warning.
     params : dict, optional
-        ``name -> value`` (fixed) or ``name -> (low, high[, log])`` (searched).
+        ``name -> value`` (fixed) or ``name -> dimension`` (searched:
+        ``Uniform(low, high)``, ``LogUniform``, a ``Normal`` or ``LogNormal``
+        prior of :mod:`sindybench.search`, or the older ``(low, high[, log])``).
     x0_bounds : (low, high) or sequence of (low, high)
         Range of each hidden state's initial value (one pair per hidden state;
         a single pair means one hidden state).
@@ -142,10 +136,11 @@ class ParametricHiddenState(HiddenStrategy):
         return self.rhs
 
     def _param_specs(self):
-        """``name -> float`` (fixed) or ``name -> (low, high, log)`` (searched)."""
+        """``name -> float`` (fixed) or ``name -> dimension`` (searched)."""
         params = {} if self.params is None else self.params
         if not isinstance(params, dict):
-            raise ValueError(f"params must be a dict name -> value or (low, high[, log]); got {params!r}.")
+            raise ValueError(f"params must be a dict name -> value or dimension (Uniform(low, high), ...) or "
+                             f"(low, high[, log]); got {params!r}.")
         out = {}
         for name, spec in params.items():
             if isinstance(spec, numbers.Real) and not isinstance(spec, bool):
@@ -157,7 +152,7 @@ class ParametricHiddenState(HiddenStrategy):
         return out
 
     def _x0_specs(self):
-        """One entry per hidden state: a fixed float or a range ``(low, high, False)``."""
+        """One entry per hidden state: a range ``Uniform(low, high)`` (or a fixed float, in subclasses)."""
         x0 = self.x0_bounds
         if x0 is None:
             raise ValueError("x0_bounds is None; expected (low, high) for each hidden state.")
@@ -165,7 +160,7 @@ class ParametricHiddenState(HiddenStrategy):
         if arr.ndim == 0:
             raise ValueError(f"x0_bounds = {x0!r}; expected (low, high) or one (low, high) per hidden state.")
         pairs = [x0] if arr.ndim == 1 else list(x0)
-        return [_check_range(p, "x0_bounds")[:2] + (False,) for p in pairs]
+        return [_check_range(p, "x0_bounds", log=False) for p in pairs]
 
     def _x0_names(self, n):
         return ["x0"] if n == 1 else [f"x0_{i}" for i in range(n)]
@@ -253,7 +248,7 @@ class ParametricHiddenState(HiddenStrategy):
         ranges = []
         for i, spec in enumerate(specs):
             if not isinstance(spec, float):
-                ranges.append(spec[:2])
+                ranges.append(spec.support())
             elif np.isfinite(lo[i]) and np.isfinite(hi[i]):
                 ranges.append((float(lo[i]), float(hi[i])))
             else:

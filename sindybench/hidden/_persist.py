@@ -131,7 +131,7 @@ def _check_physical(hidden, params):
         raise ValueError(f"fitted.params[{bad[0]!r}]: expected a finite number; got {params[bad[0]]!r}.")
     try:
         space = hidden.search_space()
-        expected = sorted(hidden.resolve_params({k: low for k, (low, _, _) in space.items()}))
+        expected = sorted(hidden.resolve_params({k: dim.support()[0] for k, dim in space.items()}))
     except (ValueError, TypeError, KeyError) as exc:
         raise ValueError(f"fitted.hidden: {type(hidden).__name__} cannot name its parameters: {exc}") from exc
     if sorted(params) != expected:

@@ -7,6 +7,7 @@ import numpy as np
 from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, SQRT, ConcatLibrary, PolynomialLibrary, SqrtLibrary
+from ..search import Uniform
 from ..simulate import TermsRHS, simulate
 from ._base import Structure
 from ._parametric import ParametricHiddenState, _check_range
@@ -103,9 +104,7 @@ class TanksHiddenState(ParametricHiddenState):
         return rhs
 
     def _param_specs(self):
-        k_range = _check_range(self.k_bounds, "k_bounds")[:2] + (True,)
-        if k_range[0] <= 0:
-            raise ValueError(f"k_bounds must be positive (log-scaled search); got {self.k_bounds!r}.")
+        k_range = _check_range(self.k_bounds, "k_bounds", log=True)
         out = {}
         for name in ("k1", "k2"):
             value = getattr(self, name)
@@ -116,9 +115,7 @@ class TanksHiddenState(ParametricHiddenState):
             else:
                 raise ValueError(f"{name} must be a finite number > 0 or None (searched); got {value!r}.")
         if self.ratio_bounds is not None:
-            ratio = _check_range(self.ratio_bounds, "ratio_bounds")[:2] + (True,)
-            if ratio[0] <= 0:
-                raise ValueError(f"ratio_bounds must be positive (log-scaled search); got {self.ratio_bounds!r}.")
+            ratio = _check_range(self.ratio_bounds, "ratio_bounds", log=True)
             if self.k1 is None and self.k2 is None:
                 del out["k2"]
                 out["ratio"] = ratio
@@ -134,7 +131,7 @@ class TanksHiddenState(ParametricHiddenState):
     def _x0_specs(self):
         lo, hi = self._tank_bounds()
         if self.x0 is None:
-            return [(lo, hi, False)]
+            return [Uniform(lo, hi)]
         if isinstance(self.x0, bool) or not isinstance(self.x0, numbers.Real) or not lo <= self.x0 <= hi:
             raise ValueError(f"x0 must be a number within bounds {self.bounds!r} or None (searched); got {self.x0!r}.")
         return [float(self.x0)]

@@ -1,6 +1,9 @@
-"""Model selection scored by open-loop simulation: splitters, search spaces, ``tune``."""
+"""Model selection scored by open-loop simulation: splitters, search spaces, ``tune``.
 
-from ._space import Categorical, IntRange, LogNormal, LogUniform, Normal, Uniform
+The search-space dimensions live in :mod:`sindybench.search` and are re-exported here.
+"""
+
+from ..search import Categorical, IntRange, LogNormal, LogUniform, Normal, Uniform, as_dimension
 from ._split import HoldoutSplit, LeaveOneRecordOut
 from ._storage import check_storage
 from ._tune import AllTrialsFailedError, tune
@@ -15,6 +18,7 @@ __all__ = [
     "LogUniform",
     "Normal",
     "Uniform",
+    "as_dimension",
     "check_storage",
     "tune",
 ]

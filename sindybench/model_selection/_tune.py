@@ -14,8 +14,7 @@ from .._json import jsonable
 from .._progress import show_progress
 from .._validation import check_bool, check_integer, is_records
 from ..metrics import make_simulation_scorer
-from ._sampler import make_sampler
-from ._space import check_search_space, sample_params
+from ..search import check_search_space, create_study, sample_params
 from ._split import HoldoutSplit, LeaveOneRecordOut
 from ._storage import (
     count_claimed,
@@ -145,13 +144,8 @@ def _open_study(storage, study_name, estimator, search_space, direction, scoring
     space_text = repr(search_space) if isinstance(search_space, dict) else getattr(search_space, "__qualname__", "")
     if study_name is None and not isinstance(storage, optuna.storages.InMemoryStorage):
         study_name = f"tune-{type(estimator).__name__}"
-    study = optuna.create_study(
-        storage=storage,
-        study_name=study_name,
-        sampler=make_sampler(random_state),
-        direction=direction,
-        load_if_exists=True,
-    )
+    study = create_study(random_state, storage=storage, study_name=study_name, direction=direction,
+                         load_if_exists=True)
     # one attribute, written at once: a second worker never sees half of it
     signature = {"estimator": type(estimator).__name__, "search_space": space_text, "scoring": _scoring_name(scoring)}
     stored = study.user_attrs.get("tune_call")

@@ -92,6 +92,7 @@ class _Problem:
         # multiple shooting: the later segments' free initial states and the continuity weights (see _build)
         self.x_segments, self.weight = [], np.ones(self.n_states)
         self.compiled = terms is not None and (physical is None or physical.make_rhs is None)
+        self._rhs_key = self._rhs = None
 
     # ------------------------------------------------------------- vectors
     def parameters(self):
@@ -150,6 +151,13 @@ class _Problem:
         return out
 
     def rhs(self, p):
+        """The right-hand side for the model part of ``p``; the last one is reused while that part is unchanged."""
+        key = p[: self.n_model].tobytes()
+        if self._rhs_key != key:
+            self._rhs_key, self._rhs = key, self._build_rhs(p)
+        return self._rhs
+
+    def _build_rhs(self, p):
         C = self.matrix(p)
         if self.compiled:
             return TermsRHS(C, self.terms, self.n_states)
@@ -352,9 +360,13 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     if np.any(x0_lo[free_x0] > x0_hi[free_x0]):
         raise ValueError(f"x0_bounds = {x0_bounds!r} leave no initial state within the simulation bounds {bounds!r}.")
     if output_scale is not None:
-        output_scale = np.broadcast_to(np.asarray(output_scale, dtype=float), (len(output_index),)).copy()
-        if not np.all(np.isfinite(output_scale) & (output_scale > 0)):
-            raise ValueError(f"output_scale = {output_scale.tolist()}; expected one finite number > 0 per output.")
+        given = output_scale
+        output_scale = np.asarray(output_scale, dtype=float).reshape(-1)
+        if output_scale.size == 1:
+            output_scale = np.full(len(output_index), output_scale[0])
+        if output_scale.size != len(output_index) or not np.all(np.isfinite(output_scale) & (output_scale > 0)):
+            raise ValueError(f"output_scale = {given!r}; expected one finite number > 0 per output "
+                             f"({len(output_index)}).")
     settings = dict(n_substeps=n_substeps, method=method, input_hold=input_hold, bounds=bounds, max_abs=max_abs)
     sim = {"settings": settings, "make_rhs": make_rhs}
 

@@ -18,7 +18,8 @@ The cases are synthetic (no data files needed): the Bouc-Wen system under a
 multisine (true ``m, c, k``, 10-sample windows, three free states) and the
 simulated cascaded tanks (true ``k1, k2``, 50-sample windows, the upper tank free
 within ``[0, 10]``; its window error jumps where the upper tank reaches the overflow
-bound, so the two optimizers may end in different local minima of a window). Numba and BLAS run on one thread (``--threads`` to change). Run::
+bound, so the two optimizers may end in different local minima of a window). Numba and
+BLAS run on one thread (``--threads`` to change). Run::
 
     python benchmarks/bench_initial_state.py [--repeat 5] [--windows 20]
 """

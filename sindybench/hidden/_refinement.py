@@ -15,6 +15,7 @@ import numpy as np
 
 from ..refine import Physical, estimate_initial_state
 from ..simulate import SimulationError, simulate
+from ._base import InitialFit
 
 __all__ = ["initial_state", "refine_guess", "refined_values", "refinement_problem"]
 
@@ -102,9 +103,9 @@ def refine_guess(fit, rhs, x0, X, y_init, dt, *, output_index, settings):
     or its simulation diverges within the window (the simulation that
     follows then diverges too: a failed validation trial, NaN in ``predict``).
     """
-    n = min(int(fit.n_samples), len(y_init), len(X))
     n_states = x0.shape[0]
-    free = np.arange(n_states) if fit.free is None else np.asarray(fit.free, dtype=np.int64).reshape(-1)
+    free = _check_fit(fit, n_states)
+    n = min(int(fit.n_samples), len(y_init), len(X))
     if n < 2 or free.size == 0:
         return x0
     y = np.asarray(y_init[:n], dtype=float)
@@ -117,6 +118,19 @@ def refine_guess(fit, rhs, x0, X, y_init, dt, *, output_index, settings):
     except SimulationError as exc:
         logger.debug("initial state: the guess is kept (%s)", exc)
         return x0
+
+
+def _check_fit(fit, n_states):
+    """The free states of a strategy's ``InitialFit``; a ``ValueError`` that says what is wrong with it."""
+    if not isinstance(fit, InitialFit):
+        raise ValueError(f"the strategy's initial_fit returned {fit!r}; expected an InitialFit or None.")
+    if isinstance(fit.n_samples, bool) or not isinstance(fit.n_samples, numbers.Integral) or fit.n_samples < 1:
+        raise ValueError(f"InitialFit.n_samples = {fit.n_samples!r}; expected an integer >= 1.")
+    free = np.arange(n_states) if fit.free is None else np.asarray(fit.free).reshape(-1)
+    if (free.size and not np.issubdtype(free.dtype, np.integer)) or np.any((free < 0) | (free >= n_states)) \
+            or np.unique(free).size < free.size:
+        raise ValueError(f"InitialFit.free = {fit.free!r}; expected distinct state indices in [0, {n_states - 1}].")
+    return free.astype(np.int64)
 
 
 def initial_state(mode, fit, rhs, x0, X, y_init, dt, *, output_index, settings):

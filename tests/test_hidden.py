@@ -6,7 +6,7 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
 from sindybench import STLS, DivergenceWarning, HiddenStateSINDy, SimulationError
-from sindybench.hidden import DerivativeHiddenState, ParametricHiddenState
+from sindybench.hidden import DerivativeHiddenState, InitialFit, ParametricHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.search import LogUniform, Normal, Uniform
 from sindybench.simulate import TermsRHS, simulate
@@ -49,6 +49,34 @@ def test_fit_attributes_and_scores(oscillator):
     lines = model.equations()
     assert lines[0] == "y0' = 1.000 y0'"
     assert lines[1].startswith("y0'' = ")
+
+
+class _RefinedDerivatives(DerivativeHiddenState):
+    """A user strategy: the derivative guess, then the velocity alone fitted to the first 20 samples."""
+
+    spec = InitialFit(20, free=(1,))
+
+    def initial_fit(self, params, *, n_outputs, n_inputs):
+        return self.spec
+
+
+def test_a_strategy_initial_fit_refines_its_guess(oscillator, monkeypatch):
+    u, y, x = oscillator
+    guess = _model().fit(u, y).estimate_initial_state(u[500:], y[500:530])
+    model = _model(hidden=_RefinedDerivatives(order=2)).fit(u, y)
+    x0 = model.estimate_initial_state(u[500:], y[500:530])
+    assert x0[0] == guess[0] and x0[1] != guess[1]  # only the free state moved
+
+    def window_error(start):
+        return np.sum((model.dynamics_.simulate(u[500:520], start)[:, 0] - y[500:520, 0]) ** 2)
+
+    assert window_error(x0) < 0.5 * window_error(guess)
+    for spec, match in [(InitialFit(20, free=(2,)), r"InitialFit.free = \(2,\); expected distinct state indices"),
+                        (InitialFit(0), "InitialFit.n_samples = 0; expected an integer >= 1"),
+                        ((20, None, None), "initial_fit returned .*; expected an InitialFit or None")]:
+        monkeypatch.setattr(_RefinedDerivatives, "spec", spec)
+        with pytest.raises(ValueError, match=match):
+            model.predict(u[500:], y_init=y[500:530])
 
 
 def test_simulate_and_initial_state(oscillator):

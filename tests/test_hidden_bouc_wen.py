@@ -7,7 +7,7 @@ import pytest
 
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
-from sindybench.hidden import BoucWenHiddenState
+from sindybench.hidden import BoucWenHiddenState, InitialFit
 from sindybench.metrics import rmse
 from sindybench.search import LogNormal, LogUniform, Normal, Uniform
 from sindybench.systems import BoucWen, multisine
@@ -118,6 +118,34 @@ def test_initial_state_from_first_samples(synthetic):
     coarse = _model(BoucWenHiddenState(**TRUE, refine_init=False), len(u)).fit(u, y)
     x0_coarse = coarse.estimate_initial_state(u[start:], y[start : start + 10])
     assert np.abs(x0 - states[start])[2] < np.abs(x0_coarse - states[start])[2]
+
+
+def test_initial_state_is_the_guess_refined_by_the_one_estimator(synthetic, monkeypatch):
+    """The strategy gives the local-fit guess; estimate_initial_state refines all three states on n_init samples."""
+    import sindybench.hidden._refinement as refinement
+
+    u, y, _ = synthetic
+    model = _model(BoucWenHiddenState(**TRUE, n_init=12), len(u)).fit(u, y)
+    coarse = _model(BoucWenHiddenState(**TRUE, n_init=12, refine_init=False), len(u)).fit(u, y)
+    assert model.hidden_.initial_fit(model.params_, n_outputs=1, n_inputs=1) == InitialFit(12)
+    assert coarse.hidden_.initial_fit(coarse.params_, n_outputs=1, n_inputs=1) is None
+    real, calls = refinement.estimate_initial_state, []
+
+    def spy(*args, **kwargs):
+        calls.append((args, kwargs))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(refinement, "estimate_initial_state", spy)
+    start = 1500
+    x0 = model.estimate_initial_state(u[start:], y[start : start + 20])
+    guess = coarse.estimate_initial_state(u[start:], y[start : start + 20])
+    assert len(calls) == 1  # the coarse model keeps its guess
+    (_, u_w, y_w, _), kwargs = calls[0]
+    assert u_w.shape == y_w.shape == (12, 1) and kwargs["free_x0"].tolist() == [0, 1, 2]
+    np.testing.assert_array_equal(kwargs["x0"], guess)
+    assert kwargs["output_scale"].tolist() == [np.abs(y_w).max()]
+    cost = {name: rmse(y_w, model.dynamics_.simulate(u_w, x)[:, :1]) for name, x in (("x0", x0), ("guess", guess))}
+    assert cost["x0"] < 0.01 * cost["guess"]
 
 
 def test_search_recovers_the_mass(synthetic):

@@ -5,6 +5,7 @@ import pytest
 
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
+from sindybench.estimation import linearize
 from sindybench.hidden import LatentHiddenState, latent_invariants
 from sindybench.libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary, term_name
 from sindybench.refine import OutputErrorRefinement
@@ -81,6 +82,9 @@ def test_hidden_first_order_actuator_feeding_a_nonlinear_plant(rng):
     y_eq = np.roots([1.0, 0.0, 1.0, -0.5]).real[np.isclose(np.roots([1.0, 0.0, 1.0, -0.5]).imag, 0)][0]
     np.testing.assert_allclose(np.sort(inv["poles"].real), _poles(truth, np.array([y_eq, 0.5]), [0.5]), rtol=0.05)
     np.testing.assert_allclose(inv["gain"], [[1.0 / (1.0 + 3.0 * y_eq**2)]], rtol=0.05)
+    lin = linearize(model, inv["state"], [0.5])  # the same exact derivatives as the linearization
+    np.testing.assert_array_equal(inv["jacobian"], lin.A)
+    np.testing.assert_allclose(inv["gain"], -np.linalg.solve(lin.A, lin.B)[:1], rtol=1e-12)
 
 
 def test_without_the_gauge_term_the_refinement_says_what_is_missing(rng):

@@ -68,6 +68,15 @@ def test_initial_hidden_state_on_new_data(lag_data, init):
     assert model.score(u[300:], y[300:]) > (0.95 if init == "simulation" else 0.85)
 
 
+def test_initial_fit_frees_the_hidden_states_within_their_ranges():
+    s = ParametricHiddenState(_lag, params={"a": 1.0, "b": 1.0}, x0_bounds=[(-2.0, 2.0), (0.0, 1.0)], init_size=30)
+    fit = s.initial_fit(s.resolve_params({"x0_0": 0.0, "x0_1": 0.5}), n_outputs=2, n_inputs=1)
+    assert fit.n_samples == 30 and fit.free == (2, 3)
+    assert fit.bounds[0].tolist() == [-np.inf, -np.inf, -2.0, 0.0]
+    assert fit.bounds[1].tolist() == [np.inf, np.inf, 2.0, 1.0]
+    assert s.set_params(init="derivative").initial_fit({}, n_outputs=2, n_inputs=1) is None
+
+
 def test_everything_fixed_needs_no_search(lag_data):
     u, y, _ = lag_data
     model = _model(params={"a": A_TRUE, "b": 1.0}, x0_bounds=[(X0_TRUE, X0_TRUE + 1e-9)])

@@ -5,7 +5,7 @@ import pytest
 
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.datasets import load_cascaded_tanks
-from sindybench.hidden import TanksHiddenState
+from sindybench.hidden import ModelView, TanksHiddenState
 from sindybench.libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary
 from sindybench.metrics import rmse
 from sindybench.simulate import TermsRHS
@@ -47,6 +47,63 @@ def test_fixed_coefficients_search_only_the_start_level(tanks_data):
     assert set(model.best_params_) == {"hidden__x0"}
     assert 0.0 <= model.params_["x0"] <= 10.0
     assert model.score(u[500:], y[500:]) > 0.95
+
+
+@pytest.fixture(scope="module")
+def smooth_tanks():
+    """A model with the true k1, k2 fitted on a smooth record (its learned row close to the truth)."""
+    t = np.arange(3000.0)
+    u = (3.0 + 1.5 * np.sin(2 * np.pi * t / 500) + 0.8 * np.sin(2 * np.pi * t / 170))[:, None]
+    system = CascadedTanks()
+    y = system.simulate_states(u, dt=1.0, x0=(3.0, 4.0))[:, 1:2]
+    model = HiddenStateSINDy(hidden=TanksHiddenState(k1=system.k1, k2=system.k2, x0=3.0),
+                             library=SqrtLibrary(variables=[0, 1]), dt=1.0, n_substeps=4).fit(u, y)
+    return system, u, y, model
+
+
+def _new_record(system, level):
+    """A record starting with the upper tank at ``level``: 30 samples without inflow, then a step."""
+    u = np.r_[np.zeros(30), np.full(70, 3.0)][:, None]
+    return u, system.simulate_states(u, dt=1.0, x0=(level, 5.0))[:, 1:2]
+
+
+@pytest.mark.parametrize("level", [0.1, 0.2, 3.3, 7.1])
+def test_hidden_start_level_recovered_from_the_grid_guess(smooth_tanks, level):
+    # the guess is the best point of a 0.25-wide grid over [0, 10] (0.0 for the level 0.1: a start on the
+    # bound at zero); the one estimator refines it within [0, 10] to the level that made the record
+    system, _, _, model = smooth_tanks
+    u, y = _new_record(system, level)
+    fit = model.hidden_.initial_fit(model.params_, n_outputs=1, n_inputs=1)
+    assert fit.n_samples == 50 and fit.free == (1,)
+    assert fit.bounds[0].tolist() == [-np.inf, 0.0] and fit.bounds[1].tolist() == [np.inf, 10.0]
+    x0 = model.estimate_initial_state(u, y[:50])
+    guess = model.hidden_.initial_state(
+        u[:50], y[:50], 1.0, derivative=model._candidate_.derivative, params=model.params_,
+        model=ModelView(rhs=model.rhs_, simulate=lambda x, v: model.dynamics_.simulate(v, x)))
+    assert guess[1] in np.linspace(0.0, 10.0, 41) and abs(guess[1] - level) > 0.01
+    assert x0[0] == y[0, 0] and x0[1] == pytest.approx(level, abs=1e-3)
+
+
+def test_search_and_predict_refine_through_the_one_estimator(smooth_tanks, monkeypatch):
+    """Every validation block of the search and every start in ``predict`` go through estimate_initial_state."""
+    import sindybench.hidden._refinement as refinement
+
+    system, u, y, _ = smooth_tanks
+    real, calls = refinement.estimate_initial_state, []
+
+    def spy(*args, **kwargs):
+        calls.append(kwargs)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(refinement, "estimate_initial_state", spy)
+    model = HiddenStateSINDy(hidden=TanksHiddenState(k1=system.k1, k2=system.k2), library=SqrtLibrary(variables=[0, 1]),
+                             dt=1.0, n_substeps=4, validation="block", n_trials=4, random_state=0).fit(u, y)
+    assert len(calls) == 4 and all(c["free_x0"].tolist() == [1] for c in calls)
+    calls.clear()
+    u_new, y_new = _new_record(system, 3.3)
+    y_pred = model.predict(u_new, y_init=y_new[:50])
+    assert len(calls) == 1 and calls[0]["x0"][1] in np.linspace(0.0, 10.0, 41)  # refined from the grid's guess
+    assert np.abs(y_pred - y_new).max() < 1e-2
 
 
 @pytest.mark.parametrize(

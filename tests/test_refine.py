@@ -371,6 +371,44 @@ def test_estimate_initial_state_recovers_x0(duffing):
     assert only_v[0] == 0.3 and only_v[1] == pytest.approx(-0.2, rel=1e-6)
 
 
+def test_estimate_initial_state_box_bounds(duffing):
+    u, y = duffing
+    rhs = TermsRHS(TRUE_COEF, DUFFING, 2)
+    inside = estimate_initial_state(rhs, u[:40], y[:40], DT, x0=[0.1, 0.0], x0_bounds=([0.0, -1.0], [1.0, 1.0]))
+    np.testing.assert_allclose(inside, TRUE_X0, rtol=1e-6, atol=1e-9)
+    # the velocity kept >= 0: it stops on its bound, the position moves to make up for it
+    clipped = estimate_initial_state(rhs, u[:40], y[:40], DT, x0=[0.3, 0.5], x0_bounds=([-1.0, 0.0], [1.0, 1.0]))
+    assert clipped[1] == pytest.approx(0.0, abs=1e-9) and clipped[0] != pytest.approx(TRUE_X0[0], abs=1e-3)
+    cost = {name: np.mean((simulate(rhs, x, u[:40], DT)[:, 0] - y[:40, 0]) ** 2)
+            for name, x in (("clipped", clipped), ("on the bound, position held", [0.3, 0.0]))}
+    assert cost["clipped"] < cost["on the bound, position held"]
+
+
+def test_estimate_initial_state_from_a_start_on_a_zero_bound(duffing):
+    # a free state that starts on its bound at zero: the trust region starts at the size of x0,
+    # so the default tolerances stop at once, tight ones let the steps grow (see the Notes)
+    u, y = duffing
+    rhs = TermsRHS(TRUE_COEF, DUFFING, 2)
+    y_shift = simulate(rhs, [0.3, 0.4], u[:40], DT)[:, :1]
+    kwargs = dict(x0=[0.3, 0.0], free_x0=[1], x0_bounds=(0.0, None))
+    loose = estimate_initial_state(rhs, u[:40], y_shift, DT, **kwargs)
+    tight = estimate_initial_state(rhs, u[:40], y_shift, DT, ftol=1e-12, xtol=1e-12, gtol=1e-12, **kwargs)
+    assert loose[1] < 1e-6
+    assert tight[1] == pytest.approx(0.4, rel=1e-6)
+
+
+def test_estimate_initial_state_output_scale_moves_only_the_weights(duffing):
+    u, y = duffing
+    rhs = TermsRHS(TRUE_COEF, DUFFING, 2)
+    noisy = y[:40] + 0.01 * np.sin(np.arange(40))[:, None]
+    # gtol is absolute on the scaled gradient, so it is off here: with it a small residual scale stops early
+    runs = [estimate_initial_state(rhs, u[:40], noisy, DT, x0=[0.0, 0.0], output_scale=scale, ftol=1e-12,
+                                   xtol=1e-12, gtol=None) for scale in (None, 1e-3, 1e3)]
+    for x in runs[1:]:
+        np.testing.assert_allclose(x, runs[0], rtol=1e-7)  # one output: the scale does not move the optimum
+    assert np.abs(runs[0] - TRUE_X0).max() > 1e-4  # the noise did move it
+
+
 # ------------------------------------------------------------------ bad input
 @pytest.mark.parametrize(
     "kwargs, match",
@@ -386,6 +424,10 @@ def test_estimate_initial_state_recovers_x0(duffing):
         ({"max_nfev": 0}, "max_nfev must be an integer"),
         ({"terms": None}, "terms is None; give make_rhs"),
         ({"y": np.zeros((10, 1))}, "y has 10 samples; expected 600"),
+        ({"x0_bounds": (0.0, 1.0, 2.0)}, "x0_bounds must be a pair"),
+        ({"x0_bounds": (2.0, 3.0), "bounds": (-1.0, 1.0)}, "x0_bounds = .* leave no initial state within"),
+        ({"output_scale": [0.0]}, r"output_scale = \[0.0\]; expected one finite number > 0 per output \(1\)"),
+        ({"output_scale": [1.0, 2.0]}, r"output_scale = \[1.0, 2.0\]; expected one finite number > 0 per output"),
     ],
 )
 def test_refine_bad_input(duffing, kwargs, match):

@@ -15,7 +15,7 @@ import numpy as np
 
 from .._validation import check_bounds, check_dt, check_integer, check_option, check_positive, check_signal, check_time
 from ._kernels import run_state
-from ._terms import check_terms, evaluate_terms, terms_to_arrays, user_ops_of
+from ._terms import check_terms, evaluate_terms, evaluate_terms_jacobian, terms_to_arrays, user_ops_of
 
 __all__ = ["Settings", "SimulationError", "TermsRHS", "make_rhs", "simulate", "simulation_settings"]
 
@@ -154,6 +154,32 @@ class TermsRHS:
     def __call__(self, x, u):
         z = np.concatenate([np.asarray(x, dtype=float), np.asarray(u, dtype=float)])[None, :]
         return evaluate_terms(self.terms, z)[0] @ self.coef
+
+    def jacobian(self, x, u):
+        """``f(x, u)`` and its exact Jacobian ``df / d[x, u]``, from the terms' derivatives (no finite differences).
+
+        Only nonzero coefficients count (``0 * inf`` is not 0: a term whose
+        derivative is infinite there, a square root at zero, adds nothing when
+        it is not in the model).
+
+        Returns
+        -------
+        f : ndarray of shape (n_states,)
+        jacobian : ndarray of shape (n_states, n_states + n_inputs)
+
+        Examples
+        --------
+        >>> from sindybench.libraries import POW
+        >>> rhs = TermsRHS([[-1.0], [2.0]], [((0, POW, 2, 0),), ((1, POW, 1, 0),)], 1)  # x' = -x^2 + 2 u
+        >>> f, jac = rhs.jacobian(np.array([3.0]), np.array([1.0]))
+        >>> f.tolist(), jac.tolist()
+        ([-7.0], [[-6.0, 2.0]])
+        """
+        z = np.concatenate([np.asarray(x, dtype=float).reshape(-1), np.asarray(u, dtype=float).reshape(-1)])[None, :]
+        coef = self.coef.T[:, :, None]  # (n_states, n_terms, 1)
+        f = np.where(coef[:, :, 0] != 0, coef[:, :, 0] * evaluate_terms(self.terms, z), 0.0).sum(axis=1)
+        jac = np.where(coef != 0, coef * evaluate_terms_jacobian(self.terms, z)[0], 0.0).sum(axis=1)
+        return f, jac
 
     def __repr__(self):
         return f"TermsRHS(n_terms={len(self.terms)}, n_active={self.n_active}, n_states={self.n_states})"

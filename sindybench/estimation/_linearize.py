@@ -4,7 +4,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..dynamics import SimulationError, evaluate_terms, evaluate_terms_jacobian, step_jacobian_kernel
+from ..dynamics import SimulationError, step_jacobian_kernel
 from ._model_step import model_step
 
 __all__ = ["Linearization", "linearize"]
@@ -102,9 +102,7 @@ def linearize(model, x, u=None):
         i = int(np.argmax(outside))
         raise ValueError(f"x[{i}] = {x[i]:g} is outside the model's bounds [{m.lower[i]:g}, {m.upper[i]:g}].")
     z = np.concatenate([x, u])
-    coef = m.rhs.coef.T[:, :, None]  # (n, n_terms, 1); only nonzero coefficients count (0 * inf is not 0)
-    f = np.where(coef[:, :, 0] != 0, coef[:, :, 0] * evaluate_terms(m.rhs.terms, z[None, :]), 0.0).sum(axis=1)
-    jac = np.where(coef != 0, coef * evaluate_terms_jacobian(m.rhs.terms, z[None, :])[0], 0.0).sum(axis=1)  # df/dz
+    f, jac = m.rhs.jacobian(x, u)  # df/dz
     # the step of the model over [x, u] with u' = 0: its state Jacobian holds d x_next / d u
     z_next, jac_d, _, bad = step_jacobian_kernel(m.step_model(with_inputs=True), z, np.zeros(0), np.zeros(0), m.dt)
     if bad:

@@ -1,7 +1,7 @@
 """Hidden-state SINDy: strategies that reconstruct unmeasured states."""
 
 from ._augmentation import DerivativeHiddenState
-from ._base import Design, HiddenStrategy, ModelView, Structure, linear_term
+from ._base import Design, HiddenStrategy, InitialFit, ModelView, Structure, linear_term
 from ._bouc_wen import BoucWenHiddenState
 from ._estimator import HiddenStateSINDy
 from ._latent import LatentHiddenState, latent_invariants
@@ -16,6 +16,7 @@ __all__ = [
     "Design",
     "HiddenStateSINDy",
     "HiddenStrategy",
+    "InitialFit",
     "LatentHiddenState",
     "ModelView",
     "ParametricHiddenState",

@@ -35,8 +35,18 @@ only stores keyword arguments; physical guesses are constructor parameters,
     targets (time derivatives of the ``learned`` states), one column per entry of
     ``learned``, in that order.
 ``initial_state(u, y_init, dt, *, derivative, params, model) -> ndarray``
-    the initial state (length ``n_states``) for a simulation of new data, from its
-    first output samples ``y_init`` (and inputs ``u``, same length).
+    a first guess of the initial state (length ``n_states``) for a simulation of
+    new data, from its first output samples ``y_init`` (and inputs ``u``, same
+    length): a heuristic such as a local polynomial fit, a steady state or a
+    grid search. It optimizes nothing itself:
+``initial_fit(params, *, n_outputs, n_inputs) -> InitialFit or None``
+    says how that guess is refined (default None: it is final). An
+    :class:`InitialFit` names the window of first samples to match, the states
+    that are free and box bounds for them; ``HiddenStateSINDy`` then refines the
+    guess with the one initial-state estimator of the package,
+    :func:`sindybench.refine.estimate_initial_state` (least squares of the
+    simulated outputs, exact sensitivities on the compiled path), in the search
+    (validation scores) and in ``predict`` alike.
 
 Optionally override ``default_library()`` (the library used when the estimator's
 ``library=None``), ``search_space()`` and ``resolve_params(values)`` (defaults
@@ -71,7 +81,7 @@ from sklearn.base import BaseEstimator
 
 from ..search import as_dimension
 
-__all__ = ["Design", "HiddenStrategy", "ModelView", "Structure", "linear_term"]
+__all__ = ["Design", "HiddenStrategy", "InitialFit", "ModelView", "Structure", "linear_term"]
 
 
 def linear_term(col):
@@ -171,6 +181,38 @@ class ModelView(NamedTuple):
     simulate: Callable
 
 
+class InitialFit(NamedTuple):
+    """How a strategy's first guess of the initial state is refined (see :meth:`HiddenStrategy.initial_fit`).
+
+    ``HiddenStateSINDy`` refines the guess by
+    :func:`sindybench.refine.estimate_initial_state`: least squares between the
+    model's simulation from the initial state and the first ``n_samples``
+    output samples (residuals scaled by each output's largest magnitude there),
+    over the ``free`` states within ``bounds``, converged tightly.
+
+    Attributes
+    ----------
+    n_samples : int
+        The first samples of ``y_init`` that the simulation matches (fewer when
+        ``y_init`` is shorter; no refinement with fewer than 2).
+    free : tuple of int or None, default=None
+        The states that are estimated; the others keep the guess. None: all.
+    bounds : (lower, upper) or None, default=None
+        Box bounds of the initial states (scalars or one entry per state, None
+        entries unbounded), within the model's simulation bounds; e.g.
+        ``(0.0, None)`` for a level.
+
+    Examples
+    --------
+    >>> InitialFit(10, free=(1,), bounds=(0.0, 10.0))
+    InitialFit(n_samples=10, free=(1,), bounds=(0.0, 10.0))
+    """
+
+    n_samples: int
+    free: tuple = None
+    bounds: tuple = None
+
+
 class HiddenStrategy(BaseEstimator):
     """Base class of hidden-state strategies (see the module docstring).
 
@@ -258,5 +300,12 @@ class HiddenStrategy(BaseEstimator):
         raise NotImplementedError
 
     def initial_state(self, u, y_init, dt, *, derivative, params, model):
-        """Initial state for simulating new data from its first samples ``y_init``."""
+        """First guess of the initial state for simulating new data from its first samples ``y_init``."""
         raise NotImplementedError
+
+    def initial_fit(self, params, *, n_outputs, n_inputs):
+        """How the guess of :meth:`initial_state` is refined: an :class:`InitialFit`, or None (the guess is final).
+
+        The default: None.
+        """
+        return None

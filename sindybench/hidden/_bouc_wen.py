@@ -32,12 +32,11 @@ import numbers
 
 import numpy as np
 from scipy.integrate import cumulative_simpson, cumulative_trapezoid
-from scipy.optimize import least_squares
 
 from .._validation import check_bool, check_integer
 from ..io import register_model
 from ..search import LogUniform
-from ._base import Design, HiddenStrategy, Structure, linear_term
+from ._base import Design, HiddenStrategy, InitialFit, Structure, linear_term
 
 __all__ = ["BoucWenHiddenState", "DEFAULT_BOUNDS"]
 
@@ -82,8 +81,9 @@ class BoucWenHiddenState(HiddenStrategy):
         Number of first output samples used to set the initial state on new data.
     refine_init : bool, default=True
         Refine the initial state by least squares between the model's simulation
-        and the first ``n_init`` samples. Otherwise ``(y, v, z)`` at the first sample
-        come from a local cubic fit of those samples (``z`` from the force balance).
+        and the first ``n_init`` samples (:meth:`initial_fit`). Otherwise ``(y, v, z)``
+        at the first sample come from a local cubic fit of those samples (``z`` from
+        the force balance).
     trim : int, default=100
         Samples left out of the regression at each end of the training record
         (edge effects of the differentiation).
@@ -205,21 +205,27 @@ class BoucWenHiddenState(HiddenStrategy):
                       feature_filter=feature_filter)
 
     def initial_state(self, u, y_init, dt, *, derivative, params, model):
-        """``(y, v, z)`` at the first sample from the first ``n_init`` samples of ``y_init``.
+        """First guess of ``(y, v, z)`` at the first sample from the first ``n_init`` samples of ``y_init``.
 
         A local cubic fit gives ``y``, ``y'`` and ``y''``, the force balance gives
-        ``z``; with ``refine_init`` the three are then refined by least squares
-        between the model's simulation and those samples.
+        ``z`` (refined as :meth:`initial_fit` says).
         """
         y = np.asarray(y_init, dtype=float).reshape(len(y_init), -1)[:, 0]
         u = np.asarray(u, dtype=float).reshape(len(u), -1)
         n = min(self.n_init, y.shape[0], u.shape[0])
         y, u = y[:n], u[:n]
         y0, v0, a0 = _local_derivatives(y, dt)
-        x0 = np.array([y0, v0, u[0, 0] - params["c"] * v0 - params["k"] * y0 - params["m"] * a0])
-        if not self.refine_init or n < 2:
-            return x0
-        return _refine_initial_state(x0, y, u, model)
+        return np.array([y0, v0, u[0, 0] - params["c"] * v0 - params["k"] * y0 - params["m"] * a0])
+
+    def initial_fit(self, params, *, n_outputs, n_inputs):
+        """With ``refine_init``: the three states matched to the first ``n_init`` samples; else None.
+
+        Examples
+        --------
+        >>> BoucWenHiddenState(n_init=20).initial_fit({}, n_outputs=1, n_inputs=1)
+        InitialFit(n_samples=20, free=None, bounds=None)
+        """
+        return InitialFit(self.n_init) if self.refine_init else None
 
 
 class _IntegralFilter:
@@ -233,19 +239,6 @@ class _IntegralFilter:
     def __call__(self, theta):
         integral = _INTEGRATORS[self.rule](theta, dx=self.dt, axis=0, initial=0.0)
         return self.derivative(integral, order=1)
-
-
-def _refine_initial_state(x0, y, u, model):
-    """Least-squares match of the simulated displacement to the first samples ``y``."""
-    spread = max(float(np.abs(y).max()), np.finfo(float).tiny)
-
-    def residuals(x):
-        with np.errstate(all="ignore"):
-            r = (model.simulate(x, u)[:, 0] - y) / spread
-        return np.where(np.isfinite(r), r, 1e3)
-
-    method = "lm" if y.shape[0] >= x0.shape[0] else "trf"
-    return least_squares(residuals, x0, x_scale="jac", method=method).x
 
 
 register_model(BoucWenHiddenState)

@@ -145,7 +145,15 @@ class _RecordFilters:
 
 
 def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):
-    """Initial state of a simulation of ``X`` from its first outputs ``y_init`` (see ``initial_state``)."""
+    """Initial state of a simulation of ``X`` from its first outputs ``y_init``.
+
+    The one place where a simulation of new data is started, in the search
+    (validation scores) and in ``predict``: the strategy's first guess
+    (:meth:`~sindybench.hidden.HiddenStrategy.initial_state`), refined as its
+    :meth:`~sindybench.hidden.HiddenStrategy.initial_fit` says and then
+    as ``mode`` says, both by :func:`sindybench.refine.estimate_initial_state`
+    (see :func:`~sindybench.hidden._refinement.initial_state`).
+    """
     dyn = cand.dynamics
     n = min(X.shape[0], y_init.shape[0])
     view = ModelView(rhs=dyn.rhs, simulate=lambda x0, u: dyn.simulate(u, x0, on_divergence="nan"))
@@ -154,5 +162,6 @@ def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):
     x0 = np.asarray(x0, dtype=float).reshape(-1)
     if x0.shape[0] != dyn.n_states or not np.all(np.isfinite(x0)):
         raise ValueError(f"the strategy's initial state {x0!r} is not {dyn.n_states} finite numbers.")
-    return initial_state(mode, dyn.rhs, x0, X, y_init[:n], dyn.dt, output_index=dyn.output_index,
+    fit = hidden.initial_fit(cand.params, n_outputs=y_init.shape[1], n_inputs=X.shape[1])
+    return initial_state(mode, fit, dyn.rhs, x0, X, y_init[:n], dyn.dt, output_index=dyn.output_index,
                          settings=dyn.settings)

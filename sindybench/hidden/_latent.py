@@ -313,7 +313,9 @@ def latent_invariants(model, u_op, *, y_guess=None, eps=1e-6):
     y_guess : array-like, optional
         Start of the equilibrium search (default: the training states' mean).
     eps : float, default=1e-6
-        Relative step of the central differences.
+        Relative step of the central differences of a right-hand side that is
+        not made of terms (on the Python path or with compiled rows); a model
+        of terms is differentiated exactly, by its terms' derivatives.
 
     Returns
     -------
@@ -330,22 +332,27 @@ def latent_invariants(model, u_op, *, y_guess=None, eps=1e-6):
     x = sol.x
     n, m = x.size, u_op.size
 
-    def jac(f, v):
-        out = []
-        for i in range(v.size):
-            h = eps * max(1.0, abs(v[i]))
-            e = np.zeros_like(v)
-            e[i] = h
-            out.append((f(v + e) - f(v - e)) / (2 * h))
-        return np.array(out).T
-
-    A = jac(lambda v: np.asarray(rhs(v, u_op), dtype=float), x)
-    B = jac(lambda v: np.asarray(rhs(x, v), dtype=float), u_op)
+    if isinstance(rhs, TermsRHS):  # the exact derivatives of the terms, as sindybench.estimation.linearize takes them
+        _, J = rhs.jacobian(x, u_op)
+    else:
+        J = _central_differences(lambda z: np.asarray(rhs(z[:n], z[n:]), dtype=float), np.r_[x, u_op], eps)
+    A, B = J[:, :n], J[:, n:]
     out_idx = list(model.structure_.output_index)
     gain = None  # an integrator or a continuum of equilibria (a hysteresis state at rest): no static gain
     if np.linalg.cond(A) < 1e10:
         gain = -np.linalg.solve(A, B)[out_idx].reshape(len(out_idx), m)
     return {"state": x, "jacobian": A, "poles": np.linalg.eigvals(A), "gain": gain}
+
+
+def _central_differences(f, v, eps):
+    """Jacobian of ``f`` at ``v`` by central differences of relative step ``eps``."""
+    out = []
+    for i in range(v.size):
+        h = eps * max(1.0, abs(v[i]))
+        e = np.zeros_like(v)
+        e[i] = h
+        out.append((f(v + e) - f(v - e)) / (2 * h))
+    return np.array(out).T
 
 
 register_model(LatentHiddenState)

@@ -6,8 +6,6 @@ import numbers
 import warnings
 
 import numpy as np
-from scipy.optimize import minimize as scipy_minimize
-from scipy.optimize import minimize_scalar
 
 from .._validation import check_bounds, check_integer, check_option
 from ..io import register_model
@@ -15,7 +13,7 @@ from ..dynamics._rows import RowsRHS
 from ..dynamics._user import OpCompileError
 from ..search import LogUniform, Uniform, as_dimension
 from ..simulate import simulate
-from ._base import Design, HiddenStrategy, Structure
+from ._base import Design, HiddenStrategy, InitialFit, Structure
 
 __all__ = ["ParametricHiddenState"]
 
@@ -78,8 +76,9 @@ class ParametricHiddenState(HiddenStrategy):
 
     On new data the initial hidden state is found on a grid over ``x0_bounds``:
     with ``init="simulation"`` (default) by the simulation error over the first
-    ``init_size`` samples (then refined locally), with ``init="derivative"`` by
-    matching the model's ``y'(0)`` to the measured one.
+    ``init_size`` samples (then refined within ``x0_bounds`` by
+    :func:`~sindybench.refine.estimate_initial_state`), with
+    ``init="derivative"`` by matching the model's ``y'(0)`` to the measured one.
 
     Parameters
     ----------
@@ -103,7 +102,7 @@ class ParametricHiddenState(HiddenStrategy):
         Samples of the initialisation window on new data.
     grid_size : int, default=11
         Grid points per hidden state for the initial-state search (the best
-        point is then refined locally with ``init="simulation"``).
+        point is then refined with ``init="simulation"``).
     n_substeps : int, default=4
         RK4 steps per sample when reconstructing the hidden states.
     hidden_names : sequence of str, optional
@@ -306,11 +305,17 @@ class ParametricHiddenState(HiddenStrategy):
         return Design(states=np.hstack([y, hidden]), targets=derivative(y, 1))
 
     def initial_state(self, u, y_init, dt, *, derivative, params, model):
+        """First guess: the measured outputs and the best hidden states of a grid over their ranges.
+
+        The grid point whose simulation best matches the first ``init_size``
+        samples (``init="simulation"``; then refined as :meth:`initial_fit`
+        says), or whose ``y'(0)`` best matches the measured one
+        (``init="derivative"``).
+        """
         p = y_init.shape[1]
         n_w = max(2, min(self.init_size, y_init.shape[0], u.shape[0]))
         y_w, u_w = y_init[:n_w], u[:n_w]
-        ranges = self._init_ranges()
-        grids = [np.linspace(lo, hi, self.grid_size) if lo < hi else np.array([lo]) for lo, hi in ranges]
+        grids = [np.linspace(lo, hi, self.grid_size) if lo < hi else np.array([lo]) for lo, hi in self._init_ranges()]
         candidates = np.array(list(itertools.product(*grids)))
         y0 = y_w[0]
 
@@ -326,34 +331,24 @@ class ParametricHiddenState(HiddenStrategy):
                 return float(err) if np.isfinite(err) else np.inf
 
         costs = np.array([cost(c) for c in candidates])
-        best = candidates[int(np.argmin(costs))]
-        if self.init == "simulation" and np.isfinite(costs.min()):
-            best = self._refine(cost, best, ranges, grids)
-        return np.r_[y0, best]
+        return np.r_[y0, candidates[int(np.argmin(costs))]]
 
-    @staticmethod
-    def _refine(cost, best, ranges, grids):
-        free = [i for i, (lo, hi) in enumerate(ranges) if lo < hi]
-        if len(free) == 1:
-            i = free[0]
-            step = grids[i][1] - grids[i][0]
-            lo, hi = max(ranges[i][0], best[i] - step), min(ranges[i][1], best[i] + step)
+    def initial_fit(self, params, *, n_outputs, n_inputs):
+        """With ``init="simulation"``: the hidden states with a range, within it, over ``init_size`` samples.
 
-            def cost1(v):
-                x = best.copy()
-                x[i] = v
-                return cost(x)
-
-            res = minimize_scalar(cost1, bounds=(lo, hi), method="bounded", options={"xatol": 1e-3 * step})
-            if res.fun <= cost(best):
-                best = best.copy()
-                best[i] = res.x
-            return best
-        if free:
-            res = scipy_minimize(cost, best, method="Powell", bounds=ranges)
-            if np.isfinite(res.fun) and res.fun <= cost(best):
-                return np.asarray(res.x, dtype=float)
-        return best
+        Examples
+        --------
+        >>> s = ParametricHiddenState(lambda xh, y, u: -xh, x0_bounds=(0.0, 2.0))
+        >>> s.initial_fit({"x0": 1.0}, n_outputs=1, n_inputs=1)
+        InitialFit(n_samples=50, free=(1,), bounds=(array([-inf,  0.]), array([inf,  2.])))
+        """
+        if self.init != "simulation":
+            return None
+        ranges = self._init_ranges()
+        free = tuple(n_outputs + i for i, (lo, hi) in enumerate(ranges) if lo < hi)
+        lower = np.r_[np.full(n_outputs, -np.inf), [lo for lo, _ in ranges]]
+        upper = np.r_[np.full(n_outputs, np.inf), [hi for _, hi in ranges]]
+        return InitialFit(self.init_size, free=free, bounds=(lower, upper))
 
 
 register_model(ParametricHiddenState, functions=("rhs",))

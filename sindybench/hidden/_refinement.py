@@ -8,14 +8,21 @@ entries are free one by one, and the strategy's physical parameters
 ``strategy.structure(params)``.
 """
 
+import logging
 import numbers
 
 import numpy as np
 
 from ..refine import Physical, estimate_initial_state
-from ..simulate import simulate
+from ..simulate import SimulationError, simulate
+from ._base import InitialFit
 
-__all__ = ["initial_state", "refined_values", "refinement_problem"]
+__all__ = ["initial_state", "refine_guess", "refined_values", "refinement_problem"]
+
+logger = logging.getLogger(__name__)
+
+_FIT_TOL = 1e-12  # tolerances of a strategy's initial-state fit: a short window, converged to the optimum
+_FIT_NFEV = 100  # its budget of simulations per free state
 
 
 class _FixedBlock:
@@ -86,15 +93,59 @@ def refined_values(cand, result):
     return {**cand.params, **result.physical}, result.coef[: cand.coef.shape[0], learned].copy(), result.x0
 
 
-def initial_state(mode, rhs, x0, X, y_init, dt, *, output_index, settings):
-    """Polish a strategy's initial state: ``"fit"`` on ``y_init``, ``"periodic"`` from the input alone.
+def refine_guess(fit, rhs, x0, X, y_init, dt, *, output_index, settings):
+    """A strategy's guess ``x0`` refined as its :class:`~sindybench.hidden.InitialFit` ``fit`` says.
 
-    ``"fit"``: least squares of the simulation of the first ``len(y_init)``
-    samples (all states free, exact sensitivities when compiled).
-    ``"periodic"``: ``X`` is one period of a periodic input; simulate two
-    periods from ``x0`` and start from the state reached (the periodic
-    steady state), without using ``y_init``.
+    Least squares of the simulation of the first ``fit.n_samples`` samples
+    (:func:`~sindybench.refine.estimate_initial_state`), each output's
+    residuals scaled by its largest magnitude there, tolerances 1e-12. The
+    guess stands when the window has fewer than 2 samples, no state is free,
+    or its simulation diverges within the window (the simulation that
+    follows then diverges too: a failed validation trial, NaN in ``predict``).
     """
+    n_states = x0.shape[0]
+    free = _check_fit(fit, n_states)
+    n = min(int(fit.n_samples), len(y_init), len(X))
+    if n < 2 or free.size == 0:
+        return x0
+    y = np.asarray(y_init[:n], dtype=float)
+    peak = np.max(np.abs(y), axis=0)
+    scale = np.where(peak > 0, peak, 1.0)
+    try:
+        return estimate_initial_state(rhs, X[:n], y, dt, x0=x0, output_index=output_index, free_x0=free,
+                                      x0_bounds=fit.bounds, output_scale=scale, max_nfev=_FIT_NFEV * free.size,
+                                      ftol=_FIT_TOL, xtol=_FIT_TOL, gtol=_FIT_TOL, **settings)
+    except SimulationError as exc:
+        logger.debug("initial state: the guess is kept (%s)", exc)
+        return x0
+
+
+def _check_fit(fit, n_states):
+    """The free states of a strategy's ``InitialFit``; a ``ValueError`` that says what is wrong with it."""
+    if not isinstance(fit, InitialFit):
+        raise ValueError(f"the strategy's initial_fit returned {fit!r}; expected an InitialFit or None.")
+    if isinstance(fit.n_samples, bool) or not isinstance(fit.n_samples, numbers.Integral) or fit.n_samples < 1:
+        raise ValueError(f"InitialFit.n_samples = {fit.n_samples!r}; expected an integer >= 1.")
+    free = np.arange(n_states) if fit.free is None else np.asarray(fit.free).reshape(-1)
+    if (free.size and not np.issubdtype(free.dtype, np.integer)) or np.any((free < 0) | (free >= n_states)) \
+            or np.unique(free).size < free.size:
+        raise ValueError(f"InitialFit.free = {fit.free!r}; expected distinct state indices in [0, {n_states - 1}].")
+    return free.astype(np.int64)
+
+
+def initial_state(mode, fit, rhs, x0, X, y_init, dt, *, output_index, settings):
+    """The initial state of a simulation of ``X`` from a strategy's guess ``x0`` and the first outputs ``y_init``.
+
+    The guess is refined as the strategy's :class:`~sindybench.hidden.InitialFit`
+    ``fit`` says (:func:`refine_guess`; None: not refined), then ``mode``:
+    ``"strategy"`` keeps it; ``"fit"``: least squares of the simulation of the
+    first ``len(y_init)`` samples (all states free, exact sensitivities when
+    compiled); ``"periodic"``: ``X`` is one period of a periodic input;
+    simulate two periods from ``x0`` and start from the state reached (the
+    periodic steady state), without using ``y_init``.
+    """
+    if fit is not None:
+        x0 = refine_guess(fit, rhs, x0, X, y_init, dt, output_index=output_index, settings=settings)
     if mode == "fit":
         n = min(len(y_init), len(X))
         if n < 2:

@@ -51,7 +51,8 @@ class TanksHiddenState(ParametricHiddenState):
         Simulation bounds of the measured level (e.g. the sensor range).
     init : {"simulation", "derivative"}, default="simulation"
         Initial upper-tank level on new data: minimum simulation error over
-        the first ``init_size`` samples (grid + local refinement), or the
+        the first ``init_size`` samples (grid, then refined by
+        :func:`~sindybench.refine.estimate_initial_state` within ``bounds``), or the
         study's grid search matching the model's ``y'(0)`` to the measured one.
     init_size : int, default=50
     grid_size : int, default=41

@@ -104,6 +104,7 @@ class _Problem:
         # multiple shooting: the later segments' free initial states and the continuity weights (see _build)
         self.x_segments, self.weight = [], np.ones(self.n_states)
         self.compiled = terms is not None and (physical is None or physical.make_rhs is None)
+        self._rhs_key = self._rhs = None
 
     # ------------------------------------------------------------- vectors
     def parameters(self):
@@ -173,6 +174,13 @@ class _Problem:
         return out
 
     def rhs(self, p):
+        """The right-hand side for the model part of ``p``; the last one is reused while that part is unchanged."""
+        key = p[: self.n_model].tobytes()
+        if self._rhs_key != key:
+            self._rhs_key, self._rhs = key, self._build_rhs(p)
+        return self._rhs
+
+    def _build_rhs(self, p):
         C = self.matrix(p)
         if self.compiled:
             return TermsRHS(C, self.terms, self.n_states)
@@ -289,7 +297,8 @@ def _contributions(terms, C, x, u, free, rows):
 def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), free=None, physical=None,
                             free_x0=None, make_rhs=None, n_segments=1, continuity_weight=1.0, prune=0.0,
                             n_substeps=1, method="rk4", input_hold="zoh", bounds=None, max_abs=np.inf,
-                            max_nfev=100, ftol=1e-8, xtol=1e-8, warn_budget=True):
+                            max_nfev=100, ftol=1e-8, xtol=1e-8, gtol=1e-8, x0_bounds=None, output_scale=None,
+                            warn_budget=True):
     """Refine a model's coefficients and initial state by open-loop simulation error.
 
     Parameters
@@ -336,8 +345,14 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         Simulation settings, as in :func:`sindybench.simulate.simulate`.
     max_nfev : int, default=100
         Budget of simulations per refinement round.
-    ftol, xtol : float, default=1e-8
+    ftol, xtol, gtol : float, default=1e-8
         Stopping tolerances of :func:`scipy.optimize.least_squares`.
+    x0_bounds : (lower, upper), optional
+        Box bounds of the free initial states (scalars or one per state),
+        within the simulation ``bounds``; default: those alone.
+    output_scale : array-like of shape (n_outputs,), optional
+        Scale of each output's residuals; default: its standard deviation
+        over the record (1 where it is zero).
     warn_budget : bool, default=True
         Warn (:class:`~sklearn.exceptions.ConvergenceWarning`) when the last
         round stops on ``max_nfev``; the record says so either way
@@ -409,6 +424,18 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     prune = check_positive(prune, "prune", strict=False)
     max_nfev = check_integer(max_nfev, "max_nfev")
     lo, hi = check_bounds(bounds, n_states)
+    x0_lo, x0_hi = check_bounds(x0_bounds, n_states, name="x0_bounds")
+    x0_lo, x0_hi = np.maximum(lo, x0_lo), np.minimum(hi, x0_hi)
+    if np.any(x0_lo[free_x0] > x0_hi[free_x0]):
+        raise ValueError(f"x0_bounds = {x0_bounds!r} leave no initial state within the simulation bounds {bounds!r}.")
+    if output_scale is not None:
+        given = output_scale
+        output_scale = np.asarray(output_scale, dtype=float).reshape(-1)
+        if output_scale.size == 1:
+            output_scale = np.full(len(output_index), output_scale[0])
+        if output_scale.size != len(output_index) or not np.all(np.isfinite(output_scale) & (output_scale > 0)):
+            raise ValueError(f"output_scale = {given!r}; expected one finite number > 0 per output "
+                             f"({len(output_index)}).")
     settings = dict(n_substeps=n_substeps, method=method, input_hold=input_hold, bounds=bounds, max_abs=max_abs)
     sim = {"settings": settings, "make_rhs": make_rhs}
 
@@ -416,16 +443,20 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     while True:
         problem, x = _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, n_segments,
                             continuity_weight, lo, hi)
+        if output_scale is not None:
+            problem.y_scale = output_scale
         if initial_cost is None:
             initial_cost = problem.output_cost(x)
         p0 = problem.pack()
         if p0.size == 0:
             raise ValueError("nothing to refine: no free coefficient, physical parameter or initial state.")
         lower, upper = problem.bounds(lo, hi)
+        at_x0 = slice(problem.n_model, problem.n_model + problem.free_x0.size)
+        lower[at_x0], upper[at_x0] = x0_lo[problem.free_x0], x0_hi[problem.free_x0]
         p0 = np.clip(p0, lower, upper)
         jac = problem.jacobian if problem.compiled else "2-point"
         fit = least_squares(problem.residuals, p0, jac=jac, bounds=(lower, upper), method="trf", x_scale="jac",
-                            max_nfev=max_nfev, ftol=ftol, xtol=xtol)
+                            max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
         nfev, njev = nfev + fit.nfev, njev + (fit.njev or 0)
         p = fit.x
         coef_all = problem.matrix(p)
@@ -541,13 +572,16 @@ def _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, 
     return problem, xs
 
 
-def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None, n_substeps=1, method="rk4",
-                           input_hold="zoh", bounds=None, max_abs=np.inf, max_nfev=50):
+def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None, x0_bounds=None, output_scale=None,
+                           n_substeps=1, method="rk4", input_hold="zoh", bounds=None, max_abs=np.inf, max_nfev=50,
+                           ftol=1e-8, xtol=1e-8, gtol=1e-8):
     """Initial state that best simulates the first output samples ``y`` (only ``x0`` free).
 
     The same least squares as :func:`refine_simulation_error` with the
     coefficients held: exact sensitivities for a :class:`TermsRHS`, finite
-    differences for a Python right-hand side.
+    differences for a Python right-hand side. It is the one initial-state
+    estimator of the package: ``HiddenStateSINDy`` refines every strategy's
+    first guess with it (:meth:`~sindybench.hidden.HiddenStrategy.initial_fit`).
 
     Parameters
     ----------
@@ -557,12 +591,32 @@ def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None
     dt : float
     x0 : array-like of shape (n_states,)
         Starting guess (e.g. a strategy's heuristic).
-    output_index, free_x0, n_substeps, method, input_hold, bounds, max_abs, max_nfev
-        As in :func:`refine_simulation_error`.
+    output_index, free_x0, x0_bounds, output_scale
+        As in :func:`refine_simulation_error`: the states that are outputs,
+        the states that are estimated (default: all), box bounds of those
+        (e.g. ``(0.0, None)`` for a level) and the residuals' scale.
+    n_substeps, method, input_hold, bounds, max_abs
+        Simulation settings, as in :func:`refine_simulation_error`.
+    max_nfev : int, default=50
+        Budget of simulations.
+    ftol, xtol, gtol : float, default=1e-8
+        Stopping tolerances of :func:`scipy.optimize.least_squares`.
 
     Returns
     -------
     ndarray of shape (n_states,)
+
+    Raises
+    ------
+    SimulationError
+        When the simulation from the guess ``x0`` diverges within the samples.
+
+    Notes
+    -----
+    The trust region of :func:`scipy.optimize.least_squares` starts at the
+    size of the free part of ``x0``: free states that all start near zero
+    (e.g. an empty tank on its bound) need tight tolerances (``1e-12``) for
+    the steps to grow instead of stopping on ``ftol``.
 
     Examples
     --------
@@ -572,6 +626,13 @@ def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None
     >>> y = simulate(rhs, [1.0, 0.5], np.zeros((20, 0)), 0.05)[:, :1]
     >>> np.round(estimate_initial_state(rhs, np.zeros((20, 0)), y, 0.05, x0=[0.9, 0.0]), 6).tolist()
     [1.0, 0.5]
+
+    With ``y(0)`` held at 0.9 and the velocity kept within ``[0, 0.2]``, it stops at its bound:
+
+    >>> x0 = estimate_initial_state(rhs, np.zeros((20, 0)), y, 0.05, x0=[0.9, 0.1], free_x0=[1],
+    ...                             x0_bounds=([None, 0.0], [None, 0.2]))
+    >>> np.round(x0, 6).tolist()
+    [0.9, 0.2]
     """
     if isinstance(rhs, TermsRHS):
         terms, coef, make = rhs.terms, rhs.coef, None
@@ -583,5 +644,6 @@ def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None
     res = refine_simulation_error(terms, coef, u, y, dt, x0=x0, output_index=output_index, free=free,
                                   free_x0=free_x0, make_rhs=make, n_substeps=n_substeps, method=method,
                                   input_hold=input_hold, bounds=bounds, max_abs=max_abs, max_nfev=max_nfev,
+                                  ftol=ftol, xtol=xtol, gtol=gtol, x0_bounds=x0_bounds, output_scale=output_scale,
                                   warn_budget=False)
     return res.x0

@@ -9,6 +9,7 @@ from sklearn.exceptions import ConvergenceWarning
 from sklearn.model_selection import GridSearchCV, KFold
 
 import sindybench.refine._core as core
+import sindybench.refine._problem as problem_mod
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
@@ -348,7 +349,7 @@ def test_diverging_trial_steps_never_reach_the_optimizer(duffing, monkeypatch):
             r = fun(p)
             seen["calls"] += 1
             seen["bad"] += int(not np.all(np.isfinite(r)))
-            seen["diverged"] += int(np.any(r == core._DIVERGED / np.sqrt(y.size)))
+            seen["diverged"] += int(np.any(r == problem_mod._DIVERGED / np.sqrt(y.size)))
             return r
         return original(wrapped, x0, **kwargs)
 
@@ -666,7 +667,7 @@ def test_python_rhs_multiple_shooting_jacobian_matches_the_sensitivities(noisy_d
 
     python = refine_simulation_error(None, TRUE_COEF, u, y, DT, x0=TRUE_X0, free=FREE, make_rhs=make_rhs,
                                      n_segments=2, max_nfev=40)
-    exact = core._Problem(DUFFING, python.coef, FREE, None, [python.x0], np.arange(2), [u], [y], DT, (0,),
+    exact = problem_mod._Problem(DUFFING, python.coef, FREE, None, [python.x0], np.arange(2), [u], [y], DT, (0,),
                           {"settings": {"n_substeps": 1, "method": "rk4", "input_hold": "zoh", "bounds": None,
                                         "max_abs": np.inf}, "make_rhs": None}, [(0, 200)])
     J = exact.jacobian(python.values)

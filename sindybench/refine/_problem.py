@@ -1,0 +1,301 @@
+"""The least-squares problem of one refinement round: parameters, residuals, exact Jacobian.
+
+:class:`_Problem` packs the free coefficients, the physical parameters and the
+free initial states (one per record, one per segment of multiple shooting) into
+one vector, simulates the records and returns the scaled output residuals and
+their Jacobian. :func:`~sindybench.refine.refine_simulation_error` drives it.
+"""
+
+import copy
+from typing import Callable, NamedTuple
+
+import numpy as np
+
+from ..simulate import SimulationError, TermsRHS, simulate
+from ._sensitivity import simulate_sensitivity
+
+__all__ = ["Physical"]
+
+_DIVERGED = 1e3  # residual (in output spreads) of a diverged sample
+
+
+class Physical(NamedTuple):
+    """Physical parameters entering the coefficient matrix through a map.
+
+    Attributes
+    ----------
+    names : tuple of str
+    values : ndarray of shape (n_physical,)
+        Starting values.
+    lower, upper : ndarray of shape (n_physical,)
+        Bounds of the refined values.
+    coef : callable
+        ``coef(values) -> ndarray (n_terms, n_states)``, added to the constant
+        coefficients.
+    make_rhs : callable or None
+        For Python-path models: ``make_rhs(C, values) -> f(x, u)``.
+    """
+
+    names: tuple
+    values: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    coef: Callable
+    make_rhs: Callable = None
+
+
+class _Problem:
+    """Parameter vector ``p = (physical, free coefficients, free x0 of each record, segment starts)``.
+
+    ``x0s``, ``us`` and ``ys`` hold one entry per record; each record's
+    residuals are scaled by its own output spread and the records' residuals
+    are stacked in record order. Multiple shooting (``segments``) takes one
+    record.
+    """
+
+    def __init__(self, terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, segments):
+        self.terms, self.coef, self.physical = terms, coef, physical
+        self.free = np.argwhere(free)  # (n_free, 2) of (term, state)
+        self.x0s, self.free_x0 = x0s, np.asarray(free_x0, dtype=np.int64)
+        self.us, self.ys, self.dt, self.sim = us, ys, dt, sim
+        self.x0, self.u, self.y = x0s[0], us[0], ys[0]  # the first record (multiple shooting's one record)
+        self.n_records = len(us)
+        self.oidx = np.asarray(output_index, dtype=np.int64)
+        self.n_states = coef.shape[1]
+        self.n_phys = 0 if physical is None else len(physical.names)
+        self.n_model = self.n_phys + len(self.free)
+        self.n_x0 = self.free_x0.size * self.n_records
+        self.segments = segments
+        self.y_scales = []
+        for y_r in ys:
+            spread = np.std(y_r, axis=0)
+            self.y_scales.append(np.where(spread > 0, spread, 1.0))
+        self.y_scale = self.y_scales[0]
+        self.n_res = sum(y_r.size for y_r in ys)
+        # multiple shooting: the later segments' free initial states and the continuity weights (see _build)
+        self.x_segments, self.weight = [], np.ones(self.n_states)
+        self.compiled = terms is not None and (physical is None or physical.make_rhs is None)
+        self._rhs_key = self._rhs = None
+
+    # ------------------------------------------------------------- vectors
+    def parameters(self):
+        """Descriptions of the entries of ``p``: physical, coefficient, initial state, segment starts."""
+        out = [] if self.physical is None else [("physical", str(n)) for n in self.physical.names]
+        out += [("coef", int(j), int(i)) for j, i in self.free]
+        if self.n_records == 1:
+            out += [("x0", int(i)) for i in self.free_x0]
+        else:  # ("x0", state, record)
+            out += [("x0", int(i), r) for r in range(self.n_records) for i in self.free_x0]
+        out += [("segment", s + 1, i) for s in range(len(self.x_segments)) for i in range(self.n_states)]
+        return tuple(out)
+
+    def pack(self):
+        parts = [] if self.physical is None else [np.asarray(self.physical.values, dtype=float)]
+        parts.append(self.coef[self.free[:, 0], self.free[:, 1]])
+        parts.extend(x0[self.free_x0] for x0 in self.x0s)
+        parts.extend(self.x_segments)
+        return np.concatenate(parts)
+
+    def bounds(self, lo, hi):
+        n_free = len(self.free)
+        lower = [np.full(n_free, -np.inf)] + [lo[self.free_x0]] * self.n_records + [lo] * len(self.x_segments)
+        upper = [np.full(n_free, np.inf)] + [hi[self.free_x0]] * self.n_records + [hi] * len(self.x_segments)
+        if self.physical is not None:
+            lower.insert(0, np.asarray(self.physical.lower, dtype=float))
+            upper.insert(0, np.asarray(self.physical.upper, dtype=float))
+        return np.concatenate(lower), np.concatenate(upper)
+
+    def matrix(self, p):
+        C = self.coef.copy()
+        C[self.free[:, 0], self.free[:, 1]] = p[self.n_phys : self.n_model]
+        if self.physical is not None:
+            C = C + self.physical.coef(p[: self.n_phys])
+        return C
+
+    def directions(self, p):
+        """dC/dp for the model parameters (physical by central differences of the algebraic map)."""
+        D = np.zeros((self.n_model,) + self.coef.shape)
+        v = np.asarray(p[: self.n_phys], dtype=float)
+        for k in range(self.n_phys):
+            step = 1e-6 * max(abs(v[k]), 1e-3)
+            hi, lo = v.copy(), v.copy()
+            hi[k] += step
+            lo[k] -= step
+            D[k] = (self.physical.coef(hi) - self.physical.coef(lo)) / (2 * step)
+        for e, (j, i) in enumerate(self.free):
+            D[self.n_phys + e, j, i] = 1.0
+        return D
+
+    def record_starts(self, p):
+        """Initial state of each record."""
+        out, k = [], self.n_model
+        for x0 in self.x0s:
+            x0 = x0.copy()
+            x0[self.free_x0] = p[k : k + self.free_x0.size]
+            out.append(x0)
+            k += self.free_x0.size
+        return out
+
+    def starts(self, p):
+        """Initial state of each segment (of the first record)."""
+        n0 = self.n_model + self.n_x0
+        out = [self.record_starts(p)[0]]
+        for s in range(len(self.x_segments)):
+            out.append(p[n0 + s * self.n_states : n0 + (s + 1) * self.n_states])
+        return out
+
+    def rhs(self, p):
+        """The right-hand side for the model part of ``p``; the last one is reused while that part is unchanged."""
+        key = p[: self.n_model].tobytes()
+        if self._rhs_key != key:
+            self._rhs_key, self._rhs = key, self._build_rhs(p)
+        return self._rhs
+
+    def _build_rhs(self, p):
+        C = self.matrix(p)
+        if self.compiled:
+            return TermsRHS(C, self.terms, self.n_states)
+        return self.physical.make_rhs(C, p[: self.n_phys]) if self.physical is not None else self.sim["make_rhs"](C)
+
+    # ----------------------------------------------------------- residuals
+    def open_loop(self, p):
+        """Each whole record simulated from its start (NaN after a divergence); a list."""
+        rhs = self.rhs(p)
+        with np.errstate(all="ignore"):
+            return [simulate(rhs, x0, u, self.dt, on_divergence="nan", **self.sim["settings"])
+                    for x0, u in zip(self.record_starts(p), self.us)]
+
+    def output_cost(self, xs):
+        """Half the mean squared scaled output error of the trajectories ``xs`` (diverged samples penalized)."""
+        r = np.concatenate([((x[:, self.oidx] - y) / scale).ravel()
+                            for x, y, scale in zip(xs, self.ys, self.y_scales)]) / np.sqrt(self.n_res)
+        r = np.where(np.isfinite(r), r, _DIVERGED / np.sqrt(self.n_res))
+        return 0.5 * float(r @ r)
+
+    def _segment_residuals(self, x, seg, x_next):
+        a, b = seg
+        r = ((x[: b - a, self.oidx] - self.y[a:b]) / self.y_scale).ravel()
+        c = (x[-1] - x_next) * self.weight if x_next is not None else np.zeros(0)
+        return r, c
+
+    def residuals(self, p):
+        if self.n_records > 1:
+            out = np.concatenate([((x[:, self.oidx] - y) / scale).ravel()
+                                  for x, y, scale in zip(self.open_loop(p), self.ys, self.y_scales)])
+            out = out / np.sqrt(self.n_res)
+            return np.where(np.isfinite(out), out, _DIVERGED / np.sqrt(self.n_res))
+        rhs = self.rhs(p)
+        starts = self.starts(p)
+        res, cont = [], []
+        for s, (a, b) in enumerate(self.segments):
+            last = b + 1 if s + 1 < len(self.segments) else b
+            with np.errstate(all="ignore"):
+                x = simulate(rhs, starts[s], self.u[a:last], self.dt, on_divergence="nan", **self.sim["settings"])
+            r, c = self._segment_residuals(x, (a, b), starts[s + 1] if s + 1 < len(self.segments) else None)
+            res.append(r)
+            cont.append(c)
+        out = np.concatenate(res + cont) / np.sqrt(self.n_res)
+        return np.where(np.isfinite(out), out, _DIVERGED / np.sqrt(self.n_res))
+
+    def jacobian(self, p):
+        """Exact Jacobian from the forward sensitivities (compiled models)."""
+        if self.n_records > 1:
+            return self._records_jacobian(p)
+        rhs, D, starts = self.rhs(p), self.directions(p), self.starts(p)
+        n, n_out = self.n_states, self.oidx.size
+        n_seg = len(self.segments)
+        q = p.size
+        J_out = np.zeros((self.n_res, q))
+        J_cont = np.zeros(((n_seg - 1) * n, q))
+        n0 = self.n_model
+        for s, (a, b) in enumerate(self.segments):
+            last = b + 1 if s + 1 < n_seg else b
+            free = self.free_x0 if s == 0 else np.arange(n)
+            x, S, S_end = simulate_sensitivity(rhs, starts[s], self.u[a:last], self.dt, directions=D, free_x0=free,
+                                               output_index=self.oidx, on_divergence="nan", **self.sim["settings"])
+            if not np.all(np.isfinite(S)):
+                raise SimulationError("the sensitivities of an accepted refinement step are not finite.", step=-1)
+            cols = np.r_[np.arange(self.n_model),
+                         (n0 + np.arange(self.free_x0.size)) if s == 0
+                         else n0 + self.free_x0.size + (s - 1) * n + np.arange(n)]
+            rows = slice(a * n_out, b * n_out)
+            J_out[rows, cols] = (S[: b - a] / self.y_scale[None, :, None]).reshape((b - a) * n_out, -1)
+            if s + 1 < n_seg:
+                crow = slice(s * n, (s + 1) * n)
+                J_cont[crow, cols] = S_end * self.weight[:, None]
+                nxt = n0 + self.free_x0.size + s * n
+                J_cont[crow, nxt : nxt + n] -= np.diag(self.weight)
+        return np.vstack([J_out, J_cont]) / np.sqrt(self.n_res)
+
+    def _records_jacobian(self, p):
+        """The output rows of every record, stacked; a record's rows see its own initial state only."""
+        rhs, D = self.rhs(p), self.directions(p)
+        J = np.zeros((self.n_res, p.size))
+        row, n_free = 0, self.free_x0.size
+        for r, (x0, u, scale) in enumerate(zip(self.record_starts(p), self.us, self.y_scales)):
+            _, S, _ = simulate_sensitivity(rhs, x0, u, self.dt, directions=D, free_x0=self.free_x0,
+                                           output_index=self.oidx, on_divergence="nan", **self.sim["settings"])
+            if not np.all(np.isfinite(S)):
+                raise SimulationError(f"the sensitivities of an accepted refinement step are not finite "
+                                      f"(record {r}).", step=-1)
+            cols = np.r_[np.arange(self.n_model), self.n_model + r * n_free + np.arange(n_free)]
+            m = S.shape[0] * S.shape[1]
+            J[row : row + m, cols] = (S / scale[None, :, None]).reshape(m, -1)
+            row += m
+        return J / np.sqrt(self.n_res)
+
+
+def _segments(n, n_segments):
+    edges = np.linspace(0, n, n_segments + 1).round().astype(int)
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def _output_jacobian(problem, fit):
+    """Jacobian and residuals of the output residuals at the optimum, and the number of its columns.
+
+    Single shooting: those of the optimizer. Multiple shooting: the returned
+    model run open loop (one simulation with sensitivities, or one per
+    parameter by forward differences on the Python path); the later
+    segments' starts and the continuity residuals drop out.
+    """
+    columns = problem.n_model + problem.n_x0
+    if len(problem.segments) == 1:
+        return fit.jac, fit.fun[: problem.n_res], columns
+    single = copy.copy(problem)
+    single.segments, single.x_segments = [(0, problem.u.shape[0])], []
+    p = fit.x[:columns]
+    r = single.residuals(p)
+    if single.compiled:
+        return single.jacobian(p), r, columns
+    J = np.empty((r.size, columns))
+    for k in range(columns):
+        step = np.sqrt(np.finfo(float).eps) * max(1.0, abs(p[k]))
+        q = p.copy()
+        q[k] += step
+        J[:, k] = (single.residuals(q) - r) / step
+    return J, r, columns
+
+
+def _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, n_segments, continuity_weight,
+           lo, hi):
+    """The problem of one refinement round and the starting model's open-loop trajectories (one per record).
+
+    That simulation checks the start, scales the continuity residuals by
+    the states' spread and starts the later segments of multiple shooting.
+    """
+    problem = _Problem(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim,
+                       _segments(us[0].shape[0], n_segments))
+    xs = problem.open_loop(problem.pack())
+    for r, x_r in enumerate(xs):
+        finite = np.all(np.isfinite(x_r), axis=1)
+        if not finite.all():
+            where = "the record" if len(xs) == 1 else f"record {r}"
+            what = (f"cannot start multiple shooting: the starting model diverges on {where}." if n_segments > 1 else
+                    f"cannot refine: the starting model's simulation diverges on {where}; "
+                    "expected a model that simulates the training data.")
+            raise SimulationError(what, step=int(np.argmin(finite)))
+    x = xs[0]
+    spread = np.std(x, axis=0)
+    problem.weight = continuity_weight / np.where(spread > 0, spread, 1.0)
+    problem.x_segments = [np.clip(x[a], lo, hi) for a, _ in problem.segments[1:]]
+    return problem, xs

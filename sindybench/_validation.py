@@ -25,6 +25,7 @@ __all__ = [
     "check_signal",
     "check_time",
     "is_records",
+    "records_hint",
     "uniform_step",
     "validate_named",
 ]
@@ -39,6 +40,44 @@ def is_records(y):
     A list of numbers or of lists stays one record (one array), as scikit-learn passes it.
     """
     return isinstance(y, list) and len(y) > 0 and all(isinstance(r, np.ndarray) for r in y)
+
+
+def records_hint(a):
+    """A sentence on how to pass several records when ``a`` looks like them (else ``""``).
+
+    Several records are a Python list of arrays; a tuple of arrays, a 3-D
+    array, a NumPy object array of arrays or a list of nested lists are
+    refused (scikit-learn passes tuples and arrays as one data set, and a 3-D
+    array holds only records of equal lengths), with this hint in the message.
+
+    Examples
+    --------
+    >>> records_hint(np.zeros((2, 5, 1)))
+    ' Several records go in a Python list of 2-D arrays (list(a) of a 3-D array), where the method takes them.'
+    >>> records_hint(np.zeros((5, 1)))
+    ''
+    """
+    hint = " Several records go in a Python list of 2-D arrays ({}), where the method takes them."
+    if isinstance(a, np.ndarray):
+        if a.ndim == 3:
+            return hint.format("list(a) of a 3-D array")
+        if a.dtype == object and a.ndim == 1 and a.size and all(isinstance(r, (np.ndarray, list)) for r in a):
+            return hint.format("list(a) of an object array")
+        return ""
+    if not (isinstance(a, (list, tuple)) and a and all(isinstance(r, (np.ndarray, list, tuple)) for r in a)):
+        return ""
+    if isinstance(a, tuple):
+        return hint.format("a list, not a tuple")
+    if is_records(a):
+        return f" A list of arrays is {len(a)} records; here one record (one array) is expected."
+    return hint.format("each record a NumPy array, not a nested list") if any(_ndim(r) >= 2 for r in a) else ""
+
+
+def _ndim(a):
+    try:
+        return np.ndim(a)
+    except ValueError:  # ragged nested lists: at least 2-D
+        return 2
 
 
 def check_records(X, y, *, y_kind="states"):
@@ -117,7 +156,7 @@ def check_signal(a, name, *, allow_none=False, n_samples=None, ensure_2d=True):
     if arr.ndim > 2:
         raise ValueError(
             f"{name} has {arr.ndim} dimensions (shape {arr.shape}); "
-            "expected shape (n_samples,) or (n_samples, n_channels)."
+            f"expected shape (n_samples,) or (n_samples, n_channels).{records_hint(a)}"
         )
     if arr.shape[0] == 0:
         raise ValueError(f"{name} has 0 samples; expected at least one.")
@@ -150,12 +189,18 @@ def check_array_like(a, name):
     """
     if a is None:
         return
+    if isinstance(a, (list, tuple)) and len(a) == 0:
+        raise ValueError(f"{name} is an empty {type(a).__name__}; expected an array with one row per sample, or a "
+                         "non-empty list of arrays (one per record) where several records are taken.")
     if sp.issparse(a):
         raise ValueError(f"{name} is a sparse matrix; sparse input is not supported, expected a dense array.")
     try:
         arr = np.asarray(a)
     except ValueError as exc:  # ragged nested lists
-        raise ValueError(f"{name} could not be converted to an array: {exc}") from exc
+        raise ValueError(f"{name} could not be converted to an array: {exc}{records_hint(a)}") from exc
+    if arr.dtype == object and records_hint(arr):
+        raise ValueError(f"{name} is a NumPy object array of {arr.shape[0]} arrays; expected one 2-D array."
+                         f"{records_hint(arr)}")
     if np.iscomplexobj(arr):
         raise ValueError(f"{name} is complex. Complex data not supported; expected real values.")
     if name == "X" and arr.ndim == 1:

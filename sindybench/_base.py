@@ -201,7 +201,7 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         check_is_fitted(self)
         if x0 is not None and y_init is not None:
             raise ValueError("give x0 or y_init, not both.")
-        if is_records(X) or is_records(y_init):
+        if is_records(X) or is_records(y_init) or (X is None and is_records(x0)):
             return self._predict_records(X, y_init, x0)
         if x0 is None and y_init is None:
             warnings.warn(
@@ -217,7 +217,7 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
     def _predict_records(self, X, y_init, x0):
         """``predict`` of each record of the lists ``X`` and ``y_init`` (or ``x0``); a list."""
-        n_records = len(X) if isinstance(X, list) else len(y_init)
+        n_records = len(next(a for a in (X, y_init, x0) if isinstance(a, list)))
         if x0 is None and y_init is None:
             raise ValueError("predict on several records needs y_init or x0, a list with one entry per record; "
                              "x0_ is only the first training record's state.")

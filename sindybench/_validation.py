@@ -20,6 +20,7 @@ __all__ = [
     "check_model_inputs",
     "check_n_samples",
     "check_option",
+    "check_record_lists",
     "check_positive",
     "check_records",
     "check_signal",
@@ -78,6 +79,32 @@ def _ndim(a):
         return np.ndim(a)
     except ValueError:  # ragged nested lists: at least 2-D
         return 2
+
+
+def check_record_lists(X, y):
+    """Several records: ``y`` a list of arrays, ``X`` None or a list as long, each ``X[i]`` as long as ``y[i]``.
+
+    Only the lists and lengths are checked (the arrays themselves by :func:`check_records`).
+
+    Examples
+    --------
+    >>> check_record_lists([np.zeros((3, 1))], [np.zeros(3), np.zeros(4)])
+    Traceback (most recent call last):
+    ...
+    ValueError: y is a list of 2 records, so X must be None or a list of 2 input arrays; got a list of 1.
+    """
+    if not is_records(y):
+        n = len(X)
+        raise ValueError(f"X is a list of {n} records, so y must be a list of {n} output arrays (one per record); "
+                         f"got {type(y).__name__}.")
+    n = len(y)
+    if X is not None and (not isinstance(X, list) or len(X) != n):
+        got = f"a list of {len(X)}" if isinstance(X, list) else type(X).__name__
+        raise ValueError(f"y is a list of {n} records, so X must be None or a list of {n} input arrays; got {got}.")
+    for i, (X_i, y_i) in enumerate(zip(X or [None] * n, y)):
+        if np.ndim(X_i) and len(X_i) != len(y_i):  # None and scalars: check_records says what is wrong
+            raise ValueError(f"record {i}: X[{i}] has {len(X_i)} samples and y[{i}] has {len(y_i)}; expected the "
+                             "same number of samples.")
 
 
 def check_records(X, y, *, y_kind="states"):
@@ -203,10 +230,10 @@ def check_array_like(a, name):
                          f"{records_hint(arr)}")
     if np.iscomplexobj(arr):
         raise ValueError(f"{name} is complex. Complex data not supported; expected real values.")
-    if name == "X" and arr.ndim == 1:
+    if (name == "X" or name.startswith("X[")) and arr.ndim == 1:
         raise ValueError(
-            f"X is 1-D (shape {arr.shape}); expected 2-D (n_samples, n_inputs). "
-            "Reshape your data with X.reshape(-1, 1) for a single input."
+            f"{name} is 1-D (shape {arr.shape}); expected 2-D (n_samples, n_inputs). "
+            f"Reshape your data with {name}.reshape(-1, 1) for a single input."
         )
 
 

@@ -172,3 +172,21 @@ def test_one_record_methods_refuse_lists(records):
     with pytest.raises(ValueError, match=r"estimate_initial_state takes one record"):
         model.estimate_initial_state([u1, u2], [y1[:1], y2[:1]])
     np.testing.assert_array_equal(model.simulate(u2, y_init=y2[:1]), model.predict([u1, u2], x0=[y1[0], y2[0]])[1])
+
+
+def test_inputs_of_each_record_are_2d_as_for_one_array(records):
+    # fit accepted 1-D X[i] (one input column) where predict and the single-array fit refuse 1-D X
+    (u1, y1), (u2, y2) = records
+    with pytest.raises(ValueError, match=r"X\[0\] is 1-D \(shape \(300,\)\); expected 2-D .*X\[0\].reshape"):
+        _model().fit([u1[:, 0], u2[:, 0]], [y1, y2])
+
+
+def test_autonomous_predict_from_a_list_of_initial_states():
+    t = np.arange(0, 2, DT)
+    y1, y2 = np.exp(-2 * t)[:, None], 3 * np.exp(-2 * t)[:, None]
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=DT).fit(None, [y1, y2])
+    # a list of initial states is several records (before: "simulate takes one record" or "x0 has 2 entries")
+    with pytest.raises(ValueError, match=r"record 0: X is None; expected inputs of shape"):
+        model.predict(None, x0=[y1[0], y2[0]])
+    pred = model.predict(None, y_init=[y1, y2])
+    np.testing.assert_allclose(pred[1], y2, rtol=1e-3)

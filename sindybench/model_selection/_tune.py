@@ -12,7 +12,7 @@ from sklearn.model_selection import KFold, TimeSeriesSplit
 
 from .._json import jsonable
 from .._progress import show_progress
-from .._validation import check_bool, check_integer, check_records, is_records, records_hint
+from .._validation import check_bool, check_integer, check_record_lists, check_records, is_records, records_hint
 from ..metrics import make_simulation_scorer
 from ._sampler import make_sampler
 from ._space import check_search_space, sample_params
@@ -168,20 +168,9 @@ def _as_array(a, name):
 
 
 def _check_record_lists(X, y):
-    """Several records: ``X`` None or a list of as many entries as ``y``, each with the samples of its record.
-
-    Each record is checked before the study (shapes, finite values, the
-    columns of record 0), so that bad data fails here, naming the record,
-    rather than in every trial.
-    """
-    if X is not None and (not isinstance(X, list) or len(X) != len(y)):
-        got = f"a list of {len(X)}" if isinstance(X, list) else type(X).__name__
-        raise ValueError(f"y is a list of {len(y)} records, so X must be None or a list of {len(y)} input arrays; "
-                         f"got {got}.")
-    for i, (X_i, y_i) in enumerate(zip(X or [None] * len(y), y)):
-        if X_i is not None and len(X_i) != len(y_i):
-            raise ValueError(f"record {i}: X[{i}] has {len(X_i)} samples and y[{i}] has {len(y_i)}; expected the "
-                             "same number of samples.")
+    """Several records: the lists and each record checked before the study (lengths, shapes, finite values, the
+    columns of record 0), so that bad data fails here, naming the record, rather than in every trial."""
+    check_record_lists(X, y)
     check_records(X, y, y_kind="outputs")
 
 

@@ -20,7 +20,7 @@ from sklearn.utils.validation import check_is_fitted
 from ._divergence import DivergenceWarning, warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
-from ._validation import check_inputs_outputs, check_model_inputs, check_signal, is_records
+from ._validation import check_inputs_outputs, check_model_inputs, check_signal, count_records, is_records
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer, r2
 from .refine._report import UncertaintyMixin
@@ -119,7 +119,7 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
     def _check_one_record(self, method, *args):
         """Refuse lists of records in a method that takes one record."""
-        n = next((len(a) for a in args if is_records(a)), None)
+        n = next((count_records(a) for a in args if count_records(a)), None)
         if n is not None:
             raise ValueError(f"{type(self).__name__}.{method} takes one record; got a list of {n} records. Expected "
                              "one array each (call it once per record), or predict, which takes lists.")
@@ -151,7 +151,7 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
     def _simulate(self, X, y_init, x0, on_divergence, *, dt=None, t=None):
         check_is_fitted(self)
-        self._check_one_record("simulate", X, y_init, x0)
+        self._check_one_record("simulate", X, y_init)
         if (x0 is None) == (y_init is None):
             raise ValueError("give exactly one of x0 and y_init.")
         n_samples = len(t) if t is not None else None

@@ -25,6 +25,7 @@ __all__ = [
     "check_records",
     "check_signal",
     "check_time",
+    "count_records",
     "is_records",
     "records_hint",
     "uniform_step",
@@ -41,6 +42,22 @@ def is_records(y):
     A list of numbers or of lists stays one record (one array), as scikit-learn passes it.
     """
     return isinstance(y, list) and len(y) > 0 and all(isinstance(r, np.ndarray) for r in y)
+
+
+def count_records(a):
+    """The number of records in ``a`` when it is a list of arrays one of which is 2-D, else None.
+
+    What a method that takes one record refuses: a list of 2-D arrays is
+    never one record, while a list of 1-D arrays may be one record's rows.
+
+    Examples
+    --------
+    >>> count_records([np.zeros((5, 1)), np.zeros((3, 1))])
+    2
+    >>> count_records([np.zeros(2), np.zeros(2)]) is None
+    True
+    """
+    return len(a) if is_records(a) and any(r.ndim >= 2 for r in a) else None
 
 
 def records_hint(a):

@@ -190,3 +190,13 @@ def test_autonomous_predict_from_a_list_of_initial_states():
         model.predict(None, x0=[y1[0], y2[0]])
     pred = model.predict(None, y_init=[y1, y2])
     np.testing.assert_allclose(pred[1], y2, rtol=1e-3)
+
+
+def test_one_record_methods_still_take_lists_that_are_one_record():
+    # a list of 1-D arrays may be one record (its rows, or a state split in parts): not refused as records
+    t = np.arange(0, 2, DT)
+    y = np.column_stack([np.exp(-t), np.exp(-2 * t)])
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=DT).fit(None, y)
+    np.testing.assert_array_equal(model.simulate(None, t=t[:5], x0=[y[0, :1], y[0, 1:]]),
+                                  model.simulate(None, t=t[:5], x0=y[0]))
+    np.testing.assert_array_equal(model.simulate(None, y_init=[y[0]], t=t[:5]), model.simulate(None, x0=y[0], t=t[:5]))

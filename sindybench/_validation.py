@@ -20,8 +20,8 @@ __all__ = [
     "check_model_inputs",
     "check_n_samples",
     "check_option",
-    "check_record_lists",
     "check_positive",
+    "check_record_lists",
     "check_records",
     "check_signal",
     "check_time",
@@ -119,7 +119,7 @@ def check_record_lists(X, y):
         got = f"a list of {len(X)}" if isinstance(X, list) else type(X).__name__
         raise ValueError(f"y is a list of {n} records, so X must be None or a list of {n} input arrays; got {got}.")
     for i, (X_i, y_i) in enumerate(zip(X or [None] * n, y)):
-        if np.ndim(X_i) and len(X_i) != len(y_i):  # None and scalars: check_records says what is wrong
+        if _ndim(X_i) and len(X_i) != len(y_i):  # None and scalars: check_records says what is wrong
             raise ValueError(f"record {i}: X[{i}] has {len(X_i)} samples and y[{i}] has {len(y_i)}; expected the "
                              "same number of samples.")
 

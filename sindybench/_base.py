@@ -20,7 +20,7 @@ from sklearn.utils.validation import check_is_fitted
 from ._divergence import DivergenceWarning, warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
-from ._validation import check_inputs_outputs, check_model_inputs, check_signal, is_records
+from ._validation import check_inputs_outputs, check_model_inputs, check_signal, count_records, is_records
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer, r2
 from .refine._report import UncertaintyMixin
@@ -32,10 +32,19 @@ __all__ = ["DynamicsEstimator", "is_records"]
 def _per_record(value, n_records, name):
     if value is None:
         return [None] * n_records
+    if name == "x0" and isinstance(value, np.ndarray) and value.ndim == 2 and value.shape[0] == n_records:
+        return list(value)  # (n_records, n_states), as refine_simulation_error takes it
     if not isinstance(value, list) or len(value) != n_records:
+        got = f"a list of {len(value)}" if isinstance(value, list) else type(value).__name__
+        shape = f" of shape {value.shape}" if isinstance(value, np.ndarray) else ""
         raise ValueError(f"with {n_records} records, {name} must be a list of {n_records} entries (one per record) "
-                         f"or None; got {type(value).__name__}.")
+                         f"or None; got {got}{shape}.")
     return value
+
+
+def _record_error(i, exc):
+    """``exc`` (a ValueError about one record) with the record's index in front."""
+    return ValueError(f"record {i}: {exc}")
 
 
 class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin,
@@ -103,9 +112,17 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         ndarray of shape (n_states,)
         """
         check_is_fitted(self)
+        self._check_one_record("estimate_initial_state", X, y_init)
         y_init = self._check_y_init(y_init)
         X = self._check_X(X, y_init.shape[0])
         return self._initial_state(X, y_init)
+
+    def _check_one_record(self, method, *args):
+        """Refuse lists of records in a method that takes one record."""
+        n = next((count_records(a) for a in args if count_records(a)), None)
+        if n is not None:
+            raise ValueError(f"{type(self).__name__}.{method} takes one record; got a list of {n} records. Expected "
+                             "one array each (call it once per record), or predict, which takes lists.")
 
     def _initial_state(self, X, y_init):
         raise NotImplementedError
@@ -134,6 +151,7 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
     def _simulate(self, X, y_init, x0, on_divergence, *, dt=None, t=None):
         check_is_fitted(self)
+        self._check_one_record("simulate", X, y_init)
         if (x0 is None) == (y_init is None):
             raise ValueError("give exactly one of x0 and y_init.")
         n_samples = len(t) if t is not None else None
@@ -167,6 +185,8 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
             ``x0`` then a list too, one entry per record) and returns a list.
         y_init : array-like of shape (n_init, n_outputs), or list, optional
         x0 : array-like of shape (n_states,), or list, optional
+            With several records, a list or an array of shape
+            (n_records, n_states) (as ``refinement_["initial_states"]``).
 
         Returns
         -------
@@ -181,7 +201,7 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         check_is_fitted(self)
         if x0 is not None and y_init is not None:
             raise ValueError("give x0 or y_init, not both.")
-        if is_records(X) or is_records(y_init):
+        if is_records(X) or is_records(y_init) or (X is None and is_records(x0)):
             return self._predict_records(X, y_init, x0)
         if x0 is None and y_init is None:
             warnings.warn(
@@ -197,13 +217,22 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
     def _predict_records(self, X, y_init, x0):
         """``predict`` of each record of the lists ``X`` and ``y_init`` (or ``x0``); a list."""
-        n_records = len(X) if isinstance(X, list) else len(y_init)
+        n_records = len(next(a for a in (X, y_init, x0) if isinstance(a, list)))
         if x0 is None and y_init is None:
             raise ValueError("predict on several records needs y_init or x0, a list with one entry per record; "
                              "x0_ is only the first training record's state.")
         X = _per_record(X, n_records, "X")
         starts = _per_record(y_init if x0 is None else x0, n_records, "y_init" if x0 is None else "x0")
-        return [self.predict(X_i, **({"y_init": s} if x0 is None else {"x0": s})) for X_i, s in zip(X, starts)]
+        y_pred = []
+        for i, (X_i, s) in enumerate(zip(X, starts)):
+            if s is None:
+                raise ValueError(f"record {i}: {'y_init' if x0 is None else 'x0'}[{i}] is None; expected the start of "
+                                 "every record.")
+            try:
+                y_pred.append(self.predict(X_i, **({"y_init": s} if x0 is None else {"x0": s})))
+            except ValueError as exc:
+                raise _record_error(i, exc) from exc
+        return y_pred
 
     def score(self, X, y, sample_weight=None):
         """R^2 of the open-loop simulation started from the start of ``y``.
@@ -226,19 +255,27 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         """
         if sample_weight is not None:
             raise ValueError(f"sample_weight is not supported by {type(self).__name__}.score; expected None.")
-        if is_records(y):
+        if is_records(y) or is_records(X):
             return self._score_records(X, y)
         X, y = check_inputs_outputs(X, y)
         return make_simulation_scorer("r2")(self, X, y)
 
     def _score_records(self, X, y):
         """R^2 pooled over the records: each simulated from its own start, the samples scored together."""
+        if not is_records(y):
+            raise ValueError(f"X is a list of {len(X)} records, so y must be a list of {len(X)} output arrays (one per "
+                             f"record); got {type(y).__name__}.")
         X = _per_record(X, len(y), "X")
         pairs = [check_inputs_outputs(X_i, y_i, x_name=f"X[{i}]", y_name=f"y[{i}]")
                  for i, (X_i, y_i) in enumerate(zip(X, y))]
+        y_pred = []
         with warnings.catch_warnings():  # a diverged simulation scores -inf, no warning
             warnings.simplefilter("ignore", DivergenceWarning)
-            y_pred = [self.predict(X_i, y_init=y_i).reshape(y_i.shape[0], -1) for X_i, y_i in pairs]
+            for i, (X_i, y_i) in enumerate(pairs):
+                try:
+                    y_pred.append(self.predict(X_i, y_init=y_i).reshape(y_i.shape[0], -1))
+                except ValueError as exc:
+                    raise _record_error(i, exc) from exc
         y_pred = np.vstack(y_pred)
         if not np.all(np.isfinite(y_pred)):
             return -np.inf

@@ -21,10 +21,13 @@ __all__ = [
     "check_n_samples",
     "check_option",
     "check_positive",
+    "check_record_lists",
     "check_records",
     "check_signal",
     "check_time",
+    "count_records",
     "is_records",
+    "records_hint",
     "uniform_step",
     "validate_named",
 ]
@@ -39,6 +42,86 @@ def is_records(y):
     A list of numbers or of lists stays one record (one array), as scikit-learn passes it.
     """
     return isinstance(y, list) and len(y) > 0 and all(isinstance(r, np.ndarray) for r in y)
+
+
+def count_records(a):
+    """The number of records in ``a`` when it is a list of arrays one of which is 2-D, else None.
+
+    What a method that takes one record refuses: a list of 2-D arrays is
+    never one record, while a list of 1-D arrays may be one record's rows.
+
+    Examples
+    --------
+    >>> count_records([np.zeros((5, 1)), np.zeros((3, 1))])
+    2
+    >>> count_records([np.zeros(2), np.zeros(2)]) is None
+    True
+    """
+    return len(a) if is_records(a) and any(r.ndim >= 2 for r in a) else None
+
+
+def records_hint(a):
+    """A sentence on how to pass several records when ``a`` looks like them (else ``""``).
+
+    Several records are a Python list of arrays; a tuple of arrays, a 3-D
+    array, a NumPy object array of arrays or a list of nested lists are
+    refused (scikit-learn passes tuples and arrays as one data set, and a 3-D
+    array holds only records of equal lengths), with this hint in the message.
+
+    Examples
+    --------
+    >>> records_hint(np.zeros((2, 5, 1)))
+    ' Several records go in a Python list of 2-D arrays (list(a) of a 3-D array), where the method takes them.'
+    >>> records_hint(np.zeros((5, 1)))
+    ''
+    """
+    hint = " Several records go in a Python list of 2-D arrays ({}), where the method takes them."
+    if isinstance(a, np.ndarray):
+        if a.ndim == 3:
+            return hint.format("list(a) of a 3-D array")
+        if a.dtype == object and a.ndim == 1 and a.size and all(isinstance(r, (np.ndarray, list)) for r in a):
+            return hint.format("list(a) of an object array")
+        return ""
+    if not (isinstance(a, (list, tuple)) and a and all(isinstance(r, (np.ndarray, list, tuple)) for r in a)):
+        return ""
+    if isinstance(a, tuple):
+        return hint.format("a list, not a tuple")
+    if is_records(a):
+        return f" A list of arrays is {len(a)} records; here one record (one array) is expected."
+    return hint.format("each record a NumPy array, not a nested list") if any(_ndim(r) >= 2 for r in a) else ""
+
+
+def _ndim(a):
+    try:
+        return np.ndim(a)
+    except ValueError:  # ragged nested lists: at least 2-D
+        return 2
+
+
+def check_record_lists(X, y):
+    """Several records: ``y`` a list of arrays, ``X`` None or a list as long, each ``X[i]`` as long as ``y[i]``.
+
+    Only the lists and lengths are checked (the arrays themselves by :func:`check_records`).
+
+    Examples
+    --------
+    >>> check_record_lists([np.zeros((3, 1))], [np.zeros(3), np.zeros(4)])
+    Traceback (most recent call last):
+    ...
+    ValueError: y is a list of 2 records, so X must be None or a list of 2 input arrays; got a list of 1.
+    """
+    if not is_records(y):
+        n = len(X)
+        raise ValueError(f"X is a list of {n} records, so y must be a list of {n} output arrays (one per record); "
+                         f"got {type(y).__name__}.")
+    n = len(y)
+    if X is not None and (not isinstance(X, list) or len(X) != n):
+        got = f"a list of {len(X)}" if isinstance(X, list) else type(X).__name__
+        raise ValueError(f"y is a list of {n} records, so X must be None or a list of {n} input arrays; got {got}.")
+    for i, (X_i, y_i) in enumerate(zip(X or [None] * n, y)):
+        if _ndim(X_i) and len(X_i) != len(y_i):  # None and scalars: check_records says what is wrong
+            raise ValueError(f"record {i}: X[{i}] has {len(X_i)} samples and y[{i}] has {len(y_i)}; expected the "
+                             "same number of samples.")
 
 
 def check_records(X, y, *, y_kind="states"):
@@ -117,7 +200,7 @@ def check_signal(a, name, *, allow_none=False, n_samples=None, ensure_2d=True):
     if arr.ndim > 2:
         raise ValueError(
             f"{name} has {arr.ndim} dimensions (shape {arr.shape}); "
-            "expected shape (n_samples,) or (n_samples, n_channels)."
+            f"expected shape (n_samples,) or (n_samples, n_channels).{records_hint(a)}"
         )
     if arr.shape[0] == 0:
         raise ValueError(f"{name} has 0 samples; expected at least one.")
@@ -150,18 +233,24 @@ def check_array_like(a, name):
     """
     if a is None:
         return
+    if isinstance(a, (list, tuple)) and len(a) == 0:
+        raise ValueError(f"{name} is an empty {type(a).__name__}; expected an array with one row per sample, or a "
+                         "non-empty list of arrays (one per record) where several records are taken.")
     if sp.issparse(a):
         raise ValueError(f"{name} is a sparse matrix; sparse input is not supported, expected a dense array.")
     try:
         arr = np.asarray(a)
     except ValueError as exc:  # ragged nested lists
-        raise ValueError(f"{name} could not be converted to an array: {exc}") from exc
+        raise ValueError(f"{name} could not be converted to an array: {exc}{records_hint(a)}") from exc
+    if arr.dtype == object and records_hint(arr):
+        raise ValueError(f"{name} is a NumPy object array of {arr.shape[0]} arrays; expected one 2-D array."
+                         f"{records_hint(arr)}")
     if np.iscomplexobj(arr):
         raise ValueError(f"{name} is complex. Complex data not supported; expected real values.")
-    if name == "X" and arr.ndim == 1:
+    if (name == "X" or name.startswith("X[")) and arr.ndim == 1:
         raise ValueError(
-            f"X is 1-D (shape {arr.shape}); expected 2-D (n_samples, n_inputs). "
-            "Reshape your data with X.reshape(-1, 1) for a single input."
+            f"{name} is 1-D (shape {arr.shape}); expected 2-D (n_samples, n_inputs). "
+            f"Reshape your data with {name}.reshape(-1, 1) for a single input."
         )
 
 

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 
 from ._divergence import DivergenceWarning
-from ._validation import check_integer, check_option, check_signal, is_records
+from ._validation import check_integer, check_option, check_record_lists, check_signal, is_records
 
 __all__ = ["fit_index", "make_simulation_scorer", "nrmse", "r2", "rmse"]
 
@@ -166,7 +166,11 @@ class _SimulationScorer:
         self.name = name
         self.skip = skip
 
-    def __call__(self, estimator, X, y):
+    def __call__(self, estimator, X, y, sample_weight=None):
+        if sample_weight is not None:
+            raise ValueError("sample_weight is not supported by the simulation scorers; expected None.")
+        if is_records(y) or is_records(X):
+            check_record_lists(X, y)
         func, greater_is_better = _METRICS[self.name]
         with warnings.catch_warnings():  # a diverged simulation scores -inf, no warning
             warnings.simplefilter("ignore", DivergenceWarning)

@@ -338,6 +338,23 @@ def test_bad_records_are_refused(rng):
         extended_kalman_filter(duffing(), u[:19], y, Q=1e-4, R=1e-2)
 
 
+def test_several_records_are_refused_one_record_of_them_filters(rng):
+    # a model fitted on two records filters any one of them; lists were a "3 dimensions" or "X has 2 rows" error
+    u1, u2 = drive(80, rng), drive(80, rng)
+    y1 = simulate(DUFFING, [0.2, 0.0], u1, DT)[:, :1]
+    y2 = simulate(DUFFING, [-0.3, 0.1], u2, DT)[:, :1]
+    model = SINDy(library=PolynomialLibrary(degree=3), dt=DT).fit([u1, u2], [y1, y2])
+    args = dict(Q=1e-6, R=1e-4)
+    for call in (lambda: extended_kalman_filter(model, [u1, u2], [y1, y2], **args),
+                 lambda: predict_k_step(model, [u1, u2], [y1, y2], 3, **args),
+                 lambda: k_step_rmse(model, u1, [y1, y2], 3, **args)):
+        with pytest.raises(ValueError, match="the Kalman filter takes one record; got a list of 2 records"):
+            call()
+    with pytest.raises(ValueError, match="smooth_initial_state takes one record; got a list of 2"):
+        smooth_initial_state(model, [u1, u2], [y1[:10], y2[:10]], **args)
+    assert predict_k_step(model, u2, y2, 3, **args).shape == (77, 1)
+
+
 def test_a_diverging_filter_raises(rng):
     # x0' = x0^2 blows up from 1 within a second; the filter is told nothing measured helps
     rhs = TermsRHS.from_equations([{((0, POW, 2.0, 0.0),): 1.0}])

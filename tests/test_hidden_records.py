@@ -121,6 +121,14 @@ def test_bad_record_lists(records):
     searched = _model(search_params={"optimizer__threshold": (1e-3, 0.3, True)}, n_trials=2, validation_size=10)
     with pytest.raises(ValueError, match="record 1: validation_size=10 gives 10 validation samples out of 8"):
         searched.fit([u1, u2[:8]], [y1, y2[:8]])
+    # a record too short for the differentiation window fails every trial of a search: the message says why
+    # (before: only "diverged or failed on the validation block; expected bounds ... a stable model")
+    searched = _model(search_params={"optimizer__threshold": (1e-3, 0.3, True)}, n_trials=2, validation_size=0.25)
+    with pytest.raises(ValueError, match=r"all 2 candidates .* The first failure: ValueError: record 1: y has 8 "
+                                         r"samples; SavitzkyGolay needs at least 15"):
+        searched.fit([u1, u2[:8]], [y1, y2[:8]])
+    with pytest.raises(ValueError, match=r"HiddenStateSINDy.simulate takes one record; got a list of 2"):
+        _model().fit([u1, u2], [y1, y2]).simulate([u1, u2], y_init=[y1[:20], y2[:20]])
 
 
 def test_feature_filters_apply_to_each_record_alone():

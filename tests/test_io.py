@@ -455,3 +455,28 @@ def test_one_dimensional_output_round_trip(tmp_path, rng):
     np.testing.assert_array_equal(loaded.x0_, model.x0_)
     assert loaded.predict(u, y_init=y[:, 0]).shape == (400,)
     np.testing.assert_array_equal(loaded.predict(u, y_init=y[:, 0]), model.predict(u, y_init=y[:, 0]))
+
+
+@pytest.mark.parametrize("make", [
+    lambda: SINDy(library=PolynomialLibrary(degree=2), dt=0.01, refine=OutputErrorRefinement(max_nfev=5)),
+    lambda: HiddenStateSINDy(hidden=DerivativeHiddenState(order=1), library=PolynomialLibrary(degree=2), dt=0.01,
+                             differentiation=SavitzkyGolay(15, polyorder=3), refine=OutputErrorRefinement(max_nfev=5),
+                             show_progress_bar=False),
+], ids=["SINDy", "HiddenStateSINDy"])
+def test_model_fitted_on_records_round_trips(tmp_path, make):
+    # the records' refined starts, the stacked states and the per-record predictions survive the file
+    t = np.arange(300) * 0.01
+    us = [(m + 0.2 * np.sin(2 * t) + 0.1 * np.sin(5.3 * t))[:, None] for m in (0.0, 0.375)]
+    ys = [simulate(lambda x, u: np.array([-x[0] + 0.5 * x[0] ** 2 + u[0]]), [y0], u, dt=0.01, input_hold="linear")
+          for y0, u in zip((0.0, 1.5), us)]
+    model = make().fit(us, ys)
+    model.to_json(tmp_path / "m.json")
+    loaded = load_model(tmp_path / "m.json")
+    assert loaded.refinement_ == model.refinement_ and len(loaded.refinement_["initial_states"]) == 2
+    np.testing.assert_array_equal(loaded.x0_, model.x0_)
+    np.testing.assert_array_equal(getattr(loaded, "states_", 0), getattr(model, "states_", 0))
+    starts = loaded.refinement_["initial_states"]
+    for a, b in zip(loaded.predict(us, x0=starts), model.predict(us, x0=starts)):
+        np.testing.assert_array_equal(a, b)
+    assert loaded.standard_errors() == model.standard_errors()
+    assert "y0(0) [record 1]" in loaded.standard_errors()

@@ -173,3 +173,21 @@ def test_scorer_in_a_search_with_sindy(rng):
     scores = cross_val_score(model.set_params(optimizer__threshold=0.05), u, y, cv=cv,
                              scoring=make_simulation_scorer("fit_index"))
     assert scores[0] > 95.0
+
+
+def test_simulation_scorer_checks_records_and_refuses_sample_weight():
+    t = np.arange(0, 2, 0.01)
+    u1, u2 = np.sin(t)[:, None], np.cos(t)[:, None]
+    y1, y2 = 0.1 * np.cumsum(u1, axis=0), 0.1 * np.cumsum(u2, axis=0)
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=0.01).fit([u1, u2], [y1, y2])
+    scorer = make_simulation_scorer("rmse")
+    pred = model.predict([u1, u2], y_init=[y1, y2])
+    assert scorer(model, [u1, u2], [y1, y2]) == pytest.approx(-rmse(np.vstack([y1, y2]), np.vstack(pred)), rel=1e-12)
+    with pytest.raises(ValueError, match="X is a list of 2 records, so y must be a list of 2 output arrays"):
+        scorer(model, [u1, u2], y1)
+    with pytest.raises(ValueError, match="X must be None or a list of 2 input arrays; got a list of 1"):
+        scorer(model, [u1], [y1, y2])
+    with pytest.raises(ValueError, match=r"record 1: X\[1\] has 100 samples and y\[1\] has 200"):  # was a reshape error
+        scorer(model, [u1, u2[:100]], [y1, y2])
+    with pytest.raises(ValueError, match="sample_weight is not supported by the simulation scorers"):  # a TypeError
+        scorer(model, u1, y1, sample_weight=np.ones(200))

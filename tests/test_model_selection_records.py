@@ -77,3 +77,29 @@ def test_tune_refuses_bad_record_lists(records):
         tune(_model(), space, us[:2], ys, n_trials=1, show_progress_bar=False)
     with pytest.raises(ValueError, match=r"record 1: X\[1\] has 249 samples and y\[1\] has 250"):
         tune(_model(), space, [us[0], us[1][:-1], us[2]], ys, n_trials=1, show_progress_bar=False)
+    bad = ys[2].copy()
+    bad[7] = np.nan
+    with pytest.raises(ValueError, match=r"y\[2\] contains NaN or inf \(first at sample 7\)"):  # before: every trial
+        tune(_model(), space, us, [ys[0], ys[1], bad], n_trials=1, show_progress_bar=False)
+    with pytest.raises(ValueError, match="record 2 has 1 outputs and 2 inputs; expected 1 and 1 as in record 0"):
+        tune(_model(), space, [us[0], us[1], np.hstack([us[2], us[2]])], ys, n_trials=1, show_progress_bar=False)
+    with pytest.raises(ValueError, match=r"X could not be converted to an array: .*a list, not a tuple"):
+        tune(_model(), space, tuple(us), tuple(ys), n_trials=1, show_progress_bar=False)
+
+
+@pytest.mark.parametrize("cv, match", [
+    ([(np.arange(200), np.arange(200, 250))], r"cv split 0: the training indices \[0, 1, 2, 3, 4, 5, ...\] are not "
+                                              r"record indices; .* records 0..2"),
+    ([(np.array([0, 1]), np.array([-1]))], r"the validation indices \[-1\] are not record indices"),
+    ([(np.array([0.0, 1.0]), np.array([2]))], r"the training indices \[0., 1.\] are not record indices"),
+    ([(np.array([], dtype=int), np.array([2]))], r"the training indices \[\] are not record indices"),
+    ([(np.array([0]), np.array([1]), np.array([2]))], "cv split 0 is not a .train, validation. pair"),
+    (5, "cv=5 asks for 5 folds of 3 records; expected at most 3"),
+])
+def test_tune_refuses_splits_that_do_not_pick_records(records, cv, match):
+    # sample indices with lists: before, every trial failed with an IndexError (or, for -1, silently took
+    # the last record); an int above the number of records: scikit-learn's message spoke of samples
+    us, ys = records
+    space = {"optimizer__threshold": LogUniform(1e-3, 1.0)}
+    with pytest.raises(ValueError, match=match):
+        tune(_model(), space, us, ys, cv=cv, n_trials=1, show_progress_bar=False)

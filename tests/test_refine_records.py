@@ -101,6 +101,13 @@ def test_bad_record_lists(records):
     with pytest.raises(Exception, match="diverges on record 1"):
         refine_simulation_error(TERMS, [[1.0], [1.0], [1.0]], [u1, u2], [y1, y2], DT, x0=[[0.0], [1.0]],
                                 max_abs=1e3)
+    # found by the probe of the several-records API: a numpy message, an unnamed record, a silent extra input
+    with pytest.raises(ValueError, match=r"x0 has shape \(2,\); expected \(2, 1\)"):
+        refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, x0=[[0.0], [1.0, 2.0]])
+    with pytest.raises(ValueError, match=r"x0\[1\] \(the start of record 1\) = \[nan\] contains NaN"):
+        refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, x0=[[0.0], [np.nan]])
+    with pytest.raises(ValueError, match=r"u\[1\] has 2 columns; expected 1 as in u\[0\]"):
+        refine_simulation_error(TERMS, START, [u1, np.hstack([u2, u2])], [y1, y2], DT, x0=[[0.0], [1.0]])
 
 
 def test_sindy_refines_on_several_records(records):

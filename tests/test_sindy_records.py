@@ -112,3 +112,91 @@ def test_bad_records(records):
         _model().fit([u1, u2], [y1, np.hstack([y2, y2])])
     with pytest.raises(ValueError, match="multiple shooting .* takes one record"):
         SINDy(dt=DT, refine=OutputErrorRefinement(n_segments=2)).fit([u1, u2], [y1, y2])
+
+
+@pytest.mark.parametrize("make_X, make_y, match", [
+    (lambda u1, u2: [], lambda y1, y2: [], "X is an empty list"),
+    (lambda u1, u2: None, lambda y1, y2: [], "y is an empty list"),
+    (lambda u1, u2: (u1, u2), lambda y1, y2: (y1, y2), r"3 dimensions .*a list, not a tuple"),
+    (lambda u1, u2: [u1, u2], lambda y1, y2: [y1.tolist(), y2], r"3 dimensions .*not a nested list"),
+    (lambda u1, u2: np.stack([u1, u2]), lambda y1, y2: np.stack([y1, y2]), r"3 dimensions .*list\(a\) of a 3-D"),
+    (lambda u1, u2: np.array([u1, u2[:200]], dtype=object), lambda y1, y2: np.array([y1, y2[:200]], dtype=object),
+     "X is a NumPy object array of 2 arrays"),
+])
+def test_records_in_another_container_are_refused_with_the_list_form(records, make_X, make_y, match):
+    # a tuple, 3-D array, object array or nested lists is one data set to scikit-learn: refused, the
+    # message says that several records go in a Python list of arrays (before: "X is 1-D ... Reshape")
+    (u1, y1), (u2, y2) = records
+    with pytest.raises(ValueError, match=match):
+        _model().fit(make_X(u1, u2), make_y(y1, y2))
+
+
+def test_predict_and_score_name_the_record_at_fault(records):
+    (u1, y1), (u2, y2) = records
+    model = _model().fit([u1, u2], [y1, y2])
+    y_bad = y2[:5].copy()
+    y_bad[2] = np.nan
+    with pytest.raises(ValueError, match=r"record 1: y_init contains NaN"):
+        model.predict([u1, u2], y_init=[y1[:5], y_bad])
+    with pytest.raises(ValueError, match=r"record 1: X has 2 features"):
+        model.predict([u1, np.hstack([u2, u2])], y_init=[y1[:5], y2[:5]])
+    with pytest.raises(ValueError, match=r"record 0: x0 has 3 entries"):
+        model.predict([u1, u2], x0=[[1.0, 2.0, 3.0], [1.0]])
+    with pytest.raises(ValueError, match="y_init must be a list of 2 entries .* got a list of 1"):
+        model.predict([u1, u2], y_init=[y1[:5]])
+    with pytest.raises(ValueError, match=r"record 1: y_init\[1\] is None"):  # was: started from x0_, a warning
+        model.predict([u1, u2], y_init=[y1[:5], None])
+    with pytest.raises(ValueError, match="X is a list of 2 records, so y must be a list"):
+        model.score([u1, u2], np.vstack([y1, y2]))
+    with pytest.raises(ValueError, match=r"record 1: X has 2 features"):
+        model.score([u1, np.hstack([u2, u2])], [y1, y2])
+
+
+def test_predict_takes_the_initial_states_as_an_array(records):
+    (u1, y1), (u2, y2) = records
+    model = _model().fit([u1, u2], [y1, y2])
+    starts = np.array([y1[0], y2[0]])  # (n_records, n_states), as refine_simulation_error takes them
+    from_array = model.predict([u1, u2], x0=starts)
+    from_list = model.predict([u1, u2], x0=[y1[0], y2[0]])
+    for a, b in zip(from_array, from_list):
+        np.testing.assert_array_equal(a, b)
+    with pytest.raises(ValueError, match=r"x0 must be a list of 2 .* got ndarray of shape \(3, 1\)"):
+        model.predict([u1, u2], x0=np.zeros((3, 1)))
+
+
+def test_one_record_methods_refuse_lists(records):
+    (u1, y1), (u2, y2) = records
+    model = _model().fit([u1, u2], [y1, y2])
+    with pytest.raises(ValueError, match=r"SINDy.simulate takes one record; got a list of 2"):
+        model.simulate([u1, u2], y_init=[y1[:1], y2[:1]])
+    with pytest.raises(ValueError, match=r"estimate_initial_state takes one record"):
+        model.estimate_initial_state([u1, u2], [y1[:1], y2[:1]])
+    np.testing.assert_array_equal(model.simulate(u2, y_init=y2[:1]), model.predict([u1, u2], x0=[y1[0], y2[0]])[1])
+
+
+def test_inputs_of_each_record_are_2d_as_for_one_array(records):
+    # fit accepted 1-D X[i] (one input column) where predict and the single-array fit refuse 1-D X
+    (u1, y1), (u2, y2) = records
+    with pytest.raises(ValueError, match=r"X\[0\] is 1-D \(shape \(300,\)\); expected 2-D .*X\[0\].reshape"):
+        _model().fit([u1[:, 0], u2[:, 0]], [y1, y2])
+
+
+def test_autonomous_predict_from_a_list_of_initial_states():
+    t = np.arange(0, 2, DT)
+    y1, y2 = np.exp(-2 * t)[:, None], 3 * np.exp(-2 * t)[:, None]
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=DT).fit(None, [y1, y2])
+    # a list of initial states is several records (before: "simulate takes one record" or "x0 has 2 entries")
+    with pytest.raises(ValueError, match=r"record 0: X is None; expected inputs of shape"):
+        model.predict(None, x0=[y1[0], y2[0]])
+    pred = model.predict(None, y_init=[y1, y2])
+    np.testing.assert_allclose(pred[1], y2, rtol=1e-3)
+
+
+def test_one_record_methods_still_take_lists_that_are_one_record():
+    # a list of 1-D arrays may be one record (its rows, or a state split in parts): not refused as records
+    t = np.arange(0, 2, DT)
+    y = np.column_stack([np.exp(-t), np.exp(-2 * t)])
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=DT).fit(None, y)
+    np.testing.assert_array_equal(model.simulate(None, t=t[:5], x0=[y[0, :1], y[0, 1:]]),
+                                  model.simulate(None, t=t[:5], x0=y[0]))
+    np.testing.assert_array_equal(model.simulate(None, y_init=[y[0]], t=t[:5]), model.simulate(None, x0=y[0], t=t[:5]))

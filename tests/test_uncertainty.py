@@ -252,6 +252,15 @@ def test_ensemble_bad_params(params, match):
         BootstrapEnsemble(sindy(refine=False), **params).fit(u, x)
 
 
+def test_ensemble_refuses_several_records():
+    # before: the estimator was fitted on the lists, then a numpy "inhomogeneous shape" or "3 dimensions" error
+    t = np.arange(0, 2, 0.01)
+    y1, y2 = np.exp(-t)[:, None], 2 * np.exp(-t[:150])[:, None]
+    ens = BootstrapEnsemble(SINDy(library=PolynomialLibrary(degree=1), dt=0.01), n_members=2)
+    with pytest.raises(ValueError, match="resamples the residuals of one record; got a list of 2 records"):
+        ens.fit(None, [y1, y2])
+
+
 def test_prediction_band_bad_input():
     u, x = first_order_record()
     with warnings.catch_warnings():

@@ -3,10 +3,10 @@
 import numpy as np
 from numba import njit
 
-from .._validation import check_integer
+from .._validation import check_integer, check_signal
 from ..dynamics import SimulationError, step_into, step_workspace
 from ..metrics import rmse
-from ._kalman import extended_kalman_filter, rts_smoother
+from ._kalman import check_one_record, extended_kalman_filter, rts_smoother
 from ._model_step import model_step
 
 __all__ = ["k_step_rmse", "predict_k_step", "smooth_initial_state"]
@@ -143,13 +143,15 @@ def smooth_initial_state(model, X, y_init, *, Q, R, x0=None, P0=None):
     >>> np.round(smooth_initial_state(m, None, y[:20], Q=0.0, R=1e-8, P0=10.0), 4).tolist()
     [0.3, -1.0]
     """
-    y_init = np.asarray(y_init, dtype=float)
-    y_init = y_init.reshape(-1, 1) if y_init.ndim == 1 else y_init
+    check_one_record(X, y_init, "smooth_initial_state")
+    y_init = check_signal(y_init, "y_init")
     n_init = y_init.shape[0]
     if X is not None:
         X = np.asarray(X, dtype=float)
         X = X.reshape(-1, 1) if X.ndim == 1 else X
-        if X.ndim != 2 or X.shape[0] < n_init:
+        if X.ndim != 2:
+            raise ValueError(f"X has {X.ndim} dimensions (shape {X.shape}); expected (n_samples, n_inputs).")
+        if X.shape[0] < n_init:
             raise ValueError(f"X has {X.shape[0]} rows; expected at least n_init = {n_init} (one per sample of "
                              "y_init).")
         X = X[:n_init]

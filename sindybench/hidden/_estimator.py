@@ -352,9 +352,10 @@ class HiddenStateSINDy(DynamicsEstimator):
                     n_local=self.local_trials, show_progress_bar=self.show_progress_bar,
                 )
             if min(s for _, s in search_results) >= SEARCH_PENALTY:
+                first = "" if objective.first_error is None else f" The first failure: {objective.first_error}"
                 raise ValueError(
                     f"all {self.n_trials} candidates of the inner search diverged or failed on the validation "
-                    "block; expected bounds of the searched parameters that contain a stable model."
+                    f"block; expected bounds of the searched parameters that contain a stable model.{first}"
                 )
             n_rows = n if self.refit else n_fit
         cand = self._candidate(hidden, best_params, X, y1, dt, n_rows, derivative)

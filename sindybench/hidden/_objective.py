@@ -62,6 +62,7 @@ class SearchObjective:
 
     def __init__(self, fit, hidden, X, y, n_fit, validation):
         self.fit, self.hidden, self.X, self.y, self.n_fit, self.validation = fit, hidden, X, y, n_fit, validation
+        self.first_error = None  # "Type: message" of the first failed trial, for the message when all fail
 
     def __call__(self, values):
         try:
@@ -69,4 +70,6 @@ class SearchObjective:
             return validation_error(self.hidden, cand, self.X, self.y, self.n_fit, self.validation)
         except (SimulationError, ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
             logger.debug("bad trial %s: %s", values, exc)
+            if self.first_error is None:
+                self.first_error = f"{type(exc).__name__}: {exc}"
             return SEARCH_PENALTY

@@ -12,7 +12,7 @@ from sklearn.model_selection import KFold, TimeSeriesSplit
 
 from .._json import jsonable
 from .._progress import show_progress
-from .._validation import check_bool, check_integer, is_records
+from .._validation import check_bool, check_integer, check_record_lists, check_records, is_records, records_hint
 from ..metrics import make_simulation_scorer
 from ..search import check_search_space, create_study, sample_params
 from ._split import HoldoutSplit, LeaveOneRecordOut
@@ -71,12 +71,38 @@ def _splits(cv, X, y):
     if cv is None:
         cv = LeaveOneRecordOut() if records else HoldoutSplit()
     elif isinstance(cv, numbers.Integral) and not isinstance(cv, bool):
+        if records and cv > len(y):
+            raise ValueError(f"cv={cv} asks for {cv} folds of {len(y)} records; expected at most {len(y)} (each fold "
+                             "validates on whole records).")
         cv = KFold(n_splits=int(cv)) if records else TimeSeriesSplit(n_splits=int(cv))
     ref = y if X is None else X
     splits = list(cv.split(ref, y)) if hasattr(cv, "split") else list(cv)
     if not splits:
         raise ValueError(f"cv={cv!r} gave no split; expected at least one (train, validation) pair.")
+    if records:
+        for k, split in enumerate(splits):
+            _check_record_split(k, split, len(y))
     return splits
+
+
+def _check_record_split(k, split, n_records):
+    """A split of several records: two non-empty arrays of record indices in ``[0, n_records)``."""
+    try:
+        train, test = split
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"cv split {k} is not a (train, validation) pair; got {split!r}.") from exc
+    for name, idx in (("training", train), ("validation", test)):
+        idx = np.asarray(idx)
+        ok = idx.ndim == 1 and idx.size > 0 and np.issubdtype(idx.dtype, np.integer)
+        if not ok or idx.min() < 0 or idx.max() >= n_records:
+            raise ValueError(f"cv split {k}: the {name} indices {_preview(idx)} are not record indices; with several "
+                             f"records (lists) a split picks records 0..{n_records - 1} (at least one on each side, "
+                             "e.g. LeaveOneRecordOut), not samples.")
+
+
+def _preview(idx):
+    text = np.array2string(np.asarray(idx).ravel()[:6], separator=", ")
+    return text[:-1] + ", ...]" if np.size(idx) > 6 else text
 
 
 def _take(a, idx):
@@ -126,18 +152,25 @@ def _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials, ru
     return objective
 
 
+def _as_array(a, name):
+    """``a`` as an array of at most 2 dimensions (None stays None); several records in another form are refused."""
+    if a is None:
+        return None
+    try:
+        arr = np.asarray(a)
+    except ValueError as exc:  # ragged
+        raise ValueError(f"{name} could not be converted to an array: {exc}{records_hint(a)}") from exc
+    if arr.ndim > 2:
+        raise ValueError(f"{name} has {arr.ndim} dimensions (shape {arr.shape}); expected shape (n_samples,) or "
+                         f"(n_samples, n_columns).{records_hint(a)}")
+    return arr
+
+
 def _check_record_lists(X, y):
-    """Several records: ``X`` None or a list of as many entries as ``y``, each with the samples of its record."""
-    if X is None:
-        return
-    if not isinstance(X, list) or len(X) != len(y):
-        got = f"a list of {len(X)}" if isinstance(X, list) else type(X).__name__
-        raise ValueError(f"y is a list of {len(y)} records, so X must be None or a list of {len(y)} input arrays; "
-                         f"got {got}.")
-    for i, (X_i, y_i) in enumerate(zip(X, y)):
-        if X_i is not None and len(X_i) != len(y_i):
-            raise ValueError(f"record {i}: X[{i}] has {len(X_i)} samples and y[{i}] has {len(y_i)}; expected the "
-                             "same number of samples.")
+    """Several records: the lists and each record checked before the study (lengths, shapes, finite values, the
+    columns of record 0), so that bad data fails here, naming the record, rather than in every trial."""
+    check_record_lists(X, y)
+    check_records(X, y, y_kind="outputs")
 
 
 def _open_study(storage, study_name, estimator, search_space, direction, scoring, random_state):
@@ -352,8 +385,7 @@ def tune(
     if is_records(y):
         _check_record_lists(X, y)
     else:
-        X = None if X is None else np.asarray(X)
-        y = np.asarray(y)
+        X, y = _as_array(X, "X"), _as_array(y, "y")
         if X is not None and X.shape[0] != y.shape[0]:
             raise ValueError(f"X has {X.shape[0]} samples and y has {y.shape[0]}; expected the same number of "
                              "samples.")

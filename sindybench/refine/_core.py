@@ -274,13 +274,21 @@ def _check_records(u, y, x0, n_states):
     if not isinstance(u, list) or len(u) != n:
         raise ValueError(f"y is a list of {n} records, so u must be a list of {n} input arrays (one per record); "
                          f"got {type(u).__name__}{f' of {len(u)}' if isinstance(u, list) else ''}.")
-    x0s = np.asarray(x0, dtype=float)
+    try:
+        x0s = np.asarray(x0, dtype=float)
+    except (TypeError, ValueError):  # ragged rows
+        x0s = np.asarray(x0, dtype=object)
     if x0s.shape != (n, n_states):
         raise ValueError(f"x0 has shape {x0s.shape}; expected ({n}, {n_states}): one initial state per record "
                          "(a list of arrays or a 2-D array).")
+    for r in np.flatnonzero(~np.all(np.isfinite(x0s), axis=1))[:1]:
+        raise ValueError(f"x0[{r}] (the start of record {r}) = {x0s[r].tolist()} contains NaN or inf; expected finite.")
     us, ys = [], []
     for r, (u_r, y_r) in enumerate(zip(u, y)):
         us.append(np.ascontiguousarray(check_signal(u_r, f"u[{r}]")))
+        if us[-1].shape[1] != us[0].shape[1]:
+            raise ValueError(f"u[{r}] has {us[-1].shape[1]} columns; expected {us[0].shape[1]} as in u[0] (the same "
+                             "inputs in every record).")
         ys.append(check_signal(y_r, f"y[{r}]", n_samples=us[-1].shape[0]))
     return us, ys, [x0s[r].copy() for r in range(n)]
 

@@ -28,6 +28,7 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
+from .._validation import is_records
 from ..io import SaveLoadMixin, register_model
 from ..refine._covariance import insignificant_lag
 from ..simulate import SimulationError
@@ -176,6 +177,10 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
         """
         if not hasattr(self.estimator, "fit"):
             raise ValueError(f"estimator must be a SINDy or HiddenStateSINDy; got {type(self.estimator).__name__}.")
+        n = next((len(a) for a in (X, y) if is_records(a)), None)
+        if n is not None:
+            raise ValueError(f"BootstrapEnsemble resamples the residuals of one record; got a list of {n} records. "
+                             "Expected one array each (fit it on one record).")
         base = clone(self.estimator).fit(X, y)  # its own checks of X and y first
         y_1d = np.asarray(y).ndim == 1
         y2 = np.asarray(y, dtype=float).reshape(len(y), -1)

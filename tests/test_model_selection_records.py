@@ -103,3 +103,18 @@ def test_tune_refuses_splits_that_do_not_pick_records(records, cv, match):
     space = {"optimizer__threshold": LogUniform(1e-3, 1.0)}
     with pytest.raises(ValueError, match=match):
         tune(_model(), space, us, ys, cv=cv, n_trials=1, show_progress_bar=False)
+
+
+def test_scikit_learn_searches_take_records_with_leave_one_record_out(records):
+    """GridSearchCV and cross_val_score index the lists by record: each fold is a record-wise fit."""
+    from sklearn.model_selection import GridSearchCV, cross_val_score
+
+    us, ys = records
+    scores = cross_val_score(_model(), us, ys, cv=LeaveOneRecordOut())
+    for k, score in enumerate(scores):
+        rest = [i for i in range(len(us)) if i != k]
+        fold = _model().fit([us[i] for i in rest], [ys[i] for i in rest])
+        assert score == pytest.approx(fold.score([us[k]], [ys[k]]), rel=1e-12)
+    search = GridSearchCV(_model(), {"library__degree": [1, 2]}, cv=LeaveOneRecordOut()).fit(us, ys)
+    assert search.best_params_ == {"library__degree": 2}  # the truth is quadratic
+    assert search.cv_results_["mean_test_score"][1] > search.cv_results_["mean_test_score"][0]

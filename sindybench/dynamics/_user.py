@@ -184,7 +184,7 @@ def user_table():
     for i, (value, slope) in enumerate(_COMPILED):
         names[f"F{i}"], names[f"D{i}"] = value, slope
         lines.append(f"    if code == {USER + i}:")
-        lines.append(f"        if which == 0:")
+        lines.append("        if which == 0:")
         lines.append(f"            return 1.0 * F{i}(v)")
         lines.append(f"        return 1.0 * D{i}(v)")
     lines.append("    return np.nan")

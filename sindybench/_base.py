@@ -20,13 +20,13 @@ from sklearn.utils.validation import check_is_fitted
 from ._divergence import DivergenceWarning, warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
-from ._validation import check_inputs_outputs, check_model_inputs, check_signal, count_records, is_records
+from ._validation import check_inputs_outputs, check_model_inputs, check_one_record, check_signal, is_records
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer, r2
 from .refine._report import UncertaintyMixin
 from .simulate import SimulationError
 
-__all__ = ["DynamicsEstimator", "is_records"]
+__all__ = ["DynamicsEstimator"]
 
 
 def _per_record(value, n_records, name):
@@ -119,10 +119,8 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
     def _check_one_record(self, method, *args):
         """Refuse lists of records in a method that takes one record."""
-        n = next((count_records(a) for a in args if count_records(a)), None)
-        if n is not None:
-            raise ValueError(f"{type(self).__name__}.{method} takes one record; got a list of {n} records. Expected "
-                             "one array each (call it once per record), or predict, which takes lists.")
+        check_one_record(f"{type(self).__name__}.{method}", *args,
+                         advice="call it once per record, or predict, which takes lists")
 
     def _initial_state(self, X, y_init):
         raise NotImplementedError
@@ -332,6 +330,13 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         return []
 
     # -------------------------------------------------------------- refinement
+    def _check_refine_records(self, n_records):
+        """Refuse multiple shooting with several records at the start of ``fit`` (not after a search)."""
+        n_segments = getattr(self.refine, "n_segments", 1)
+        if self.refine is not None and n_records > 1 and n_segments > 1:
+            raise ValueError(f"refine has n_segments={n_segments} (multiple shooting), which takes one record; got "
+                             f"{n_records} records. Expected n_segments=1 with several records.")
+
     def _run_refinement(self, dynamics, u, y, *, x0, coef=None, free=None, physical=None, make_rhs=None):
         """Refine ``dynamics`` on ``(u, y)`` with ``self.refine``; ``(result, None)`` or ``(None, record)``.
 

@@ -7,7 +7,7 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
-from ._base import DynamicsEstimator, is_records
+from ._base import DynamicsEstimator
 from ._equations import EquationRow
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
 from .optimizers import STLS
@@ -20,9 +20,12 @@ from ._validation import (
     check_integer,
     check_option,
     check_positive,
+    check_record_lists,
     check_records,
     check_signal,
     check_time,
+    count_records,
+    is_records,
     uniform_step,
 )
 from .differentiation import FiniteDifference, as_differentiation
@@ -235,6 +238,8 @@ class SINDy(DynamicsEstimator):
             raise ValueError(
                 "SINDy requires y to be passed, but the target y is None; expected the measured states."
             )
+        if count_records(X) and not is_records(y):
+            check_record_lists(X, y)  # says that y must be a list of records too
         if is_records(y):
             return self._fit_records(X, y, dt=dt, t=t, x_dot=x_dot)
         check_array_like(X, "X")
@@ -263,6 +268,7 @@ class SINDy(DynamicsEstimator):
         """``fit`` on several records: per-record derivatives, one regression on the stacked rows."""
         n_records = len(y)
         Xs, ys = check_records(X, y, y_kind="states")
+        self._check_refine_records(n_records)
         if x_dot is not None and (not isinstance(x_dot, list) or len(x_dot) != n_records):
             raise ValueError(f"with {n_records} records, x_dot must be a list of {n_records} arrays or None.")
         if t is not None:

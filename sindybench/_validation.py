@@ -19,6 +19,7 @@ __all__ = [
     "check_integer",
     "check_model_inputs",
     "check_n_samples",
+    "check_one_record",
     "check_option",
     "check_positive",
     "check_record_lists",
@@ -58,6 +59,21 @@ def count_records(a):
     True
     """
     return len(a) if is_records(a) and any(r.ndim >= 2 for r in a) else None
+
+
+def check_one_record(what, *arrays, advice="call it once per record"):
+    """Refuse several records (a list holding a 2-D array) in ``what``, a method that takes one record.
+
+    Examples
+    --------
+    >>> check_one_record("simulate", [np.zeros((5, 1)), np.zeros((3, 1))])
+    Traceback (most recent call last):
+    ...
+    ValueError: simulate takes one record; got a list of 2 records. Expected one array each (call it once per record).
+    """
+    n = next((count_records(a) for a in arrays if count_records(a)), None)
+    if n is not None:
+        raise ValueError(f"{what} takes one record; got a list of {n} records. Expected one array each ({advice}).")
 
 
 def records_hint(a):
@@ -113,13 +129,13 @@ def check_record_lists(X, y):
     if not is_records(y):
         n = len(X)
         raise ValueError(f"X is a list of {n} records, so y must be a list of {n} output arrays (one per record); "
-                         f"got {type(y).__name__}.")
+                         f"got {type(y).__name__}.{records_hint(y)}")
     n = len(y)
     if X is not None and (not isinstance(X, list) or len(X) != n):
         got = f"a list of {len(X)}" if isinstance(X, list) else type(X).__name__
         raise ValueError(f"y is a list of {n} records, so X must be None or a list of {n} input arrays; got {got}.")
     for i, (X_i, y_i) in enumerate(zip(X or [None] * n, y)):
-        if _ndim(X_i) and len(X_i) != len(y_i):  # None and scalars: check_records says what is wrong
+        if _ndim(X_i) and _ndim(y_i) and len(X_i) != len(y_i):  # None and scalars: check_records says what is wrong
             raise ValueError(f"record {i}: X[{i}] has {len(X_i)} samples and y[{i}] has {len(y_i)}; expected the "
                              "same number of samples.")
 
@@ -140,7 +156,7 @@ def check_records(X, y, *, y_kind="states"):
     if X is None:
         X = [None] * n_records
     if not isinstance(X, list) or len(X) != n_records:
-        n_x = len(X) if isinstance(X, list) else type(X).__name__
+        n_x = f"a list of {len(X)}" if isinstance(X, list) else type(X).__name__
         raise ValueError(f"y is a list of {n_records} records, so X must be None or a list of {n_records} "
                          f"input arrays (or None), one per record; got {n_x}.")
     Xs, ys = [], []

@@ -127,6 +127,11 @@ def test_bad_record_lists(records):
     with pytest.raises(ValueError, match=r"all 2 candidates .* The first failure: ValueError: record 1: y has 8 "
                                          r"samples; SavitzkyGolay needs at least 15"):
         searched.fit([u1, u2[:8]], [y1, y2[:8]])
+    # multiple shooting takes one record: refused before the search, not after it
+    searched = _model(search_params={"optimizer__threshold": (1e-3, 0.3, True)}, n_trials=50,
+                      refine=OutputErrorRefinement(n_segments=2))
+    with pytest.raises(ValueError, match=r"n_segments=2 \(multiple shooting\), which takes one record; got 2"):
+        searched.fit([u1, u2], [y1, y2])
     with pytest.raises(ValueError, match=r"HiddenStateSINDy.simulate takes one record; got a list of 2"):
         _model().fit([u1, u2], [y1, y2]).simulate([u1, u2], y_init=[y1[:20], y2[:20]])
 

@@ -8,6 +8,7 @@ from sindybench.datasets import load_cascaded_tanks
 from sindybench.hidden import ModelView, TanksHiddenState
 from sindybench.libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary
 from sindybench.metrics import rmse
+from sindybench.search import Normal, Uniform
 from sindybench.simulate import TermsRHS
 from sindybench.systems import CascadedTanks
 
@@ -116,6 +117,8 @@ def test_search_and_predict_refine_through_the_one_estimator(smooth_tanks, monke
         ({"k_bounds": (0.0, 0.1)}, "log-scaled"),
         ({"ratio_bounds": (0.0, 3.0)}, r"ratio_bounds = \(0.0, 3.0\) is log-scaled; expected low > 0"),
         ({"ratio_bounds": (3.0, 0.3)}, "expected low < high"),
+        ({"k_bounds": Uniform(-1.0, 1.0)}, r"k_bounds = Uniform\(low=-1.0, high=1.0\) reaches -1.0; expected positive"),
+        ({"ratio_bounds": Normal(0.1, 0.1)}, "ratio_bounds = Normal.* expected positive values only"),
         ({"x0": 12.0}, "x0 must be a number within bounds"),
         ({"init": "guess"}, "init must be one of"),
     ],

@@ -30,7 +30,7 @@ from sindybench.model_selection import (
     check_storage,
     tune,
 )
-from sindybench.model_selection._space import check_search_space
+from sindybench.search import check_search_space
 from sindybench.model_selection._storage import make_storage, tag_trial, worker_id
 from sindybench.simulate import simulate
 

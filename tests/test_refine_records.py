@@ -125,3 +125,22 @@ def test_sindy_refines_on_several_records(records):
     assert model.refinement_["cost"] < model.refinement_["initial_cost"]
     errors = model.standard_errors()
     assert {"y0(0) [record 0]", "y0(0) [record 1]"} <= set(errors) and all(v > 0 for v in errors.values())
+
+
+def test_x0_bounds_hold_for_every_record(records):
+    (u1, y1), (u2, y2) = records
+    res = refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, x0=[[0.5], [0.5]], max_nfev=30,
+                                  x0_bounds=(np.array([0.0]), np.array([1.0])), warn_budget=False)
+    assert np.all((res.initial_states >= 0.0) & (res.initial_states <= 1.0))
+    assert res.initial_states[1, 0] == pytest.approx(1.0)  # record 1 starts at 1.2: held at the bound
+
+
+def test_output_scale_scales_every_record_and_the_reported_cost(records):
+    (u1, y1), (u2, y2) = records
+    kwargs = dict(x0=[[0.0], [1.0]], max_nfev=1, warn_budget=False)
+    plain = refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, **kwargs)
+    scaled = refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, output_scale=100.0, **kwargs)
+    assert not np.allclose(scaled.initial_cost, plain.initial_cost)
+    one = refine_simulation_error(TERMS, START, u1, y1, DT, x0=[0.0], output_scale=100.0, max_nfev=1,
+                                  warn_budget=False)
+    assert one.cost == pytest.approx(0.5 * np.sum(one.residuals ** 2), rel=1e-9)

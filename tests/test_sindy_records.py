@@ -110,7 +110,7 @@ def test_bad_records(records):
         _model().fit([u1, u2[:-1]], [y1, y2])
     with pytest.raises(ValueError, match="record 1 has 2 states"):
         _model().fit([u1, u2], [y1, np.hstack([y2, y2])])
-    with pytest.raises(ValueError, match="multiple shooting .* takes one record"):
+    with pytest.raises(ValueError, match=r"n_segments=2 \(multiple shooting\), which takes one record"):
         SINDy(dt=DT, refine=OutputErrorRefinement(n_segments=2)).fit([u1, u2], [y1, y2])
 
 
@@ -118,7 +118,8 @@ def test_bad_records(records):
     (lambda u1, u2: [], lambda y1, y2: [], "X is an empty list"),
     (lambda u1, u2: None, lambda y1, y2: [], "y is an empty list"),
     (lambda u1, u2: (u1, u2), lambda y1, y2: (y1, y2), r"3 dimensions .*a list, not a tuple"),
-    (lambda u1, u2: [u1, u2], lambda y1, y2: [y1.tolist(), y2], r"3 dimensions .*not a nested list"),
+    (lambda u1, u2: [u1, u2], lambda y1, y2: [y1.tolist(), y2],
+     r"X is a list of 2 records, so y must be a list of 2 output arrays.*not a nested list"),
     (lambda u1, u2: np.stack([u1, u2]), lambda y1, y2: np.stack([y1, y2]), r"3 dimensions .*list\(a\) of a 3-D"),
     (lambda u1, u2: np.array([u1, u2[:200]], dtype=object), lambda y1, y2: np.array([y1, y2[:200]], dtype=object),
      "X is a NumPy object array of 2 arrays"),
@@ -200,3 +201,27 @@ def test_one_record_methods_still_take_lists_that_are_one_record():
     np.testing.assert_array_equal(model.simulate(None, t=t[:5], x0=[y[0, :1], y[0, 1:]]),
                                   model.simulate(None, t=t[:5], x0=y[0]))
     np.testing.assert_array_equal(model.simulate(None, y_init=[y[0]], t=t[:5]), model.simulate(None, x0=y[0], t=t[:5]))
+
+
+def test_records_in_X_with_one_array_y_say_that_y_must_be_a_list(records):
+    from sindybench import HiddenStateSINDy
+    from sindybench.model_selection import LogUniform, tune
+
+    (u1, y1), (u2, y2) = records
+    us, ys = [u1, u2], [y1, y2]
+    match = r"X is a list of 2 records, so y must be a list of 2 output arrays"
+    with pytest.raises(ValueError, match=match):
+        _model().fit(us, ys[0])
+    with pytest.raises(ValueError, match=match):
+        HiddenStateSINDy(dt=0.01, n_trials=2).fit(us, ys[0])
+    with pytest.raises(ValueError, match=match):
+        tune(_model(), {"optimizer__threshold": LogUniform(1e-3, 1.0)}, us, ys[0], n_trials=2)
+
+
+def test_a_scalar_record_is_a_value_error_not_a_type_error(records):
+    from sindybench.model_selection import LogUniform, tune
+
+    (u1, y1), (u2, _) = records
+    us, ys = [u1, u2], [y1]
+    with pytest.raises(ValueError, match=r"y\[1\] is a scalar; expected an array"):
+        tune(_model(), {"optimizer__threshold": LogUniform(1e-3, 1.0)}, us, [ys[0], np.array(1.0)], n_trials=2)

@@ -162,6 +162,11 @@ class TermsRHS:
         derivative is infinite there, a square root at zero, adds nothing when
         it is not in the model).
 
+        Parameters
+        ----------
+        x : array-like of shape (n_states,)
+        u : array-like of shape (n_inputs,)
+
         Returns
         -------
         f : ndarray of shape (n_states,)

@@ -14,9 +14,12 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .._validation import check_signal, count_records
+from .._validation import check_one_record, check_signal
 from ..dynamics import jacobian_workspace, step_jacobian_into
 from ._model_step import model_step
+
+#: What a filter or smoother given several records says to do instead.
+ONE_RECORD_ADVICE = "call it once per record; a model fitted on several records filters any one of them"
 
 __all__ = ["FilterDivergenceError", "KalmanResult", "extended_kalman_filter", "rts_smoother"]
 
@@ -257,16 +260,8 @@ def check_covariance(C, n, name, *, definite=False):
     return np.ascontiguousarray(C)
 
 
-def check_one_record(X, y, what):
-    """Refuse several records (lists of arrays): the filter runs on one record at a time."""
-    n = next((count_records(a) for a in (X, y) if count_records(a)), None)
-    if n is not None:
-        raise ValueError(f"{what} takes one record; got a list of {n} records. Expected one array each: call it once "
-                         "per record (a model fitted on several records filters any one of them).")
-
-
 def _check_record(m, X, y):
-    check_one_record(X, y, "the Kalman filter")
+    check_one_record("the Kalman filter", X, y, advice=ONE_RECORD_ADVICE)
     y = check_signal(y, "y")  # refuses NaN: the filter does not skip samples
     n_out = len(m.output_index)
     if y.shape[1] != n_out:

@@ -3,10 +3,10 @@
 import numpy as np
 from numba import njit
 
-from .._validation import check_integer, check_signal
+from .._validation import check_integer, check_one_record, check_signal
 from ..dynamics import SimulationError, step_into, step_workspace
 from ..metrics import rmse
-from ._kalman import check_one_record, extended_kalman_filter, rts_smoother
+from ._kalman import ONE_RECORD_ADVICE, extended_kalman_filter, rts_smoother
 from ._model_step import model_step
 
 __all__ = ["k_step_rmse", "predict_k_step", "smooth_initial_state"]
@@ -143,7 +143,7 @@ def smooth_initial_state(model, X, y_init, *, Q, R, x0=None, P0=None):
     >>> np.round(smooth_initial_state(m, None, y[:20], Q=0.0, R=1e-8, P0=10.0), 4).tolist()
     [0.3, -1.0]
     """
-    check_one_record(X, y_init, "smooth_initial_state")
+    check_one_record("smooth_initial_state", X, y_init, advice=ONE_RECORD_ADVICE)
     y_init = check_signal(y_init, "y_init")
     n_init = y_init.shape[0]
     if X is not None:

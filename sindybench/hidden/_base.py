@@ -306,6 +306,16 @@ class HiddenStrategy(BaseEstimator):
     def initial_fit(self, params, *, n_outputs, n_inputs):
         """How the guess of :meth:`initial_state` is refined: an :class:`InitialFit`, or None (the guess is final).
 
-        The default: None.
+        Parameters
+        ----------
+        params : dict
+            All physical parameters (see :meth:`resolve_params`).
+        n_outputs, n_inputs : int
+            Columns of ``y`` and ``u``.
+
+        Returns
+        -------
+        InitialFit or None
+            The default: None.
         """
         return None

@@ -150,9 +150,11 @@ def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):
     The one place where a simulation of new data is started, in the search
     (validation scores) and in ``predict``: the strategy's first guess
     (:meth:`~sindybench.hidden.HiddenStrategy.initial_state`), refined as its
-    :meth:`~sindybench.hidden.HiddenStrategy.initial_fit` says and then
-    as ``mode`` says, both by :func:`sindybench.refine.estimate_initial_state`
-    (see :func:`~sindybench.hidden._refinement.initial_state`).
+    :meth:`~sindybench.hidden.HiddenStrategy.initial_fit` says by
+    :func:`sindybench.refine.estimate_initial_state`, then set as ``mode``
+    says (``"fit"``: the same estimator with every state free; ``"periodic"``:
+    the state reached after two periods of the input, see
+    :func:`~sindybench.hidden._refinement.initial_state`).
     """
     dyn = cand.dynamics
     n = min(X.shape[0], y_init.shape[0])

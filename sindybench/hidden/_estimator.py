@@ -7,7 +7,7 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
-from .._base import DynamicsEstimator, is_records
+from .._base import DynamicsEstimator
 from .._equations import EquationRow
 from ..optimizers import STLS
 from .._validation import (
@@ -19,7 +19,10 @@ from .._validation import (
     check_integer,
     check_option,
     check_positive,
+    check_record_lists,
     check_records,
+    count_records,
+    is_records,
 )
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
@@ -321,9 +324,12 @@ class HiddenStateSINDy(DynamicsEstimator):
         -------
         self
         """
+        if count_records(X) and not is_records(y):
+            check_record_lists(X, y)  # says that y must be a list of records too
         records = is_records(y)
         X, y1 = check_records(X, y, y_kind="outputs") if records else _check_fit_data(X, y)
         dt, est_space = self._check_params(dt)
+        self._check_refine_records(len(y1) if records else 1)
         hidden = clone(self.hidden) if self.hidden is not None else _default_strategy()
         hidden._validate()
         for i, (X_r, y_r) in enumerate(zip(X, y1) if records else [(X, y1)]):
@@ -362,8 +368,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         cand.derivative.pin(None)
         if records:  # the records' states stacked; x0_ is the first record's
             states = np.vstack([np.asarray(d.states, dtype=float) for d in cand.designs])
-            starts = [np.asarray(d.states[0], dtype=float).copy() for d in cand.designs]
-            x0 = starts[0]
+            x0 = np.asarray(cand.designs[0].states[0], dtype=float).copy()
         else:
             states = np.asarray(cand.design.states, dtype=float)
             x0 = states[0].copy()

@@ -136,15 +136,15 @@ def _check_fit(fit, n_states):
 def initial_state(mode, fit, rhs, x0, X, y_init, dt, *, output_index, settings):
     """The initial state of a simulation of ``X`` from a strategy's guess ``x0`` and the first outputs ``y_init``.
 
-    The guess is refined as the strategy's :class:`~sindybench.hidden.InitialFit`
-    ``fit`` says (:func:`refine_guess`; None: not refined), then ``mode``:
-    ``"strategy"`` keeps it; ``"fit"``: least squares of the simulation of the
-    first ``len(y_init)`` samples (all states free, exact sensitivities when
-    compiled); ``"periodic"``: ``X`` is one period of a periodic input;
-    simulate two periods from ``x0`` and start from the state reached (the
+    ``mode``: ``"strategy"``: the guess refined as the strategy's
+    :class:`~sindybench.hidden.InitialFit` ``fit`` says (:func:`refine_guess`;
+    None: not refined); ``"fit"``: that, then least squares of the simulation
+    of the first ``len(y_init)`` samples (all states free, exact sensitivities
+    when compiled); ``"periodic"``: ``X`` is one period of a periodic input;
+    simulate two periods from the guess and start from the state reached (the
     periodic steady state), without using ``y_init``.
     """
-    if fit is not None:
+    if fit is not None and mode != "periodic":
         x0 = refine_guess(fit, rhs, x0, X, y_init, dt, output_index=output_index, settings=settings)
     if mode == "fit":
         n = min(len(y_init), len(X))

@@ -12,7 +12,15 @@ from sklearn.model_selection import KFold, TimeSeriesSplit
 
 from .._json import jsonable
 from .._progress import show_progress
-from .._validation import check_bool, check_integer, check_record_lists, check_records, is_records, records_hint
+from .._validation import (
+    check_bool,
+    check_integer,
+    check_record_lists,
+    check_records,
+    count_records,
+    is_records,
+    records_hint,
+)
 from ..metrics import make_simulation_scorer
 from ..search import check_search_space, create_study, sample_params
 from ._split import HoldoutSplit, LeaveOneRecordOut
@@ -382,7 +390,7 @@ def tune(
     check_bool(refit, "refit")
     show_progress_bar = show_progress(show_progress_bar)
     check_search_space(search_space, estimator)
-    if is_records(y):
+    if is_records(y) or count_records(X):
         _check_record_lists(X, y)
     else:
         X, y = _as_array(X, "X"), _as_array(y, "y")

@@ -20,6 +20,11 @@ final state and the next one's initial state to the residual (weighted by
 ``continuity_weight`` over the state's spread): long or unstable records no
 longer make the cost surface a maze of local minima.
 
+Several records (``u`` and ``y`` lists, ``x0`` one row per record) share the
+coefficients and physical parameters, each with its own free initial state;
+each record's residuals are scaled by its own spread (or by ``output_scale``)
+and stacked, and so are the rows of the Jacobian.
+
 A trial step whose simulation diverges gets a large finite residual (the
 optimizer rejects it and shrinks its trust region); NaN never reaches the
 optimizer. A starting model that diverges is refused with a
@@ -208,15 +213,13 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         problem, x = _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, n_segments,
                             continuity_weight, lo, hi)
         if output_scale is not None:
-            problem.y_scale = output_scale
+            problem.scale_outputs(output_scale)
         if initial_cost is None:
             initial_cost = problem.output_cost(x)
         p0 = problem.pack()
         if p0.size == 0:
             raise ValueError("nothing to refine: no free coefficient, physical parameter or initial state.")
-        lower, upper = problem.bounds(lo, hi)
-        at_x0 = slice(problem.n_model, problem.n_model + problem.free_x0.size)
-        lower[at_x0], upper[at_x0] = x0_lo[problem.free_x0], x0_hi[problem.free_x0]
+        lower, upper = problem.bounds(lo, hi, x0_lo, x0_hi)
         p0 = np.clip(p0, lower, upper)
         jac = problem.jacobian if problem.compiled else "2-point"
         fit = least_squares(problem.residuals, p0, jac=jac, bounds=(lower, upper), method="trf", x_scale="jac",
@@ -301,8 +304,10 @@ def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None
     The same least squares as :func:`refine_simulation_error` with the
     coefficients held: exact sensitivities for a :class:`TermsRHS`, finite
     differences for a Python right-hand side. It is the one initial-state
-    estimator of the package: ``HiddenStateSINDy`` refines every strategy's
-    first guess with it (:meth:`~sindybench.hidden.HiddenStrategy.initial_fit`).
+    estimator of the package: ``HiddenStateSINDy`` refines a strategy's first
+    guess with it wherever the strategy's
+    :meth:`~sindybench.hidden.HiddenStrategy.initial_fit` asks for it, and
+    ``initial_state="fit"`` uses it for every model.
 
     Parameters
     ----------

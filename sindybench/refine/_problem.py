@@ -96,10 +96,18 @@ class _Problem:
         parts.extend(self.x_segments)
         return np.concatenate(parts)
 
-    def bounds(self, lo, hi):
+    def scale_outputs(self, scale):
+        """Scale every record's residuals by ``scale`` (one number per output) instead of its spread."""
+        self.y_scales = [scale] * self.n_records
+        self.y_scale = scale
+
+    def bounds(self, lo, hi, x0_lo=None, x0_hi=None):
+        """Lower and upper bounds of ``p``; the initial states of every record within ``x0_lo``, ``x0_hi``."""
+        x0_lo = lo if x0_lo is None else x0_lo
+        x0_hi = hi if x0_hi is None else x0_hi
         n_free = len(self.free)
-        lower = [np.full(n_free, -np.inf)] + [lo[self.free_x0]] * self.n_records + [lo] * len(self.x_segments)
-        upper = [np.full(n_free, np.inf)] + [hi[self.free_x0]] * self.n_records + [hi] * len(self.x_segments)
+        lower = [np.full(n_free, -np.inf)] + [x0_lo[self.free_x0]] * self.n_records + [lo] * len(self.x_segments)
+        upper = [np.full(n_free, np.inf)] + [x0_hi[self.free_x0]] * self.n_records + [hi] * len(self.x_segments)
         if self.physical is not None:
             lower.insert(0, np.asarray(self.physical.lower, dtype=float))
             upper.insert(0, np.asarray(self.physical.upper, dtype=float))

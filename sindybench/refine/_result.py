@@ -22,9 +22,10 @@ class RefinementResult(NamedTuple):
         Refined initial state (with several records, the first record's).
     initial_cost, cost : float
         Half the mean squared scaled output error of an open-loop simulation
-        of the whole record before and after (scaled by the output's standard
-        deviation; with multiple shooting too, ``cost`` is that of the
-        returned model run from its initial state).
+        of the whole record (of every record) before and after, scaled by
+        the output's standard deviation or by ``output_scale``; with multiple
+        shooting too, ``cost`` is that of the returned model run from its
+        initial state.
     nfev, njev : int
         Model simulations and Jacobian evaluations.
     status : int

@@ -103,21 +103,39 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
              show_progress_bar=False):
     """Minimize ``objective(values)`` over ``space`` with Optuna's TPE sampler, then refine locally.
 
-    ``space`` is a dict ``name -> dimension`` (the older spellings are read by
-    :func:`~sindybench.search.as_dimension`). ``objective`` returns a float;
-    NaN, inf or an exception listed by the objective itself count as
-    ``penalty`` (a bad trial, never a crash): the trial completes with that
-    value, so TPE and the local search see it as a bad point.
-    The first ``n_trials - n_local`` evaluations are TPE trials (the caller
-    checks ``0 <= n_local < n_trials``); the last
+    The first ``n_trials - n_local`` evaluations are TPE trials; the last
     ``n_local`` refine the ``n_starts`` best distinct trials by bounded
     Nelder-Mead on the real dimensions (in the unit cube: Uniform on its
     linear scale, LogUniform on a log scale, Normal and LogNormal on their
-    quantile; integers and choices stay at the start's values; initial
-    simplex of edge ``step``), which finds the bottom
-    of narrow valleys that TPE samples only coarsely. ``show_progress_bar``
-    draws a transient ``tqdm.auto`` bar with the best score so far, in a
-    notebook or a terminal only (see :mod:`sindybench._progress`).
+    quantile; integers and choices stay at the start's values), which finds
+    the bottom of narrow valleys that TPE samples only coarsely.
+
+    Parameters
+    ----------
+    objective : callable
+        ``objective(values) -> float`` for ``values = {name: value}``. NaN,
+        inf or an exception listed by the objective itself count as
+        ``penalty`` (a bad trial, never a crash): the trial completes with
+        that value, so TPE and the local search see it as a bad point.
+    space : dict
+        ``{name: dimension}`` (the older spellings are read by
+        :func:`~sindybench.search.as_dimension`).
+    n_trials : int
+        Evaluations in all.
+    random_state : int, RandomState or None, default=None
+        Seeds the TPE sampler.
+    penalty : float, default=1e3
+        Score of a failed evaluation (and the cap of every score).
+    n_local : int, default=0
+        Evaluations of the local refinement (the caller checks
+        ``0 <= n_local < n_trials``).
+    n_starts : int, default=3
+        Distinct best trials the local refinement starts from.
+    step : float, default=0.05
+        Edge of the initial simplex in the unit cube.
+    show_progress_bar : bool, default=False
+        A transient ``tqdm.auto`` bar with the best score so far, in a
+        notebook or a terminal only (see :mod:`sindybench._progress`).
 
     Returns
     -------

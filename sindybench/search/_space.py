@@ -462,6 +462,18 @@ def sample_params(search_space, trial):
     Works with an ``optuna.trial.FixedTrial`` too, which rebuilds the values
     of a finished trial from its ``params``.
 
+    Parameters
+    ----------
+    search_space : dict or callable
+        ``{name: dimension}`` (see :func:`check_search_space`), or a callable
+        ``trial -> {name: value}`` that suggests the values itself.
+    trial : optuna.trial.BaseTrial
+
+    Returns
+    -------
+    dict
+        ``{name: value}``, in the order of ``search_space``.
+
     Examples
     --------
     >>> import optuna

@@ -4,6 +4,7 @@ The storages: an SQLite file, an Optuna journal file, and a real PostgreSQL serv
 (the ``postgres_url`` fixture of ``conftest.py``, on a Unix socket).
 """
 
+import datetime
 import functools
 import json
 import os
@@ -48,7 +49,7 @@ for t in range(2, 300):
 print("ready", flush=True)
 while not go.exists():
     time.sleep(0.01)
-space = {"na": IntRange(1, 4), "nb": IntRange(1, 3), "delay": Uniform(0.08, 0.12)}
+space = {"na": IntRange(1, 4), "nb": IntRange(1, 3), "delay": Uniform(0.25, 0.3)}
 tune(SlowARX(), space, u, y, n_trials=n_trials, storage=storage, study_name="shared", random_state=0)
 print("done", flush=True)
 """
@@ -116,18 +117,23 @@ def test_killed_worker_resumes_without_losing_finished_trials(kind, worker, tmp_
     go.touch()
     deadline = time.monotonic() + 30
     # kill while a trial of the victim is fitting (its "params" are recorded), after a few have finished;
-    # a kill in the middle of a journal write would leave the file lock for its 30 s grace period
+    # a kill in the middle of a journal write would leave the file lock for its 30 s grace period. The
+    # trial must have started less than 0.1 s before the poll returned (its fit sleeps 0.25-0.3 s): a trial
+    # that a slow poll still shows RUNNING may have ended before the kill, which then hits the next trial
+    # before sindybench has tagged it with its worker
     victim_id = f"{socket.gethostname()}:{victim.pid}"
     while True:
         assert time.monotonic() < deadline and victim.poll() is None, "the worker ended before it could be killed"
         trials = _trials(storage)
+        now = datetime.datetime.now()  # Optuna stamps trials with the local naive time
         complete = [t for t in trials if t.state == TrialState.COMPLETE]
         mine = [t for t in trials if t.user_attrs.get("worker") == victim_id]
         if len(complete) >= 4 and any(t.state == TrialState.COMPLETE for t in mine) and any(
-            t.state == TrialState.RUNNING and "params" in t.user_attrs for t in mine
+            t.state == TrialState.RUNNING and "params" in t.user_attrs
+            and (now - t.datetime_start).total_seconds() < 0.1 for t in mine
         ):
             break
-        time.sleep(0.05)
+        time.sleep(0.01)
     os.kill(victim.pid, signal.SIGKILL)
     victim.wait()
     before = {t.number: (t.params, t.value) for t in _trials(storage) if t.state == TrialState.COMPLETE}

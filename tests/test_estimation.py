@@ -243,6 +243,27 @@ def test_estimated_noise_is_near_the_truth_and_filters_as_well(rng):
     assert errs[1] < 1.1 * errs[0], errs
 
 
+def test_estimate_noise_checks_the_record_as_the_filter_does(rng):
+    # before: several records were a "3 dimensions" error, X shorter than y a shape error inside the search
+    u, y = drive(40, rng), np.zeros((40, 1))
+    with pytest.raises(ValueError, match="the Kalman filter takes one record; got a list of 2 records"):
+        estimate_noise(duffing(), [u, u], [y, y])
+    with pytest.raises(ValueError, match=r"X has shape \(39, 1\); expected \(40, 1\)"):
+        estimate_noise(duffing(), u[:39], y)
+    with pytest.raises(ValueError, match=r"y has 2 columns; expected 1"):
+        estimate_noise(duffing(), u, np.zeros((40, 2)))
+
+
+def test_a_bad_horizon_is_refused_before_filtering(rng):
+    # the horizon is checked first: a filter that would diverge is not run for nothing
+    m = ModelStep.from_rhs(TermsRHS.from_equations([{((0, POW, 2.0, 0.0),): 1.0}]), 0.1, max_abs=1e6)
+    y = np.full((40, 1), 1.0)
+    with pytest.raises(ValueError, match=r"k must be an integer in \[1, 39\]; got 0"):
+        predict_k_step(m, None, y, 0, Q=0.0, R=1e6, x0=[1.0], P0=1e-6)
+    with pytest.raises(FilterDivergenceError):
+        predict_k_step(m, None, y, 1, Q=0.0, R=1e6, x0=[1.0], P0=1e-6)
+
+
 # ------------------------------------------------------------------ prediction modes
 def test_k_step_prediction_is_the_filtered_state_simulated_k_samples(rng):
     m = duffing()

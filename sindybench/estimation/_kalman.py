@@ -260,7 +260,8 @@ def check_covariance(C, n, name, *, definite=False):
     return np.ascontiguousarray(C)
 
 
-def _check_record(m, X, y):
+def check_record(m, X, y):
+    """``X`` (zero columns when the model has no inputs) and ``y`` of one record, checked against ``m``."""
     check_one_record("the Kalman filter", X, y, advice=ONE_RECORD_ADVICE)
     y = check_signal(y, "y")  # refuses NaN: the filter does not skip samples
     n_out = len(m.output_index)
@@ -268,16 +269,15 @@ def _check_record(m, X, y):
         raise ValueError(f"y has {y.shape[1]} columns; expected {n_out} (one per measured state).")
     if m.n_inputs == 0 and X is None:
         X = np.zeros((y.shape[0], 0))
-    X = np.ascontiguousarray(check_signal(X, "X"))
+    X = np.ascontiguousarray(check_signal(X, "X"))  # refuses NaN and inf
     if X.shape != (y.shape[0], m.n_inputs):
         raise ValueError(f"X has shape {X.shape}; expected ({y.shape[0]}, {m.n_inputs}) (one row per sample of y, "
                          "one column per input).")
-    if not np.all(np.isfinite(X)):
-        raise ValueError("X contains NaN or inf; expected finite inputs.")
     return X, np.ascontiguousarray(y)
 
 
-def _check_prior(m, x0, P0):
+def check_prior(m, x0, P0):
+    """The prior mean (clipped to the bounds) and covariance, defaults from ``m``."""
     n = m.n_states
     x0 = m.x0 if x0 is None else np.asarray(x0, dtype=float)
     if x0.shape != (n,) or not np.all(np.isfinite(x0)):
@@ -299,17 +299,23 @@ def run_filter(model, X, y, *, Q, R, x0=None, P0=None, keep_predictions=False):
     Checks every argument.
     """
     m = model_step(model)
-    X, y = _check_record(m, X, y)
+    X, y = check_record(m, X, y)
+    Q = check_covariance(Q, m.n_states, "Q")
+    R = check_covariance(R, len(m.output_index), "R", definite=True)
+    x0, P0 = check_prior(m, x0, P0)
+    return filter_checked(m, X, y, Q, R, x0, P0, keep_predictions=keep_predictions)
+
+
+def filter_checked(m, X, y, Q, R, x0, P0, *, keep_predictions=False, sm=None):
+    """:func:`run_filter` on arguments it has checked (``sm``: ``m.step_model()``, to build it once for many runs)."""
     n, n_out, N = m.n_states, len(m.output_index), y.shape[0]
-    Q = check_covariance(Q, n, "Q")
-    R = check_covariance(R, n_out, "R", definite=True)
-    x0, P0 = _check_prior(m, x0, P0)
+    sm = m.step_model() if sm is None else sm
     keep = int(bool(keep_predictions))
     arrays = {name: np.zeros(shape) for name, shape in (
         ("xf", (N, n)), ("Pf", (N, n, n)), ("xp", (N * keep, n)), ("Pp", (N * keep, n, n)), ("F", (N * keep, n, n)),
         ("innov", (N, n_out)), ("S", (N, n_out, n_out)))}
     oidx = np.asarray(m.output_index, dtype=np.int64)
-    k, code, loglik = _filter(x0, P0, X, y, m.dt, Q, R, oidx, m.step_model(), *arrays.values())
+    k, code, loglik = _filter(x0, P0, X, y, m.dt, Q, R, oidx, sm, *arrays.values())
     if k >= 0:
         raise FilterDivergenceError(f"the Kalman filter diverged at sample {k} of {N}: {_CAUSES[code]}. Check the "
                                     "model (does its simulation of this record stay finite?), Q, R and the prior.",

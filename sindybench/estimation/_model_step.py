@@ -115,10 +115,10 @@ class ModelStep(NamedTuple):
                           method=self.method, input_hold=hold, bounds=(lower, upper), max_abs=self.max_abs)
 
 
-def _scale(states):
+def state_spread(states, fallback=1.0):
+    """Standard deviation of each state over a trajectory; ``fallback`` where it is zero or not finite."""
     scale = np.std(np.asarray(states, dtype=float), axis=0)
-    scale[~np.isfinite(scale) | (scale <= 0)] = 1.0
-    return scale
+    return np.where(np.isfinite(scale) & (scale > 0), scale, fallback)
 
 
 def model_step(model):
@@ -166,7 +166,7 @@ def model_step(model):
     lo, hi = check_bounds(dyn.bounds, dyn.n_states)
     x0 = np.clip(np.asarray(model.x0_, dtype=float), lo, hi)
     states = getattr(model, "states_", None)  # the training trajectory (hidden states included), where kept
-    scale = _scale(states) if states is not None else np.ones(dyn.n_states)
+    scale = state_spread(states) if states is not None else np.ones(dyn.n_states)
     return ModelStep(rhs=dyn.rhs, n_inputs=int(model.n_features_in_), output_index=tuple(dyn.output_index),
                      lower=lo, upper=hi, dt=float(dyn.dt), n_substeps=int(dyn.n_substeps), method=dyn.method,
                      input_hold=dyn.input_hold, max_abs=float(dyn.max_abs), x0=x0, state_scale=scale)

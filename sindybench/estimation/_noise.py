@@ -3,10 +3,10 @@
 import numpy as np
 from scipy.optimize import minimize
 
-from .._validation import check_integer, check_signal
+from .._validation import check_integer
 from ..simulate import SimulationError, simulate
-from ._kalman import FilterDivergenceError, run_filter
-from ._model_step import model_step
+from ._kalman import FilterDivergenceError, check_prior, check_record, filter_checked
+from ._model_step import model_step, state_spread
 
 __all__ = ["estimate_noise"]
 
@@ -25,8 +25,7 @@ def _state_scale(m, X, y):
                      bounds=(m.lower, m.upper), max_abs=m.max_abs)
     except SimulationError:
         return m.state_scale
-    scale = np.std(x, axis=0)
-    return np.where(np.isfinite(scale) & (scale > 0), scale, m.state_scale)
+    return state_spread(x, m.state_scale)
 
 
 def estimate_noise(model, X, y, *, max_samples=20000, max_iter=None):
@@ -73,9 +72,8 @@ def estimate_noise(model, X, y, *, max_samples=20000, max_iter=None):
     True
     """
     m = model_step(model)
-    y = check_signal(y, "y")
+    X, y = check_record(m, X, y)
     max_samples = check_integer(max_samples, "max_samples", low=10)
-    X = np.zeros((y.shape[0], 0)) if X is None and m.n_inputs == 0 else check_signal(X, "X")
     X, y = X[:max_samples], y[:max_samples]
     scale2 = _state_scale(m, X, y) ** 2
     r0 = _difference_noise(y)
@@ -84,10 +82,13 @@ def estimate_noise(model, X, y, *, max_samples=20000, max_iter=None):
     def covariances(theta):
         return np.diag(np.exp(theta[:n]) * scale2), np.diag(np.exp(theta[n:]) * r0)
 
-    def cost(theta):
+    x0, P0 = check_prior(m, None, None)
+    sm = m.step_model()
+
+    def cost(theta):  # Q, R diagonal and positive by construction: no checks per run
         Q, R = covariances(theta)
         try:
-            return -run_filter(m, X, y, Q=Q, R=R)[1] / y.shape[0]
+            return -filter_checked(m, X, y, Q, R, x0, P0, sm=sm)[1] / y.shape[0]
         except FilterDivergenceError:
             return 1e300
 

@@ -6,7 +6,7 @@ from numba import njit
 from .._validation import check_integer, check_one_record, check_signal
 from ..dynamics import SimulationError, step_into, step_workspace
 from ..metrics import rmse
-from ._kalman import ONE_RECORD_ADVICE, extended_kalman_filter, rts_smoother
+from ._kalman import ONE_RECORD_ADVICE, check_record, extended_kalman_filter, rts_smoother
 from ._model_step import model_step
 
 __all__ = ["k_step_rmse", "predict_k_step", "smooth_initial_state"]
@@ -73,15 +73,15 @@ def predict_k_step(model, X, y, k, *, Q, R, x0=None, P0=None):
     ((95, 1), True)
     """
     m = model_step(model)
-    res = extended_kalman_filter(m, X, y, Q=Q, R=R, x0=x0, P0=P0)
-    n_samples = res.states.shape[0]
+    X, y = check_record(m, X, y)
+    n_samples = y.shape[0]
     k = check_integer(k, "k", low=1, high=max(n_samples - 1, 1))
     if k >= n_samples:
         raise ValueError(f"k = {k} leaves no sample to predict in a record of {n_samples}; expected k < n_samples.")
-    u = np.zeros((n_samples, 0)) if X is None else np.asarray(X, dtype=float).reshape(n_samples, -1)
+    res = extended_kalman_filter(m, X, y, Q=Q, R=R, x0=x0, P0=P0)
     out = np.empty((n_samples - k, len(m.output_index)))
     oidx = np.asarray(m.output_index, dtype=np.int64)
-    t = _k_step(res.states, np.ascontiguousarray(u), m.dt, k, m.step_model(), oidx, out)
+    t = _k_step(res.states, X, m.dt, k, m.step_model(), oidx, out)
     if t >= 0:
         raise SimulationError(f"the {k}-step prediction from sample {t} diverged.", step=int(t))
     return out

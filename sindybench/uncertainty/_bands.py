@@ -50,7 +50,7 @@ def _run(member, X, y_init, x0, states):
     """Outputs (or all states) of one member on ``X`` from ``x0`` or ``y_init``, NaN after a divergence."""
     if hasattr(member, "structure_"):  # a hidden-state model estimates its own initial state
         x = member.simulate(X, y_init=None if x0 is not None else y_init, x0=x0, on_divergence="nan")
-        index = list(member.structure_.output_index)
+        index = list(member.output_index_)
         return (x, index, list(member.state_names_)) if states else (x[:, index], list(range(len(index))),
                                                                      [member.state_names_[i] for i in index])
     start = np.asarray(y_init, dtype=float).reshape(len(y_init), -1)[0] if x0 is None else x0

@@ -28,7 +28,7 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
-from .._validation import is_records
+from .._validation import check_integer, is_records
 from ..io import SaveLoadMixin, register_model
 from ..refine._covariance import insignificant_lag
 from ..simulate import SimulationError
@@ -72,9 +72,7 @@ def _auto_block_length(e):
 
 def fitted_output(model, X):
     """The fitted model's simulation of its training record from its first state ``x0_`` (outputs only)."""
-    states = model.simulate(X, x0=model.x0_, on_divergence="nan")
-    index = getattr(getattr(model, "structure_", None), "output_index", None)
-    return states if index is None else states[:, list(index)]
+    return model.simulate(X, x0=model.x0_, on_divergence="nan")[:, list(model.output_index_)]
 
 
 def _fit_member(estimator, X, y, y_1d):
@@ -155,12 +153,8 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
         self.random_state = random_state
 
     def _validate(self, n):
-        for name, value, low in (("n_members", self.n_members, 2), ("block_length", self.block_length, 1)):
-            if value is None and name == "block_length":
-                continue
-            if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < low:
-                raise ValueError(f"{name} must be an integer >= {low}; got {value!r}.")
-        if self.block_length is not None and self.block_length > n:
+        check_integer(self.n_members, "n_members", low=2)
+        if self.block_length is not None and check_integer(self.block_length, "block_length") > n:
             raise ValueError(f"block_length={self.block_length} exceeds the {n} samples of the record.")
 
     def fit(self, X, y):

@@ -3,7 +3,7 @@
 import numpy as np
 
 from .._validation import check_integer
-from ._common import MAX_POINTS, _check_axes, _new_axes, _stride, _time
+from ._common import MAX_POINTS, _stacked_axes, _stride, _time
 
 
 def plot_prediction_band(band, y=None, *, dt=None, columns=None, max_points=MAX_POINTS, ax=None):
@@ -43,7 +43,7 @@ def plot_prediction_band(band, y=None, *, dt=None, columns=None, max_points=MAX_
     index = list(range(len(names))) if columns is None else [names.index(c) for c in columns if c in names]
     if columns is not None and len(index) != len(columns):
         raise ValueError(f"columns {list(columns)} are not all in the band's columns {names}.")
-    axes = _check_axes(ax, len(index)) or _new_axes(len(index), figsize=(10, 1.2 + 1.8 * len(index)))
+    axes = _stacked_axes(ax, len(index))
     n = band.median.shape[0]
     t, t_label = _time(n, dt)
     k = _stride(n, check_integer(max_points, "max_points"))

@@ -96,10 +96,7 @@ def plot_coefficients(models, *, learned_only=True, annotate=True, precision=2, 
     if drop_zero_terms:
         keep = np.any(values != 0, axis=0)
         terms, values = [t for t, k in zip(terms, keep) if k], values[:, keep]
-    if ax is None:
-        (ax,) = _new_axes(1, figsize=(max(4.0, 0.75 * len(terms) + 2.5), 1.0 + 0.45 * len(rows)))
-    else:
-        (ax,) = _check_axes(ax, 1)
+    (ax,) = _check_axes(ax, 1) or _new_axes(1, figsize=(max(4.0, 0.75 * len(terms) + 2.5), 1.0 + 0.45 * len(rows)))
     nonzero = np.abs(values[values != 0])
     top = float(nonzero.max()) if nonzero.size else 1.0
     # a linear band around zero of at most four decades below the largest magnitude

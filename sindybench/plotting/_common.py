@@ -19,6 +19,11 @@ def _new_axes(n, *, figsize, height_ratios=None, sharex=True):
     return list(axes[:, 0])
 
 
+def _stacked_axes(ax, n):
+    """``n`` Axes, one per panel: those given as ``ax`` (checked) or a new figure of ``n`` stacked panels."""
+    return _check_axes(ax, n) or _new_axes(n, figsize=(10, 1.2 + 1.8 * n))
+
+
 def _check_axes(ax, *counts):
     """``ax`` (one Axes or a sequence of them) as a list of Axes, of one of the allowed ``counts``; None stays None."""
     if ax is None:

@@ -12,6 +12,7 @@ from ._common import (
     _predictions,
     _score_label,
     _signals,
+    _stacked_axes,
     _stride,
     _time,
 )
@@ -281,7 +282,7 @@ def plot_hidden_states(model, X=None, y=None, *, n_init=1, states=None, labels=N
         X, y = _signals(X, y)
         trajectory = model.simulate(X, y_init=y[: check_integer(n_init, "n_init")], on_divergence="nan")
         what = "simulated"
-    axes = _check_axes(ax, len(index)) or _new_axes(len(index), figsize=(10, 1.2 + 1.8 * len(index)))
+    axes = _stacked_axes(ax, len(index))
     t, t_label = _time(len(trajectory), getattr(model, "dt_", None))
     k = _stride(len(trajectory), check_integer(max_points, "max_points"))
     for a, i, label, unit in zip(axes, index, labels, units):

@@ -270,6 +270,15 @@ def test_prediction_band_bad_input():
         prediction_band(ens, u)
     with pytest.raises(ValueError, match="alpha must be in"):
         prediction_band(ens, u, x0=[0.5], alpha=2.0)
+    # the intervals check alpha as the bands do (before: numpy's "Quantiles must be in the range [0, 1]", or
+    # alpha=0 silently gave the members' minimum and maximum)
+    for bad in (0.0, 1.5, "0.05", True):
+        with pytest.raises(ValueError, match=r"alpha must be in \(0, 1\) \(0.05 gives 95 % intervals\)"):
+            ens.coefficient_intervals(alpha=bad)
+        with pytest.raises(ValueError, match=r"alpha must be in \(0, 1\)"):
+            ens.parameter_intervals(alpha=bad)
+    lo, hi = ens.coefficient_intervals(alpha=np.float64(0.1))
+    assert np.all(lo <= hi)
 
 
 @pytest.mark.filterwarnings("ignore::UserWarning")

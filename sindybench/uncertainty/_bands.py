@@ -7,7 +7,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from .._validation import check_signal
-from ._bootstrap import circular_block_indices
+from ._bootstrap import check_alpha, circular_block_indices
 
 __all__ = ["PredictionBand", "prediction_band"]
 
@@ -87,9 +87,7 @@ def prediction_band(ensemble, X, *, y_init=None, x0=None, alpha=0.05, states=Fal
     PredictionBand
     """
     check_is_fitted(ensemble)
-    alpha = float(alpha)
-    if not 0.0 < alpha < 1.0:
-        raise ValueError(f"alpha must be in (0, 1) (0.05 gives 95 % bands); got {alpha!r}.")
+    alpha = check_alpha(alpha, "bands")
     if (x0 is None) == (y_init is None):
         raise ValueError("give exactly one of x0 and y_init.")
     if y_init is not None:

@@ -64,6 +64,13 @@ def circular_block_indices(n, block_length, rng, n_source=None):
     return ((starts[:, None] + np.arange(block_length)[None, :]) % n_source).ravel()[:n]
 
 
+def check_alpha(alpha, what):
+    """``alpha`` as a float in (0, 1): ``1 - alpha`` ``what`` (bands, intervals)."""
+    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0.0 < alpha < 1.0:
+        raise ValueError(f"alpha must be in (0, 1) (0.05 gives 95 % {what}); got {alpha!r}.")
+    return float(alpha)
+
+
 def _auto_block_length(e):
     """``max(n^(1/3), 2 L)``, L the first lag at which every output's residual autocorrelation is insignificant."""
     n = e.shape[0]
@@ -234,11 +241,13 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
     def coefficient_intervals(self, alpha=0.05):
         """Percentile intervals ``(lower, upper)`` of the members' coefficients (shape of one ``coef_``)."""
         check_is_fitted(self)
+        alpha = check_alpha(alpha, "intervals")
         return (np.quantile(self.coef_, alpha / 2, axis=0), np.quantile(self.coef_, 1 - alpha / 2, axis=0))
 
     def parameter_intervals(self, alpha=0.05):
         """Percentile intervals of the members' physical parameters: ``{name: (lower, upper)}``."""
         check_is_fitted(self)
+        alpha = check_alpha(alpha, "intervals")
         return {k: (float(np.quantile(v, alpha / 2)), float(np.quantile(v, 1 - alpha / 2)))
                 for k, v in self.params_.items()}
 

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ._ops import ABS_POW, BUILTIN_OPS, POW, SQRT, USER, evaluate_jacobian_kernel, evaluate_kernel, no_user_ops
+from ._ops import BUILTIN_OPS, USER, evaluate_jacobian_kernel, evaluate_kernel, no_user_ops
 from ._user import UserOp, user_op, user_table
 
 __all__ = ["check_terms", "evaluate_terms", "evaluate_terms_jacobian", "terms_to_arrays", "user_ops_of"]
@@ -127,6 +127,7 @@ def evaluate_terms(terms, Z):
 
     Examples
     --------
+    >>> from sindybench.dynamics import ABS_POW, POW
     >>> Z = np.array([[2.0, -3.0]])
     >>> evaluate_terms([(), ((0, POW, 2, 0),), ((0, POW, 1, 0), (1, ABS_POW, 1, 0))], Z)
     array([[1., 4., 6.]])
@@ -148,6 +149,7 @@ def evaluate_terms_jacobian(terms, Z):
 
     Examples
     --------
+    >>> from sindybench.dynamics import ABS_POW, POW, SQRT
     >>> Z = np.array([[2.0, -3.0]])
     >>> evaluate_terms_jacobian([((0, POW, 2, 0), (1, ABS_POW, 1, 0))], Z)[0]
     array([[12., -4.]])

@@ -170,11 +170,13 @@ class _Problem:
     def open_loop(self, p):
         """Each whole record simulated from its start (NaN after a divergence); a list.
 
-        The last one is reused for the same ``p``: the optimizer's first
-        residuals are those of the start :func:`_build` simulated, and its last
-        often those of the returned model.
+        The last one is reused while the model and initial states in ``p`` are
+        unchanged: the optimizer's first residuals are those of the start
+        :func:`_build` simulated, its last often those of the returned model,
+        and :func:`_output_jacobian` runs that model again without the
+        segment starts.
         """
-        key = p.tobytes()
+        key = p[: self.n_model + self.n_x0].tobytes()
         if self._open_loop_key != key:
             rhs = self.rhs(p)
             with np.errstate(all="ignore"):

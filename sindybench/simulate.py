@@ -5,12 +5,12 @@ This module keeps the public names where they have always been:
 :class:`SimulationError`.
 """
 
+from .dynamics._model import make_rhs
 from .dynamics._simulate import (  # noqa: F401 - _HOLDS and _METHODS: the estimators' option checks
     _HOLDS,
     _METHODS,
     SimulationError,
     TermsRHS,
-    make_rhs,
     simulate,
 )
 

@@ -471,3 +471,23 @@ def test_python_rhs_multiple_shooting_jacobian_matches_the_sensitivities(noisy_d
     J = exact.jacobian(python.values)
     assert python.jacobian == "2-point" and python.parameters == exact.parameters()
     np.testing.assert_allclose(python.jac, J, rtol=1e-3, atol=1e-5 * np.abs(J).max())
+
+
+def test_first_residuals_reuse_the_start_simulation(duffing, monkeypatch):
+    """_build simulates the start; the optimizer's first residuals there are those, with no second simulation."""
+    u, y = duffing
+    sim = {"settings": dict(n_substeps=1, method="rk4", input_hold="zoh", bounds=None, max_abs=np.inf),
+           "make_rhs": None}
+    lo, hi = np.full(2, -np.inf), np.full(2, np.inf)
+    problem, xs = problem_mod._build(DUFFING, TRUE_COEF * 0.9, FREE, None, [TRUE_X0], np.arange(2), [u], [y], DT,
+                                     (0,), sim, 1, 1.0, lo, hi)
+    p0 = problem.pack()
+    fresh = simulate(TermsRHS(problem.matrix(p0), DUFFING, 2), TRUE_X0, u, DT)
+    np.testing.assert_array_equal(xs[0], fresh)
+    calls = []
+    monkeypatch.setattr(problem_mod, "simulate", lambda *a, **k: calls.append(1) or simulate(*a, **k))
+    r = problem.residuals(p0.copy())
+    assert calls == []
+    np.testing.assert_array_equal(r, ((fresh[:, :1] - y) / np.std(y, axis=0)).ravel() / np.sqrt(y.size))
+    problem.residuals(p0 + 1e-3)  # another point simulates
+    assert calls == [1]

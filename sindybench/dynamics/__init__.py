@@ -8,9 +8,9 @@ one integrator (:mod:`sindybench.dynamics._kernels`). A fitted model is one
 compiled or Python right-hand side).
 """
 
-from ._model import Dynamics, assemble
+from ._model import Dynamics, assemble, make_rhs
 from ._ops import ABS_POW, BUILTIN_OPS, POW, SIGN, SQRT, STEP, USER
-from ._simulate import Settings, SimulationError, TermsRHS, make_rhs, simulate, simulation_settings
+from ._simulate import Settings, SimulationError, TermsRHS, simulate, simulation_settings
 from ._step import (
     StepModel,
     coefficient_directions,

@@ -15,7 +15,7 @@ import numpy as np
 from ._simulate import TermsRHS, simulate
 from ._terms import evaluate_terms
 
-__all__ = ["Dynamics", "assemble"]
+__all__ = ["Dynamics", "assemble", "make_rhs"]
 
 
 class _PythonRHS:
@@ -240,3 +240,23 @@ def assemble(library, coef, *, n_states=None, learned=None, fixed_terms=(), fixe
                     learned=learned, bounds=bounds, dt=dt, n_substeps=n_substeps, method=method,
                     input_hold=input_hold, max_abs=max_abs, library=library, fixed_terms=fixed_terms,
                     fixed_rhs=fixed_rhs)
+
+
+def make_rhs(library, coef, n_states):
+    """Right-hand side of a fitted library and its coefficients: ``assemble(library, coef).rhs``.
+
+    A :class:`~sindybench.simulate.TermsRHS` (compiled simulation) when the
+    library has ``terms_``, else a Python callable through ``library.transform``.
+
+    Examples
+    --------
+    >>> from sindybench.libraries import PolynomialLibrary
+    >>> lib = PolynomialLibrary(degree=1).fit(np.zeros((1, 2)))
+    >>> make_rhs(lib, np.array([[0.0], [-1.0], [1.0]]), 1)
+    TermsRHS(n_terms=3, n_active=2, n_states=1)
+    """
+    coef = np.asarray(coef, dtype=float)
+    if getattr(library, "terms_", None) is None and (
+            coef.ndim != 2 or coef.shape != (library.n_output_features_, n_states)):
+        raise ValueError(f"coef has shape {coef.shape}; expected ({library.n_output_features_}, {n_states}).")
+    return assemble(library, coef, n_states=n_states).rhs

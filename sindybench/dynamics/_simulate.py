@@ -17,7 +17,7 @@ from .._validation import check_bounds, check_dt, check_integer, check_option, c
 from ._kernels import run_state
 from ._terms import check_terms, evaluate_terms, evaluate_terms_jacobian, terms_to_arrays, user_ops_of
 
-__all__ = ["Settings", "SimulationError", "TermsRHS", "make_rhs", "simulate", "simulation_settings"]
+__all__ = ["Settings", "SimulationError", "TermsRHS", "simulate", "simulation_settings"]
 
 logger = logging.getLogger(__name__)
 
@@ -192,34 +192,6 @@ class TermsRHS:
 
 NO_ROWS = (None, np.zeros(0), np.zeros(0), 0)
 """The rows part of a model without a compiled rows function (see :mod:`._rows`)."""
-
-
-def make_rhs(library, coef, n_states):
-    """Right-hand side of a fitted library and its coefficients.
-
-    Returns a :class:`TermsRHS` (compiled simulation) when the library has
-    ``terms_``, else a Python callable through ``library.transform``.
-
-    Examples
-    --------
-    >>> from sindybench.libraries import PolynomialLibrary
-    >>> lib = PolynomialLibrary(degree=1).fit(np.zeros((1, 2)))
-    >>> make_rhs(lib, np.array([[0.0], [-1.0], [1.0]]), 1)
-    TermsRHS(n_terms=3, n_active=2, n_states=1)
-    """
-    coef = np.asarray(coef, dtype=float)
-    if getattr(library, "terms_", None) is not None:
-        return TermsRHS(coef, library.terms_, n_states)
-    if coef.ndim != 2 or coef.shape != (library.n_output_features_, n_states):
-        raise ValueError(f"coef has shape {coef.shape}; expected ({library.n_output_features_}, {n_states}).")
-
-    # sindybench libraries: skip the per-call input validation of ``transform``
-    transform = library._transform if hasattr(library, "_transform") else library.transform
-
-    def rhs(x, u):
-        return transform(np.concatenate([x, u])[None, :])[0] @ coef
-
-    return rhs
 
 
 # ------------------------------------------------------------------- Python path

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ._ops import ABS_POW, BUILTIN_OPS, POW, SQRT, USER, evaluate_jacobian_kernel, evaluate_kernel, no_user_ops
+from ._ops import BUILTIN_OPS, USER, evaluate_jacobian_kernel, evaluate_kernel, no_user_ops
 from ._user import UserOp, user_op, user_table
 
 __all__ = ["check_terms", "evaluate_terms", "evaluate_terms_jacobian", "terms_to_arrays", "user_ops_of"]
@@ -81,14 +81,16 @@ def terms_to_arrays(terms):
     return ptr, col, op, a, b
 
 
+def _has_user_ops(terms):
+    return any(f[1] >= USER for t in terms for f in t)
+
+
 def user_ops_of(terms):
     """The compiled user table the kernels need for ``terms`` (a no-op table without user operations)."""
-    if any(f[1] >= USER for t in terms for f in t):
-        return user_table()
-    return no_user_ops
+    return user_table() if _has_user_ops(terms) else no_user_ops
 
 
-_FLAT = {}  # terms -> (checked terms, flattened arrays, highest column): evaluation is often per sample
+_FLAT = {}  # terms -> (checked terms, flattened arrays, highest column, has user ops): evaluation is often per sample
 
 
 def _arrays(terms, Z):
@@ -99,18 +101,19 @@ def _arrays(terms, Z):
         key = hit = None
     if hit is None:
         checked = check_terms(terms)
-        hit = (checked, terms_to_arrays(checked), max((f[0] for t in checked for f in t), default=-1))
+        hit = (checked, terms_to_arrays(checked), max((f[0] for t in checked for f in t), default=-1),
+               _has_user_ops(checked))
         if key is not None:
             if len(_FLAT) >= 256:
                 _FLAT.clear()
             _FLAT[key] = hit
-    terms, arrays, used = hit
+    terms, arrays, used, has_user = hit
     Z = np.asarray(Z, dtype=float)
     if Z.ndim != 2:
         raise ValueError(f"Z has shape {Z.shape}; expected (n_samples, n_variables).")
     if used >= Z.shape[1]:
         raise ValueError(f"terms use column {used} of Z, which has {Z.shape[1]} columns.")
-    return terms, Z, arrays, user_ops_of(terms)
+    return terms, Z, arrays, user_table() if has_user else no_user_ops  # the table may grow: asked each time
 
 
 def evaluate_terms(terms, Z):
@@ -127,6 +130,7 @@ def evaluate_terms(terms, Z):
 
     Examples
     --------
+    >>> from sindybench.dynamics import ABS_POW, POW
     >>> Z = np.array([[2.0, -3.0]])
     >>> evaluate_terms([(), ((0, POW, 2, 0),), ((0, POW, 1, 0), (1, ABS_POW, 1, 0))], Z)
     array([[1., 4., 6.]])
@@ -148,6 +152,7 @@ def evaluate_terms_jacobian(terms, Z):
 
     Examples
     --------
+    >>> from sindybench.dynamics import ABS_POW, POW, SQRT
     >>> Z = np.array([[2.0, -3.0]])
     >>> evaluate_terms_jacobian([((0, POW, 2, 0), (1, ABS_POW, 1, 0))], Z)[0]
     array([[12., -4.]])

@@ -76,6 +76,7 @@ class _Problem:
         self.x_segments, self.weight = [], np.ones(self.n_states)
         self.compiled = terms is not None and (physical is None or physical.make_rhs is None)
         self._rhs_key = self._rhs = None
+        self._open_loop_key = self._open_loop = None
 
     # ------------------------------------------------------------- vectors
     def parameters(self):
@@ -167,11 +168,22 @@ class _Problem:
 
     # ----------------------------------------------------------- residuals
     def open_loop(self, p):
-        """Each whole record simulated from its start (NaN after a divergence); a list."""
-        rhs = self.rhs(p)
-        with np.errstate(all="ignore"):
-            return [simulate(rhs, x0, u, self.dt, on_divergence="nan", **self.sim["settings"])
-                    for x0, u in zip(self.record_starts(p), self.us)]
+        """Each whole record simulated from its start (NaN after a divergence); a list.
+
+        The last one is reused while the model and initial states in ``p`` are
+        unchanged: the optimizer's first residuals are those of the start
+        :func:`_build` simulated, its last often those of the returned model,
+        and :func:`_output_jacobian` runs that model again without the
+        segment starts.
+        """
+        key = p[: self.n_model + self.n_x0].tobytes()
+        if self._open_loop_key != key:
+            rhs = self.rhs(p)
+            with np.errstate(all="ignore"):
+                xs = [simulate(rhs, x0, u, self.dt, on_divergence="nan", **self.sim["settings"])
+                      for x0, u in zip(self.record_starts(p), self.us)]
+            self._open_loop_key, self._open_loop = key, xs
+        return self._open_loop
 
     def output_cost(self, xs):
         """Half the mean squared scaled output error of the trajectories ``xs`` (diverged samples penalized)."""
@@ -187,7 +199,7 @@ class _Problem:
         return r, c
 
     def residuals(self, p):
-        if self.n_records > 1:
+        if len(self.segments) == 1:  # single shooting: the records open loop
             out = np.concatenate([((x[:, self.oidx] - y) / scale).ravel()
                                   for x, y, scale in zip(self.open_loop(p), self.ys, self.y_scales)])
             out = out / np.sqrt(self.n_res)

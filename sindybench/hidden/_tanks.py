@@ -7,10 +7,10 @@ import numpy as np
 from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, SQRT, ConcatLibrary, PolynomialLibrary, SqrtLibrary
-from ..search import Uniform
+from ..search import Uniform, as_dimension
 from ..simulate import TermsRHS, simulate
 from ._base import Structure
-from ._parametric import ParametricHiddenState, _check_range
+from ._parametric import ParametricHiddenState
 
 __all__ = ["TanksHiddenState"]
 
@@ -176,7 +176,7 @@ class TanksHiddenState(ParametricHiddenState):
 
 def _positive_range(spec, name):
     """A searched range of outflow coefficients or their ratio: a dimension of positive values only."""
-    dim = _check_range(spec, name, log=True)
+    dim = as_dimension(spec, name=name, real=True, log=True)
     low = dim.support()[0]
     if not low > 0:
         raise ValueError(f"{name} = {spec!r} reaches {low!r}; expected positive values only.")

@@ -20,7 +20,15 @@ from sklearn.utils.validation import check_is_fitted
 from ._divergence import DivergenceWarning, warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
-from ._validation import check_inputs_outputs, check_model_inputs, check_one_record, check_signal, is_records
+from ._validation import (
+    check_inputs_outputs,
+    check_model_inputs,
+    check_one_record,
+    check_record_lists,
+    check_signal,
+    count_records,
+    is_records,
+)
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer, r2
 from .refine._report import UncertaintyMixin
@@ -95,6 +103,13 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         if x0.shape[0] != self.n_states_:
             raise ValueError(f"x0 has {x0.shape[0]} entries; expected {self.n_states_} (one per state).")
         return x0
+
+    @staticmethod
+    def _fit_is_records(X, y):
+        """Whether ``fit`` got several records (``y`` a list of arrays); records in ``X`` with one array ``y`` raise."""
+        if count_records(X) and not is_records(y):
+            check_record_lists(X, y)  # says that y must be a list of records too
+        return is_records(y)
 
     # -------------------------------------------------------------- simulation
     def estimate_initial_state(self, X, y_init):

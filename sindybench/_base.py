@@ -17,12 +17,20 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from ._divergence import DivergenceWarning, warn_divergence
+from ._divergence import warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
-from ._validation import check_inputs_outputs, check_model_inputs, check_one_record, check_signal, is_records
+from ._validation import (
+    check_inputs_outputs,
+    check_model_inputs,
+    check_one_record,
+    check_record_lists,
+    check_signal,
+    count_records,
+    is_records,
+)
 from .io import SaveLoadMixin
-from .metrics import make_simulation_scorer, r2
+from .metrics import make_simulation_scorer
 from .refine._report import UncertaintyMixin
 from .simulate import SimulationError
 
@@ -45,6 +53,17 @@ def _per_record(value, n_records, name):
 def _record_error(i, exc):
     """``exc`` (a ValueError about one record) with the record's index in front."""
     return ValueError(f"record {i}: {exc}")
+
+
+def _check_score_records(X, y):
+    """The lists ``X`` and ``y`` of ``score`` on several records, each record checked (named ``X[i]``, ``y[i]``)."""
+    if not is_records(y):
+        raise ValueError(f"X is a list of {len(X)} records, so y must be a list of {len(X)} output arrays (one per "
+                         f"record); got {type(y).__name__}.")
+    X = _per_record(X, len(y), "X")
+    pairs = [check_inputs_outputs(X_i, y_i, x_name=f"X[{i}]", y_name=f"y[{i}]")
+             for i, (X_i, y_i) in enumerate(zip(X, y))]
+    return [X_i for X_i, _ in pairs], [y_i for _, y_i in pairs]
 
 
 class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin,
@@ -95,6 +114,13 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         if x0.shape[0] != self.n_states_:
             raise ValueError(f"x0 has {x0.shape[0]} entries; expected {self.n_states_} (one per state).")
         return x0
+
+    @staticmethod
+    def _fit_is_records(X, y):
+        """Whether ``fit`` got several records (``y`` a list of arrays); records in ``X`` with one array ``y`` raise."""
+        if count_records(X) and not is_records(y):
+            check_record_lists(X, y)  # says that y must be a list of records too
+        return is_records(y)
 
     # -------------------------------------------------------------- simulation
     def estimate_initial_state(self, X, y_init):
@@ -254,30 +280,11 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         if sample_weight is not None:
             raise ValueError(f"sample_weight is not supported by {type(self).__name__}.score; expected None.")
         if is_records(y) or is_records(X):
-            return self._score_records(X, y)
-        X, y = check_inputs_outputs(X, y)
+            X, y = _check_score_records(X, y)
+        else:
+            X, y = check_inputs_outputs(X, y)
+        # with lists the scorer simulates each record from its own start and pools the samples
         return make_simulation_scorer("r2")(self, X, y)
-
-    def _score_records(self, X, y):
-        """R^2 pooled over the records: each simulated from its own start, the samples scored together."""
-        if not is_records(y):
-            raise ValueError(f"X is a list of {len(X)} records, so y must be a list of {len(X)} output arrays (one per "
-                             f"record); got {type(y).__name__}.")
-        X = _per_record(X, len(y), "X")
-        pairs = [check_inputs_outputs(X_i, y_i, x_name=f"X[{i}]", y_name=f"y[{i}]")
-                 for i, (X_i, y_i) in enumerate(zip(X, y))]
-        y_pred = []
-        with warnings.catch_warnings():  # a diverged simulation scores -inf, no warning
-            warnings.simplefilter("ignore", DivergenceWarning)
-            for i, (X_i, y_i) in enumerate(pairs):
-                try:
-                    y_pred.append(self.predict(X_i, y_init=y_i).reshape(y_i.shape[0], -1))
-                except ValueError as exc:
-                    raise _record_error(i, exc) from exc
-        y_pred = np.vstack(y_pred)
-        if not np.all(np.isfinite(y_pred)):
-            return -np.inf
-        return r2(np.vstack([y_i for _, y_i in pairs]), y_pred)
 
     # ----------------------------------------------------------------- display
     def equations(self, precision=3, *, latex=False, errors=False):

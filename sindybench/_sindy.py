@@ -20,11 +20,9 @@ from ._validation import (
     check_integer,
     check_option,
     check_positive,
-    check_record_lists,
     check_records,
     check_signal,
     check_time,
-    count_records,
     is_records,
     uniform_step,
 )
@@ -238,9 +236,7 @@ class SINDy(DynamicsEstimator):
             raise ValueError(
                 "SINDy requires y to be passed, but the target y is None; expected the measured states."
             )
-        if count_records(X) and not is_records(y):
-            check_record_lists(X, y)  # says that y must be a list of records too
-        if is_records(y):
+        if self._fit_is_records(X, y):
             return self._fit_records(X, y, dt=dt, t=t, x_dot=x_dot)
         check_array_like(X, "X")
         check_array_like(y, "y")

@@ -6,7 +6,7 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
 from sindybench import STLS, DivergenceWarning, HiddenStateSINDy, SimulationError
-from sindybench.hidden import DerivativeHiddenState, InitialFit, ParametricHiddenState
+from sindybench.hidden import DerivativeHiddenState, HiddenStrategy, InitialFit, ParametricHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.search import LogUniform, Normal, Uniform
 from sindybench.simulate import TermsRHS, simulate
@@ -290,3 +290,18 @@ def test_dimensions_in_the_parameters_are_saved_with_the_model(oscillator):
     loaded = model_from_dict(model_to_dict(model), allow_import=True)
     assert loaded.search_params == model.search_params and loaded.hidden.params == {"a": Normal(1.0, 0.3)}
     np.testing.assert_array_equal(loaded.predict(u[:600], y_init=y[:50]), model.predict(u[:600], y_init=y[:50]))
+
+
+class _TwoParameters(HiddenStrategy):
+    _physical = ("a", "b")
+
+    def __init__(self, *, a=None, b=None, bounds=None):
+        self.a, self.b, self.bounds = a, b, bounds
+
+
+def test_search_space_reads_bounds_and_names_a_missing_entry():
+    space = _TwoParameters(bounds={"a": (0.1, 10.0, True), "b": Uniform(1.0, 5.0)}).search_space()
+    assert space == {"a": LogUniform(0.1, 10.0), "b": Uniform(1.0, 5.0)}
+    assert _TwoParameters(a=1.0, bounds={"b": (1, 5)}).search_space() == {"b": Uniform(1.0, 5.0)}
+    with pytest.raises(ValueError, match=r"b=None asks for a search but bounds has no entry 'b'"):
+        _TwoParameters(a=1.0, bounds={"a": (0.1, 10.0)}).search_space()

@@ -5,6 +5,7 @@ import pytest
 
 from sindybench import SINDy, STLS
 from sindybench.libraries import PolynomialLibrary
+from sindybench.metrics import make_simulation_scorer
 from sindybench.refine import OutputErrorRefinement
 from sindybench.simulate import simulate
 
@@ -81,6 +82,7 @@ def test_predict_and_score_on_lists(records):
     expected = 1 - np.sum((y_all - p_all) ** 2) / np.sum((y_all - y_all.mean()) ** 2)
     assert pooled == pytest.approx(expected, rel=1e-12)
     assert 0.99 < pooled < 1.0
+    assert pooled == make_simulation_scorer("r2")(model, [u1, u2], [y1, y2])  # score is the pooled-records scorer
     with pytest.raises(ValueError, match="needs y_init or x0"):
         model.predict([u1, u2])
 

@@ -181,6 +181,38 @@ class ModelView(NamedTuple):
     simulate: Callable
 
 
+def positive_dimension(spec, name, *, note=""):
+    """``spec`` read as a log-scaled dimension (:func:`~sindybench.search.as_dimension`) of positive values only."""
+    dim = as_dimension(spec, name=name, real=True, log=True)
+    low = dim.support()[0]
+    if not low > 0:
+        raise ValueError(f"{name} = {spec!r} reaches {low!r}; expected positive values only{note}.")
+    return dim
+
+
+def bounds_space(strategy, names, bounds, *, positive=False):
+    """The parameters among ``names`` that ``strategy`` leaves None (searched), with their dimensions from ``bounds``.
+
+    ``positive``: ``(low, high)`` is log-scaled and the values must be
+    positive (:func:`positive_dimension`).
+    """
+    space = {}
+    for name in names:
+        if getattr(strategy, name) is not None:
+            continue
+        if name not in bounds:
+            raise ValueError(
+                f"{name}=None asks for a search but bounds has no entry {name!r}; "
+                f"expected bounds={{{name!r}: (low, high)}} or a fixed value."
+            )
+        where = f"bounds[{name!r}]"
+        if positive:
+            space[name] = positive_dimension(bounds[name], where, note=f" ({name} > 0)")
+        else:
+            space[name] = as_dimension(bounds[name], name=where, real=True)
+    return space
+
+
 class InitialFit(NamedTuple):
     """How a strategy's first guess of the initial state is refined (see :meth:`HiddenStrategy.initial_fit`).
 
@@ -248,18 +280,7 @@ class HiddenStrategy(BaseEstimator):
         The default lists the ``_physical`` parameters that are ``None``, with
         their range from ``self.bounds`` (read by :func:`~sindybench.search.as_dimension`).
         """
-        bounds = getattr(self, "bounds", None) or {}
-        space = {}
-        for name in self._physical:
-            if getattr(self, name) is not None:
-                continue
-            if name not in bounds:
-                raise ValueError(
-                    f"{name}=None asks for a search but bounds has no entry {name!r}; "
-                    f"expected bounds={{{name!r}: (low, high)}} or a fixed value."
-                )
-            space[name] = as_dimension(bounds[name], name=f"bounds[{name!r}]", real=True)
-        return space
+        return bounds_space(self, self._physical, getattr(self, "bounds", None) or {})
 
     def resolve_params(self, values=None):
         """All physical parameters: constructor values, ``values`` for the searched ones."""

@@ -74,14 +74,8 @@ def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, 
     -------
     Candidate
     """
-    structure = hidden.structure(params, n_outputs=y.shape[1], n_inputs=X.shape[1])
-    design, states, targets, rows = _record_design(hidden, structure, params, derivative, X, y, n_rows,
-                                                   simulation["dt"])
-    coef = fit_sparse(library, optimizer, np.hstack([states, X]), targets, rows=rows,
-                      feature_filter=design.feature_filter, what="library output Theta([x, u])")
-    return Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
-                     differentiation=derivative.differentiation, coef=coef, derivative=derivative, design=design,
-                     dynamics=structure_dynamics(structure, library, coef, simulation))
+    return fit_candidate_records(hidden, params, library, optimizer, derivative, [X], [y], [n_rows],
+                                 simulation)._replace(designs=None)
 
 
 def fit_candidate_records(hidden, params, library, optimizer, derivative, Xs, ys, n_rows, simulation):
@@ -90,7 +84,8 @@ def fit_candidate_records(hidden, params, library, optimizer, derivative, Xs, ys
     ``Xs``, ``ys`` and ``n_rows`` hold one entry per record; the strategy's
     design (hidden-state reconstruction, ``Design.rows``, feature filter)
     runs on each record alone, so nothing is differentiated, filtered or
-    reconstructed across the seam between two records.
+    reconstructed across the seam between two records. With one record
+    (lists of one) it is :func:`fit_candidate`, except that ``designs`` is set.
     """
     structure = hidden.structure(params, n_outputs=ys[0].shape[1], n_inputs=Xs[0].shape[1])
     parts = []
@@ -98,10 +93,15 @@ def fit_candidate_records(hidden, params, library, optimizer, derivative, Xs, ys
         try:
             parts.append(_record_design(hidden, structure, params, derivative, X, y, n, simulation["dt"]))
         except ValueError as exc:
+            if len(ys) == 1:
+                raise
             raise ValueError(f"record {i}: {exc}") from exc
     designs = tuple(p[0] for p in parts)
     filters = [d.feature_filter for d in designs]
-    feature_filter = None if all(f is None for f in filters) else _RecordFilters(filters, [len(y) for y in ys])
+    if len(filters) == 1 or all(f is None for f in filters):
+        feature_filter = filters[0]
+    else:
+        feature_filter = _RecordFilters(filters, [len(y) for y in ys])
     coef = fit_sparse(library, optimizer, np.hstack([np.vstack([p[1] for p in parts]), np.vstack(Xs)]),
                       np.vstack([p[2] for p in parts]), rows=np.concatenate([p[3] for p in parts]),
                       feature_filter=feature_filter, what="library output Theta([x, u])")

@@ -28,30 +28,19 @@ class Derivative:
 
     def pin(self, a):
         """Memoize derivatives of ``a``, an array or a list of arrays (None stops and clears the memo)."""
-        if isinstance(a, list):
-            self.pinned = [np.asarray(r, dtype=float) for r in a]
-        else:
-            self.pinned = None if a is None else np.asarray(a, dtype=float)
+        self.pinned = None if a is None else [np.asarray(r, dtype=float) for r in (a if isinstance(a, list) else [a])]
         self._memo = {}
 
     def __call__(self, a, order=1):
         a = np.asarray(a, dtype=float)
         if order == 0:
             return a.copy()
-        p = self.pinned
-        if isinstance(p, list):  # several records: the memo is keyed by the record too
-            for i, r in enumerate(p):
-                if a.size == r.size and np.array_equal(a.reshape(r.shape), r):
-                    key = (i, order, a.shape)
-                    if key not in self._memo:
-                        self._memo[key] = self._compute(a, order)
-                    return self._memo[key].copy()
-            return self._compute(a, order)
-        if p is not None and a.size == p.size and np.array_equal(a.reshape(p.shape), p):
-            key = (order, a.shape)
-            if key not in self._memo:
-                self._memo[key] = self._compute(a, order)
-            return self._memo[key].copy()
+        for i, r in enumerate(self.pinned or ()):  # the memo is keyed by the record
+            if a.size == r.size and np.array_equal(a.reshape(r.shape), r):
+                key = (i, order, a.shape)
+                if key not in self._memo:
+                    self._memo[key] = self._compute(a, order)
+                return self._memo[key].copy()
         return self._compute(a, order)
 
     def _compute(self, a, order):

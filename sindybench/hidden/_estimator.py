@@ -19,10 +19,7 @@ from .._validation import (
     check_integer,
     check_option,
     check_positive,
-    check_record_lists,
     check_records,
-    count_records,
-    is_records,
 )
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
@@ -324,9 +321,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         -------
         self
         """
-        if count_records(X) and not is_records(y):
-            check_record_lists(X, y)  # says that y must be a list of records too
-        records = is_records(y)
+        records = self._fit_is_records(X, y)
         X, y1 = check_records(X, y, y_kind="outputs") if records else _check_fit_data(X, y)
         dt, est_space = self._check_params(dt)
         self._check_refine_records(len(y1) if records else 1)

@@ -37,9 +37,8 @@ from scipy.optimize import least_squares
 from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
-from ..search import as_dimension
 from ..simulate import TermsRHS, simulate
-from ._base import Design, HiddenStrategy, Structure, linear_term
+from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term
 
 __all__ = ["LatentHiddenState", "latent_invariants"]
 
@@ -145,7 +144,7 @@ class LatentHiddenState(HiddenStrategy):
     def search_space(self):
         bounds = {"tau": (1e-3, 1e3), "gain": (1e-3, 1e3), **(self.bounds or {})}
         names = ("tau", "gain") if self.scale == "range" else ("tau",)
-        return _space(self, bounds, names)
+        return bounds_space(self, names, bounds, positive=True)
 
     def resolve_params(self, values=None):
         values = dict(values or {})
@@ -278,23 +277,6 @@ class LatentHiddenState(HiddenStrategy):
 
 _DRIVERS = ("input", "velocity", "output")
 _SCALES = ("driver", "range")
-
-
-def _space(strategy, bounds, names):
-    """The searched parameters among ``names`` with their dimensions (``(low, high)``: log-scaled)."""
-    space = {}
-    for name in names:
-        if getattr(strategy, name) is not None:
-            continue
-        if name not in bounds:
-            raise ValueError(f"{name}=None asks for a search but bounds has no entry {name!r}; "
-                             f"expected bounds={{{name!r}: (low, high)}} or a fixed value.")
-        dim = as_dimension(bounds[name], name=f"bounds[{name!r}]", real=True, log=True)
-        if not dim.support()[0] > 0:
-            raise ValueError(f"bounds[{name!r}] = {bounds[name]!r} reaches {dim.support()[0]!r}; expected positive "
-                             f"values only ({name} > 0).")
-        space[name] = dim
-    return space
 
 
 def latent_invariants(model, u_op, *, y_guess=None, eps=1e-6):

@@ -20,11 +20,6 @@ __all__ = ["ParametricHiddenState"]
 _INITS = ("simulation", "derivative")
 
 
-def _check_range(spec, name, *, log=None):
-    """A searched range as a dimension (:func:`~sindybench.search.as_dimension`)."""
-    return as_dimension(spec, name=name, real=True, log=log)
-
-
 def _middle(dim):
     """The middle of a searched range (geometric for log ranges, the median of a prior)."""
     if isinstance(dim, LogUniform):
@@ -147,7 +142,7 @@ class ParametricHiddenState(HiddenStrategy):
                     raise ValueError(f"params[{name!r}] = {spec!r}; expected a finite number.")
                 out[name] = float(spec)
             else:
-                out[name] = _check_range(spec, f"params[{name!r}]")
+                out[name] = as_dimension(spec, name=f"params[{name!r}]", real=True)
         return out
 
     def _x0_specs(self):
@@ -159,7 +154,7 @@ class ParametricHiddenState(HiddenStrategy):
         if arr.ndim == 0:
             raise ValueError(f"x0_bounds = {x0!r}; expected (low, high) or one (low, high) per hidden state.")
         pairs = [x0] if arr.ndim == 1 else list(x0)
-        return [_check_range(p, "x0_bounds", log=False) for p in pairs]
+        return [as_dimension(p, name="x0_bounds", real=True, log=False) for p in pairs]
 
     def _x0_names(self, n):
         return ["x0"] if n == 1 else [f"x0_{i}" for i in range(n)]

@@ -9,8 +9,8 @@ from ..io import register_model
 from ..libraries import POW, SQRT, ConcatLibrary, PolynomialLibrary, SqrtLibrary
 from ..search import Uniform
 from ..simulate import TermsRHS, simulate
-from ._base import Structure
-from ._parametric import ParametricHiddenState, _check_range
+from ._base import Structure, positive_dimension
+from ._parametric import ParametricHiddenState
 
 __all__ = ["TanksHiddenState"]
 
@@ -105,7 +105,7 @@ class TanksHiddenState(ParametricHiddenState):
         return rhs
 
     def _param_specs(self):
-        k_range = _positive_range(self.k_bounds, "k_bounds")
+        k_range = positive_dimension(self.k_bounds, "k_bounds")
         out = {}
         for name in ("k1", "k2"):
             value = getattr(self, name)
@@ -116,7 +116,7 @@ class TanksHiddenState(ParametricHiddenState):
             else:
                 raise ValueError(f"{name} must be a finite number > 0 or None (searched); got {value!r}.")
         if self.ratio_bounds is not None:
-            ratio = _positive_range(self.ratio_bounds, "ratio_bounds")
+            ratio = positive_dimension(self.ratio_bounds, "ratio_bounds")
             if self.k1 is None and self.k2 is None:
                 del out["k2"]
                 out["ratio"] = ratio
@@ -172,15 +172,6 @@ class TanksHiddenState(ParametricHiddenState):
         _, x0 = self._split(params)
         rhs = TermsRHS(coef[:, None], terms, 1)
         return simulate(rhs, x0, u, dt, n_substeps=self.n_substeps, bounds=self._tank_bounds())
-
-
-def _positive_range(spec, name):
-    """A searched range of outflow coefficients or their ratio: a dimension of positive values only."""
-    dim = _check_range(spec, name, log=True)
-    low = dim.support()[0]
-    if not low > 0:
-        raise ValueError(f"{name} = {spec!r} reaches {low!r}; expected positive values only.")
-    return dim
 
 
 register_model(TanksHiddenState)

@@ -213,13 +213,12 @@ def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick
         out["noise"] = {"status": _failed(exc)}
         Q = R = None
     out["k_step"], out["smoothed_start"] = {}, {}
-    for name, test in tests.items():
-        if Q is None:
-            break
-        info = results["test_sets"][name]
-        out["k_step"][name] = _k_step(estimator, test, Q, R, HORIZONS)
-        out["smoothed_start"][name] = smoothed_start_scores(
-            estimator, test, info["n_init"], Q=Q, R=R, score_from=info["score_from"])[0]
+    if Q is not None:  # without Q and R neither the filter nor the smoother runs
+        for name, test in tests.items():
+            info = results["test_sets"][name]
+            out["k_step"][name] = _k_step(estimator, test, Q, R, HORIZONS)
+            out["smoothed_start"][name] = smoothed_start_scores(
+                estimator, test, info["n_init"], Q=Q, R=R, score_from=info["score_from"])[0]
     out["standard_errors"], out["standard_errors_status"] = _standard_errors(estimator)
     n_members = benchmark.band_members_quick if quick else benchmark.band_members
     if n_members:

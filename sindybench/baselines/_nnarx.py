@@ -174,6 +174,7 @@ class NNARX(SaveLoadMixin, LagModel):
         self.random_state = random_state
 
     def _check_settings(self):
+        """Check the settings; return the hidden layer sizes as a tuple."""
         sizes = self.hidden_layer_sizes
         if isinstance(sizes, numbers.Integral) and not isinstance(sizes, bool):
             sizes = (sizes,)
@@ -191,6 +192,7 @@ class NNARX(SaveLoadMixin, LagModel):
         check_bool(self.residual, "residual")
         check_integer(self.n_estimators, "n_estimators")
         check_option(self.dtype, "dtype", ["float32", "float64"])
+        return sizes
 
     def fit(self, X, y):
         """Train the networks on the one-step-ahead regressors.

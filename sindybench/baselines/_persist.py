@@ -100,7 +100,7 @@ def _network_from_dict(model, fitted, widths):
 
 def nnarx_from_dict(model, fitted):
     """Set the fitted attributes of an NNARX ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
-    check_params(model._check_settings)
+    sizes = check_params(model._check_settings)  # the hidden layer sizes, checked
     n_reg, n_out = _lags_from_dict(model, fitted)
     model.u_mean_ = fitted.array("u_mean", (model.n_features_in_,), finite=True)
     model.u_scale_ = fitted.array("u_scale", (model.n_features_in_,), positive=True)  # divides the inputs
@@ -108,11 +108,6 @@ def nnarx_from_dict(model, fitted):
     model.linear_coef_ = fitted.array("linear_coef", (n_reg, n_out), finite=True)
     model.linear_intercept_ = fitted.array("linear_intercept", (n_out,), finite=True)
     model.n_iter_ = fitted.int("n_iter")
-    sizes = model.hidden_layer_sizes
-    sizes = list(sizes) if isinstance(sizes, (list, tuple)) else [sizes]
-    if not sizes or not all(isinstance(h, int) and not isinstance(h, bool) and h >= 1 for h in sizes):
-        raise ValueError(f"params.hidden_layer_sizes: expected a tuple of integers >= 1; "
-                         f"got {model.hidden_layer_sizes!r}.")
     widths = [n_reg, *sizes, n_out]
     model.estimators_ = [_network_from_dict(model, net, widths)
                          for net in fitted.items("networks", int(model.n_estimators))]

@@ -26,7 +26,7 @@ from sklearn.base import clone
 
 from ..metrics import fit_index, r2, rmse
 
-__all__ = ["HORIZONS", "K_STEP_SAMPLES", "report_best_model", "smoothed_start_scores"]
+__all__ = ["HORIZONS", "K_STEP_SAMPLES", "free_run_scores", "report_best_model", "smoothed_start_scores", "test_record"]
 
 logger = logging.getLogger(__name__)
 
@@ -53,7 +53,21 @@ SMOOTHED_PROTOCOL = ("free run from the smoothed initial state: RTS smoother ove
                      "only, scored as the free run")
 
 
-def _scores(y, y_pred, first):
+def test_record(test):
+    """``(u, y)`` of a test set as float arrays of shape (n_samples, n_inputs) and (n_samples, n_outputs)."""
+    u = np.asarray(test["u"], float)
+    u = u.reshape(len(u), -1)
+    return u, np.asarray(test["y"], float).reshape(len(u), -1)
+
+
+def free_run_scores(y, y_pred, first=0):
+    """``rmse``, ``r2``, ``fit_index`` of a simulation over the samples from ``first`` on, and ``status``.
+
+    A simulation with a non-finite value anywhere has no scores (status
+    ``"diverged (non-finite simulation)"``).
+    """
+    if not np.all(np.isfinite(y_pred)):
+        return {"rmse": None, "r2": None, "fit_index": None, "status": "diverged (non-finite simulation)"}
     return {"rmse": rmse(y[first:], y_pred[first:]), "r2": r2(y[first:], y_pred[first:]),
             "fit_index": fit_index(y[first:], y_pred[first:]), "status": "ok"}
 
@@ -76,18 +90,14 @@ def smoothed_start_scores(estimator, test, n_init, *, Q, R, score_from=0):
     """
     from ..estimation import model_step, smooth_initial_state
 
-    u = np.asarray(test["u"], float)
-    u = u.reshape(len(u), -1)
-    y = np.asarray(test["y"], float).reshape(len(u), -1)
+    u, y = test_record(test)
     try:
         x0 = smooth_initial_state(estimator, u[:n_init], y[:n_init], Q=Q, R=R)
         states = estimator.simulate(u, x0=x0, on_divergence="nan")
         y_pred = np.asarray(states, float)[:, list(model_step(estimator).output_index)]
     except Exception as exc:  # a diverging filter is a result, not a crash
         return {"rmse": None, "r2": None, "fit_index": None, "status": _failed(exc)}, None
-    if not np.all(np.isfinite(y_pred)):
-        return {"rmse": None, "r2": None, "fit_index": None, "status": "diverged (non-finite simulation)"}, x0
-    return _scores(y, y_pred, score_from), x0
+    return free_run_scores(y, y_pred, score_from), x0
 
 
 def _noise(estimator, X, y):
@@ -105,9 +115,7 @@ def _noise(estimator, X, y):
 def _k_step(estimator, test, Q, R, horizons):
     from ..estimation import k_step_rmse
 
-    u = np.asarray(test["u"], float)
-    u = u.reshape(len(u), -1)[:K_STEP_SAMPLES]
-    y = np.asarray(test["y"], float).reshape(len(test["y"]), -1)[:K_STEP_SAMPLES]
+    u, y = (a[:K_STEP_SAMPLES] for a in test_record(test))
     out = {}
     for k in horizons:
         try:
@@ -145,9 +153,7 @@ def _band(estimator, X, y, tests, test_info, *, n_members, seed):
         return info
     info.update(n_failed=int(ens.n_failed_), block_length=int(ens.block_length_))
     for name, test in tests.items():
-        u = np.asarray(test["u"], float)
-        u = u.reshape(len(u), -1)
-        yt = np.asarray(test["y"], float).reshape(len(u), -1)
+        u, yt = test_record(test)
         n_init, first = test_info[name]["n_init"], test_info[name]["score_from"]
         try:
             band = prediction_band(ens, u, y_init=yt[:n_init])
@@ -201,26 +207,23 @@ def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick
         out["status"] = "not fitted"
         return out
     start = time.perf_counter()
-    cap = spec.train_cap(quick=quick)
-    keep = slice(None) if cap is None or cap >= n_train else np.r_[:cap, n_train:len(y)]
-    Xk, yk = X[keep], y[keep]
     try:
         Q, R, out["noise"] = _noise(estimator, X[:n_train], y[:n_train])
     except Exception as exc:
         out["noise"] = {"status": _failed(exc)}
         Q = R = None
     out["k_step"], out["smoothed_start"] = {}, {}
-    for name, test in tests.items():
-        if Q is None:
-            break
-        info = results["test_sets"][name]
-        out["k_step"][name] = _k_step(estimator, test, Q, R, HORIZONS)
-        out["smoothed_start"][name] = smoothed_start_scores(
-            estimator, test, info["n_init"], Q=Q, R=R, score_from=info["score_from"])[0]
+    if Q is not None:  # without Q and R neither the filter nor the smoother runs
+        for name, test in tests.items():
+            info = results["test_sets"][name]
+            out["k_step"][name] = _k_step(estimator, test, Q, R, HORIZONS)
+            out["smoothed_start"][name] = smoothed_start_scores(
+                estimator, test, info["n_init"], Q=Q, R=R, score_from=info["score_from"])[0]
     out["standard_errors"], out["standard_errors_status"] = _standard_errors(estimator)
     n_members = benchmark.band_members_quick if quick else benchmark.band_members
     if n_members:
-        out["band"] = _band(estimator, Xk, yk, tests, results["test_sets"], n_members=n_members, seed=seed)
+        keep = spec.train_rows(quick=quick, n_train=n_train, n_samples=len(y))  # the rows the row was fitted on
+        out["band"] = _band(estimator, X[keep], y[keep], tests, results["test_sets"], n_members=n_members, seed=seed)
     else:
         out["band"] = {"n_members": 0, "status": "skipped: " + (benchmark.band_skip_reason or "no band members")}
     out["time_s"] = time.perf_counter() - start

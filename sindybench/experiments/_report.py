@@ -17,7 +17,6 @@ import textwrap
 import time
 from pathlib import Path
 
-import numpy as np
 
 from .._process import owner, owner_is_gone
 from ..plotting import plot_hysteresis, plot_simulation

@@ -18,8 +18,7 @@ from sklearn.exceptions import ConvergenceWarning
 
 from .. import __version__
 from .._json import jsonable
-from ..metrics import fit_index, r2, rmse
-from ._best import report_best_model
+from ._best import free_run_scores, report_best_model, test_record
 from ._published import published
 
 __all__ = ["DataNotFoundError", "evaluate", "fit_model", "load_data", "run_benchmark", "test_sets"]
@@ -219,23 +218,15 @@ def evaluate(estimator, test, n_init):
         ``rmse``, ``r2``, ``fit_index`` (``None`` when the simulation
         diverged) and ``status`` (``"ok"`` or the reason it failed).
     """
-    u = np.asarray(test["u"], float)
-    y = np.asarray(test["y"], float).reshape(len(u), -1)
-    first = _score_from(test)  # a protocol may score only the samples after those that set the state
+    u, y = test_record(test)
     try:
-        y_pred = np.asarray(estimator.predict(u.reshape(len(u), -1), y_init=y[:n_init]), float)
-        y_pred = y_pred.reshape(y.shape)
+        y_pred = np.asarray(estimator.predict(u, y_init=y[:n_init]), float).reshape(y.shape)
     except Exception as exc:  # a diverging candidate is a result, not a crash
         logger.warning("simulation failed: %s", exc)
         return None, {"rmse": None, "r2": None, "fit_index": None, "status": f"failed: {exc}"}
-    if not np.all(np.isfinite(y_pred)):
-        return None, {"rmse": None, "r2": None, "fit_index": None, "status": "diverged (non-finite simulation)"}
-    return y_pred, {
-        "rmse": rmse(y[first:], y_pred[first:]),
-        "r2": r2(y[first:], y_pred[first:]),
-        "fit_index": fit_index(y[first:], y_pred[first:]),
-        "status": "ok",
-    }
+    # a protocol may score only the samples after those that set the state
+    scores = free_run_scores(y, y_pred, _score_from(test))
+    return (y_pred if scores["status"] == "ok" else None), scores
 
 
 def _equations(estimator):
@@ -318,7 +309,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
                     f"{budget} search trials" if budget else "no outer search")
         entry = {"key": spec.key, "label": spec.label, "description": spec.description}
         cap = spec.train_cap(quick=quick)
-        keep = slice(None) if cap is None or cap >= n_train else np.r_[:cap, n_train:n_train + n_val]
+        keep = spec.train_rows(quick=quick, n_train=n_train, n_samples=len(y))
         entry["n_train"] = n_train if cap is None else min(cap, n_train)
         try:
             if spec.refines is not None:

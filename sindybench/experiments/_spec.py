@@ -3,6 +3,8 @@
 from dataclasses import dataclass, field
 from typing import Callable
 
+import numpy as np
+
 __all__ = ["Benchmark", "ModelSpec"]
 
 
@@ -58,6 +60,23 @@ class ModelSpec:
     def train_cap(self, *, quick):
         """Largest number of training samples this model uses (``None``: all)."""
         return self.max_train_quick if quick else self.max_train
+
+    def train_rows(self, *, quick, n_train, n_samples):
+        """Rows of the estimation record (``n_train`` training samples, then validation) this model is fitted on.
+
+        ``slice(None)`` (all rows), or the first :meth:`train_cap` training
+        rows followed by the whole validation block.
+
+        Examples
+        --------
+        >>> spec = ModelSpec("m", "M", None, max_train=3)
+        >>> spec.train_rows(quick=False, n_train=5, n_samples=7)
+        array([0, 1, 2, 5, 6])
+        >>> spec.train_rows(quick=True, n_train=5, n_samples=7)
+        slice(None, None, None)
+        """
+        cap = self.train_cap(quick=quick)
+        return slice(None) if cap is None or cap >= n_train else np.r_[:cap, n_train:n_samples]
 
     def budget(self, *, quick, trials=None):
         """Number of outer search trials for this run (0 without a search space)."""

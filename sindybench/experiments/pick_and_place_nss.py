@@ -29,7 +29,7 @@ def _load(*, data_home=None, download_if_missing=True):
     from sklearn.utils import Bunch
 
     from ..datasets import fetch_files
-    from ..datasets._common import make_split
+    from ..datasets._common import make_dataset, make_split
     from ..datasets._pick_and_place import REMOTES
 
     (path,) = paths = fetch_files(REMOTES, data_home=data_home, download_if_missing=download_if_missing)
@@ -40,17 +40,13 @@ def _load(*, data_home=None, download_if_missing=True):
     dt = round(DECIMATION * float(t_raw[-1] - t_raw[0]) / (t_raw.shape[0] - 1), 12)
     u_tr, y_tr = u[:SPLIT:DECIMATION], y[:SPLIT:DECIMATION]
     u_te, y_te = u[SPLIT::DECIMATION], y[SPLIT::DECIMATION]
-    n_train = len(y_tr) - N_VALIDATION
     test = make_split(u_te, y_te, dt, start=len(y_tr), name="test")
     test.update(n_init=N_INIT, score_from=N_INIT,
                 protocol=f"Forgione et al. 2022: {N_INIT} initial samples set the state, scored on the rest")
-    return Bunch(
-        train=make_split(u_tr[:n_train], y_tr[:n_train], dt, name="train"),
-        validation=make_split(u_tr[n_train:], y_tr[n_train:], dt, start=n_train, name="validation"),
-        test=test, dt=dt, n_init=N_INIT,
+    return make_dataset(
+        u_tr, y_tr, dt, n_train=len(y_tr) - N_VALIDATION, test=test, remotes=REMOTES, paths=paths, n_init=N_INIT,
         scaling=Bunch(u_mean=float(u_raw.mean()), u_std=float(u_raw.std()), y_mean=float(y_raw.mean()),
                       y_std=float(y_raw.std())),
-        source=[Bunch(filename=r.filename, sha256=r.sha256, path=str(p)) for r, p in zip(REMOTES, paths)],
     )
 
 

@@ -195,7 +195,13 @@ def test_tanks_ensemble_bands_and_json_round_trip(tmp_path):
     assert np.mean(np.abs(band.median - truth), axis=0).max() < 0.05
     measured = prediction_band(ens, u, y_init=y[:5], noise=True, random_state=0)
     assert measured.coverage(y) > 0.7  # model and noise (measured 0.86); the model alone is narrower
-    assert measured.coverage(y) > prediction_band(ens, u, y_init=y[:5]).coverage(y)
+    model_only = prediction_band(ens, u, y_init=y[:5])
+    assert measured.coverage(y) > model_only.coverage(y)
+    # the noise added to a band already simulated: the same band, without simulating the members again
+    again = model_only.with_noise(ens, random_state=0)
+    for field in ("median", "lower", "upper", "samples"):
+        np.testing.assert_array_equal(getattr(again, field), getattr(measured, field))
+    assert again.n_diverged == measured.n_diverged and not np.array_equal(model_only.samples, measured.samples)
     path = tmp_path / "ensemble.json"
     ens.to_json(path)
     loaded = load_model(path)

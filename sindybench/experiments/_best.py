@@ -157,7 +157,7 @@ def _band(estimator, X, y, tests, test_info, *, n_members, seed):
         n_init, first = test_info[name]["n_init"], test_info[name]["score_from"]
         try:
             band = prediction_band(ens, u, y_init=yt[:n_init])
-            noisy = prediction_band(ens, u, y_init=yt[:n_init], noise=True, random_state=seed)
+            noisy = band.with_noise(ens, random_state=seed)
         except Exception as exc:
             info["coverage"][name] = {"coverage": None, "status": _failed(exc)}
             continue

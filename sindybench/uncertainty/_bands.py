@@ -45,17 +45,52 @@ class PredictionBand(NamedTuple):
         lo, hi = self.lower[:, self.outputs], self.upper[:, self.outputs]
         return float(np.mean((y >= lo) & (y <= hi)))
 
+    def with_noise(self, ensemble, random_state=None):
+        """This band with the measurement noise added: ``prediction_band(..., noise=True)`` without simulating again.
+
+        Parameters
+        ----------
+        ensemble : BootstrapEnsemble
+            The fitted ensemble whose members made ``samples`` (its training residuals are resampled).
+        random_state : int, RandomState or None
+
+        Returns
+        -------
+        PredictionBand
+        """
+        samples = self.samples.copy()
+        _add_residuals(samples, ensemble, self.outputs, random_state)
+        return _quantile_band(samples, self.names, self.outputs, self.alpha)
+
 
 def _run(member, X, y_init, x0, states):
-    """Outputs (or all states) of one member on ``X`` from ``x0`` or ``y_init``, NaN after a divergence."""
-    if hasattr(member, "structure_"):  # a hidden-state model estimates its own initial state
-        x = member.simulate(X, y_init=None if x0 is not None else y_init, x0=x0, on_divergence="nan")
-        index = list(member.output_index_)
-        return (x, index, list(member.state_names_)) if states else (x[:, index], list(range(len(index))),
-                                                                     [member.state_names_[i] for i in index])
-    start = np.asarray(y_init, dtype=float).reshape(len(y_init), -1)[0] if x0 is None else x0
-    x = member.simulate(X, start, on_divergence="nan")
-    return x, list(range(x.shape[1])), list(member.output_names_)
+    """Outputs (or all states) of one member on ``X`` from ``x0`` or ``y_init``, NaN after a divergence.
+
+    Each member starts as its own ``simulate`` does from ``y_init`` (a hidden-state
+    model estimates its hidden states, SINDy starts from ``y_init[0]``).
+    """
+    x = member.simulate(X, y_init=None if x0 is not None else y_init, x0=x0, on_divergence="nan")
+    index = list(member.output_index_)
+    names = member.state_names_
+    return (x, index, names) if states else (x[:, index], list(range(len(index))), [names[i] for i in index])
+
+
+def _add_residuals(samples, ensemble, outputs, random_state):
+    """Add to each member's outputs a circular-block resample of the training residuals (in place)."""
+    rng = check_random_state(random_state)
+    e = ensemble.residuals_
+    for k in range(samples.shape[0]):
+        idx = circular_block_indices(samples.shape[1], ensemble.block_length_, rng, n_source=e.shape[0])
+        samples[k][:, outputs] += e[idx]
+
+
+def _quantile_band(samples, names, outputs, alpha):
+    """The band of ``samples`` (n_members, n_samples, n_columns); diverged members left out of the quantiles."""
+    diverged = ~np.all(np.isfinite(samples), axis=(1, 2))
+    kept = samples[~diverged] if (~diverged).any() else samples
+    lower, median, upper = np.quantile(kept, [alpha / 2, 0.5, 1 - alpha / 2], axis=0)
+    return PredictionBand(median=median, lower=lower, upper=upper, samples=samples, names=names, outputs=outputs,
+                          alpha=alpha, n_diverged=int(diverged.sum()))
 
 
 def prediction_band(ensemble, X, *, y_init=None, x0=None, alpha=0.05, states=False, noise=False, random_state=None):
@@ -96,13 +131,5 @@ def prediction_band(ensemble, X, *, y_init=None, x0=None, alpha=0.05, states=Fal
     samples = np.array([r[0] for r in runs])
     outputs, names = runs[0][1], runs[0][2]
     if noise:
-        rng = check_random_state(random_state)
-        e = ensemble.residuals_
-        for k in range(samples.shape[0]):
-            idx = circular_block_indices(samples.shape[1], ensemble.block_length_, rng, n_source=e.shape[0])
-            samples[k][:, outputs] += e[idx]
-    diverged = ~np.all(np.isfinite(samples), axis=(1, 2))
-    kept = samples[~diverged] if (~diverged).any() else samples
-    lower, median, upper = np.quantile(kept, [alpha / 2, 0.5, 1 - alpha / 2], axis=0)
-    return PredictionBand(median=median, lower=lower, upper=upper, samples=samples, names=names, outputs=outputs,
-                          alpha=alpha, n_diverged=int(diverged.sum()))
+        _add_residuals(samples, ensemble, outputs, random_state)
+    return _quantile_band(samples, names, outputs, alpha)

@@ -17,8 +17,9 @@ by ``str()``:
   (rank of its autocovariance matrix), too little for a model of many poles;
 * :func:`detect_saturation`: an output level where samples pile up (a point
   mass at the top or bottom of the range), with the fraction at it;
-* feedback: the inputs correlated with past residuals of an ARX model (the
-  record was taken in closed loop, so an open-loop fit may be biased);
+* feedback: future inputs that improve an ARX prediction of the output (an
+  F test; the record was taken in closed loop, so an open-loop fit may be
+  biased, or the output was filtered non-causally);
 * sampling: the outputs' bandwidth against the Nyquist frequency (too slow,
   fewer than 4 samples per period of the fastest content; too fast, more
   than 100: decimate).
@@ -33,6 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
+from scipy.stats import f as f_dist
 
 from .._validation import check_inputs_outputs, check_integer, check_positive
 from ..baselines._arx import least_squares
@@ -45,6 +47,7 @@ __all__ = ["DataAdvice", "ProposedTerm", "advice", "detect_input_hold", "detect_
 logger = logging.getLogger(__name__)
 
 _HELD_OUT = 0.25  # the block at the end that confirms a delay
+_FEEDBACK_P = 1e-3  # F-test level of the feedback check
 _SAMPLES_PER_PERIOD = (4, 100)  # sampling too slow below, too fast above (per period of the 95 % bandwidth)
 
 
@@ -123,8 +126,9 @@ class DataAdvice:
     saturation : list of (int, str, float, float)
         ``(output, "upper" or "lower", level, fraction of samples at it)``.
     feedback : float or None
-        The largest correlation of an input with past ARX residuals, in
-        units of its 99 % bound (above 1: feedback); None without noise to tell.
+        p-value of the F test that the next 10 inputs do not improve an ARX
+        prediction of the output (below 0.001: feedback, or a non-causal
+        filter on the output); None without noise to tell.
     bandwidth : ndarray
         Per output, the frequency below which 95 % of its (detrended) power lies.
     samples_per_period : ndarray
@@ -169,7 +173,7 @@ class DataAdvice:
                  f"  outputs' 95 % bandwidth {_fmt(self.bandwidth)} Hz: {_fmt(self.samples_per_period)} samples "
                  "per period",
                  "  feedback: " + ("cannot tell (no residual noise)" if self.feedback is None else
-                                   f"{self.feedback:.2f} x the 99 % bound of the input-residual correlation")]
+                                   f"p = {self.feedback:.2g} that future inputs do not predict the output")]
         lines += [f"  saturation: y{j} {side} level {level:.6g} ({100 * frac:.1f} % of the samples)"
                   for j, side, level, frac in self.saturation]
         lines += [f"  proposed term: {term}" for term in self.proposed_terms]
@@ -215,13 +219,13 @@ def _chosen_lag(losses, rtol, nb):
     Shorter lags reach the response with their longer windows, so the lags
     within ``rtol`` span at most ``nb`` when the record resolves the delay.
     Otherwise (a smooth input: any window extrapolates to the others) the
-    delay is not resolved and the lag is the best one.
+    delay is not resolved: ``(None, False)``.
     """
     best = min(losses.values())
     close = [nk for nk, loss in losses.items() if loss <= best * (1 + rtol) + 1e-15]
     if max(close) - min(close) <= nb - 1:
         return max(close), True
-    return min(losses, key=losses.get), False
+    return None, False
 
 
 def estimate_delay(X, y, dt, *, max_delay=20, hold=None, na=2, nb=3, rtol=0.01):
@@ -237,7 +241,7 @@ def estimate_delay(X, y, dt, *, max_delay=20, hold=None, na=2, nb=3, rtol=0.01):
     without delay, so its delay is ``nk - 1``; with a linear hold the input
     acts within the sample, so it is ``nk``. An input that is smooth at the
     sampling rate may not resolve the delay (lags further apart than ``nb``
-    all score within ``rtol``): then the best lag is taken and a warning
+    all score within ``rtol``): then the delay is 0 (no delay) and a warning
     is logged; confirm the delay on validation data (the simulation error of
     models with neighbouring delays).
 
@@ -279,13 +283,13 @@ def _estimate_delay(X, y, dt, max_delay, hold, na, nb, rtol):
     hold = hold if hold is not None else detect_input_hold(X)[0]
     losses = _delay_losses(X, y, max_delay + 1, na, nb)
     nk, resolved = _chosen_lag(losses, rtol, nb)
-    delay = max(nk - 1, 0) if hold == "zoh" else min(nk, max_delay)
+    delay = 0 if nk is None else max(nk - 1, 0) if hold == "zoh" else min(nk, max_delay)
     if not resolved:
         logger.warning("estimate_delay: the record does not resolve the input delay (ARX input lags %s score within "
-                       "%g %% of the best, as for a smooth input); taking %d samples: confirm it on validation data",
+                       "%g %% of the best, as for a smooth input); taking %d samples (no delay): confirm it on validation data",
                        sorted(k for k, v in losses.items() if v <= min(losses.values()) * (1 + rtol)), 100 * rtol,
                        delay)
-    logger.info("estimate_delay: input lag nk = %d (%s hold) -> input_delay = %d samples (%.4g s)", nk, hold, delay,
+    logger.info("estimate_delay: input lag nk = %s (%s hold) -> input_delay = %d samples (%.4g s)", nk, hold, delay,
                 delay * dt)
     return delay, losses, resolved
 
@@ -323,22 +327,22 @@ def detect_input_hold(X):
 def excitation_order(X, *, max_order=50, tol=1e-9):
     """Persistent-excitation order of each input: the rank of the matrix of its windows of ``max_order`` samples.
 
-    The windows ``u[t:t + max_order]`` (mean removed) span a space whose
-    dimension is the order (numerical rank: eigenvalues of their Gram matrix
-    above ``tol`` times the largest): a sum of ``k`` sines excites order
-    ``2 k``, white noise every order, a constant none. A model with more
-    poles than the order cannot be told apart from others on this record.
+    The windows ``u[t:t + max_order]`` span a space whose dimension is the
+    order (numerical rank: eigenvalues of their Gram matrix above ``tol``
+    times the largest): a sum of ``k`` sines excites order ``2 k``, a
+    constant order 1 (the offset), white noise every order, zero none. A
+    model with more poles than the order cannot be told apart from others
+    on this record.
 
     Examples
     --------
     >>> t = np.arange(2000) * 0.01
     >>> excitation_order(np.column_stack([np.sin(t) + np.sin(3.7 * t), np.ones_like(t)]), max_order=20)
-    [4, 0]
+    [4, 1]
     """
     X = np.asarray(X, dtype=float)
     orders = []
     for u in X.T:
-        u = u - u.mean()
         if not np.any(u):
             orders.append(0)
             continue
@@ -408,27 +412,28 @@ def _trend_share(v):
     return float(min(1.0, slope ** 2 * np.var(t) / var))
 
 
-def _feedback(X, y, nk, na=2, nb=3, n_lags=10):
-    """The largest |correlation| of an input with past residuals of an ARX model, over its 99 % bound."""
-    start = max(na, nk + nb - 1) + n_lags
-    phi = np.hstack([output_lags(y, na, start), input_lags(X, nb, nk, start)])
-    _, _, residual = least_squares(phi, y[start:])
-    if np.var(residual) <= 1e-20 * np.var(y) or residual.shape[0] < 50:
+def _feedback(X, y, nk, na=4, nb=10, n_future=10):
+    """p-value of the F test "future inputs improve an ARX prediction of the output" (None without noise).
+
+    In open loop the output's noise never reaches the inputs, so once the
+    past outputs and inputs are in the model the next ``n_future`` inputs
+    add nothing; with feedback they do (they react to the noise of ``y[t]``),
+    and so they do after a non-causal filter of the output (a zero-phase
+    decimation).
+    """
+    start = max(na, nk + nb - 1)
+    n = y.shape[0] - n_future
+    past = np.hstack([output_lags(y[:n], na, start), input_lags(X[:n], nb, nk, start)])
+    future = np.hstack([X[start + k : n + k] for k in range(1, n_future + 1)])
+    target = y[start:n]
+    _, _, r_past = least_squares(past, target)
+    _, _, r_both = least_squares(np.hstack([past, future]), target)
+    q = future.shape[1] * target.shape[1]
+    dof = target.size - (past.shape[1] + future.shape[1] + 1) * target.shape[1]
+    rss_past, rss_both = float(np.sum(r_past ** 2)), float(np.sum(r_both ** 2))
+    if dof <= 0 or rss_both <= 1e-20 * float(np.sum((target - target.mean(axis=0)) ** 2)):
         return None
-    n = residual.shape[0]
-    u = X[start:] - X[start:].mean(axis=0)
-    e = residual - residual.mean(axis=0)
-    worst = 0.0
-    for i in range(u.shape[1]):
-        for j in range(e.shape[1]):
-            su, se = np.std(u[:, i]), np.std(e[:, j])
-            if su == 0 or se == 0:
-                continue
-            for k in range(1, n_lags + 1):  # u[t] against e[t - k]: the past noise reaching the input
-                rho = np.mean(u[k:, i] * e[:-k, j]) / (su * se)
-                worst = max(worst, abs(rho))
-    bound = 3.3 / np.sqrt(n)  # 99 % over n_lags lags of every input and output (Bonferroni-like)
-    return float(worst / bound)
+    return float(f_dist.sf((rss_past - rss_both) / q / (rss_both / dof), q, dof))
 
 
 def _bandwidth(y, dt, share=0.95):
@@ -511,7 +516,7 @@ def advice(X, y, *, dt, max_delay=20, max_order=50):
       input mean [-0.02271], std [0.9968]
       persistent excitation order of the inputs: [50]
       outputs' 95 % bandwidth [0.53] Hz: [18.87] samples per period
-      feedback: 0.24 x the 99 % bound of the input-residual correlation
+      feedback: p = 0.0073 that future inputs do not predict the output
       saturation: y0 upper level 20.4003 (27.7 % of the samples)
       proposed term: 1[20.33 <= y0 <= inf] (27.7 % of the samples at the upper level 20.4003)
       proposed term: sign(y0') (the velocity of y0 changes sign 140 times: friction)
@@ -552,11 +557,11 @@ def advice(X, y, *, dt, max_delay=20, max_order=50):
     result.saturation = detect_saturation(y)
     for j, side, level, frac in result.saturation:
         warn.append(f"y{j} saturates at its {side} level {level:.6g} ({100 * frac:.1f} % of the samples)")
-    if p and n > 100:
+    if p and n > 200:
         result.feedback = _feedback(X, y, result.input_delay + (result.input_hold == "zoh"))
-        if result.feedback is not None and result.feedback > 1:
-            warn.append(f"the inputs correlate with past residuals ({result.feedback:.1f} x the 99 % bound): "
-                        "the record looks closed-loop (feedback); open-loop fits may be biased")
+        if result.feedback is not None and result.feedback < _FEEDBACK_P:
+            warn.append(f"future inputs predict the output (F test, p = {result.feedback:.2g}): the record looks "
+                        "closed-loop (feedback) or its output was filtered non-causally; open-loop fits may be biased")
     result.bandwidth = _bandwidth(y, dt)
     with np.errstate(divide="ignore"):
         result.samples_per_period = 1.0 / (dt * result.bandwidth)

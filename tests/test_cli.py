@@ -751,6 +751,19 @@ def test_quick_run_best_model(quick_run, name):
         assert smoothed["status"] == "ok" and smoothed["rmse"] > 0
 
 
+def test_quick_run_silverbox(quick_run):
+    """The quick Silverbox run: the refined second-order rows beat the published GRU and every baseline."""
+    results = json.loads((quick_run / "silverbox" / "results.json").read_text())
+    rmse = {m["key"]: {t: s["rmse"] for t, s in m["scores"].items()} for m in results["models"]}
+    assert set(results["test_sets"]) == {"multisine", "arrow_full"}  # the quick run's test sets
+    for test, gru in (("multisine", 1.49), ("arrow_full", 2.80)):  # mV
+        for key in ("sindy_duffing_refined", "sindy_second_order_refined"):
+            assert rmse[key][test] < gru, (key, test)
+            assert rmse[key][test] < min(rmse[k][test] for k in ("arx", "nnarx", "sindy_poly")), (key, test)
+    text = (quick_run / "silverbox" / "results.md").read_text()
+    assert "GRU (Champneys et al., 2024) RMSE 1.49" in text
+
+
 def test_quick_run_report(quick_run):
     text = (quick_run / "report.md").read_text()
     for title in ("Pick-and-place machine", "neural state-space protocol", "Bouc-Wen oscillator", "Cascaded tanks",

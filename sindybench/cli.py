@@ -32,10 +32,10 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .experiments import BENCHMARKS  # the one list of benchmark names
 
 __all__ = ["build_parser", "main"]
 
-BENCHMARK_NAMES = ("pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps")
 logger = logging.getLogger("sindybench.cli")
 
 
@@ -91,7 +91,7 @@ def build_parser():
         "simulation on every test set, and write results.json, results.md, models/*.json and PNG "
         "figures into OUT/<benchmark>/ ('all' also writes OUT/report.md).",
     )
-    run.add_argument("benchmark", choices=(*BENCHMARK_NAMES, "all"), help="benchmark to run")
+    run.add_argument("benchmark", choices=(*BENCHMARKS, "all"), help="benchmark to run")
     run.add_argument("--trials", type=_non_negative_int, default=None, metavar="N",
                      help="search trials per model (default: each model's own budget)")
     run.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed, 0 to 2**32 - 1 (default: 0)")
@@ -145,7 +145,7 @@ def _configure_logging(quiet):
 def _run(args):
     from .experiments import get_benchmark, run_benchmarks
 
-    names = BENCHMARK_NAMES if args.benchmark == "all" else (args.benchmark,)
+    names = tuple(BENCHMARKS) if args.benchmark == "all" else (args.benchmark,)
     benchmarks = [get_benchmark(name) for name in names]
     start = time.perf_counter()
     report = run_benchmarks(

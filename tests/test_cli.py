@@ -232,6 +232,38 @@ def test_bad_arguments_exit_2(argv, message, capsys):
     assert message in capsys.readouterr().err
 
 
+def test_cli_lists_the_registrys_benchmarks(capsys):
+    """The command's benchmark names are the registry's (one list), and ``all`` runs each of them."""
+    import sindybench.cli
+    from sindybench.experiments import BENCHMARKS
+
+    assert "silverbox" in BENCHMARKS and not hasattr(sindybench.cli, "BENCHMARK_NAMES")
+    for name in (*BENCHMARKS, "all"):
+        assert build_parser().parse_args(["run", name]).benchmark == name
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    assert "silverbox" in capsys.readouterr().out
+
+
+def test_cli_runs_all_the_registrys_benchmarks(monkeypatch, tmp_path):
+    from sindybench import experiments
+    from sindybench.experiments import BENCHMARKS
+
+    asked = []
+
+    def run_benchmarks(benchmarks, out, **kwargs):  # writes what a run writes, trains nothing
+        for name in asked:
+            (out / name).mkdir(parents=True)
+            (out / name / "results.json").write_text(json.dumps({"models": []}))
+        (out / "report.md").write_text("report")
+        return out / "report.md"
+
+    monkeypatch.setattr(experiments, "get_benchmark", lambda name: asked.append(name) or name)
+    monkeypatch.setattr(experiments, "run_benchmarks", run_benchmarks)
+    assert main(["run", "all", "--no-progress", "-q", "--out", str(tmp_path / "out")]) == 0
+    assert asked == list(BENCHMARKS)
+
+
 def test_parser_defaults():
     args = build_parser().parse_args(["run", "bouc-wen"])
     assert (args.trials, args.seed, args.n_jobs, args.quick, args.storage) == (None, 0, 1, False, None)
@@ -647,7 +679,8 @@ def _numbers(obj):
         yield obj
 
 
-@pytest.mark.parametrize("name", ["pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps"])
+@pytest.mark.parametrize("name", ["pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps",
+                                  "silverbox"])
 def test_quick_run_outputs(quick_run, name):
     import matplotlib.image
 
@@ -682,7 +715,8 @@ def _estimation_error():
     return None
 
 
-@pytest.mark.parametrize("name", ["pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps"])
+@pytest.mark.parametrize("name", ["pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps",
+                                  "silverbox"])
 def test_quick_run_best_model(quick_run, name):
     from sindybench.experiments._best import HORIZONS
 
@@ -717,10 +751,23 @@ def test_quick_run_best_model(quick_run, name):
         assert smoothed["status"] == "ok" and smoothed["rmse"] > 0
 
 
+def test_quick_run_silverbox(quick_run):
+    """The quick Silverbox run: the refined second-order rows beat the published GRU and every baseline."""
+    results = json.loads((quick_run / "silverbox" / "results.json").read_text())
+    rmse = {m["key"]: {t: s["rmse"] for t, s in m["scores"].items()} for m in results["models"]}
+    assert set(results["test_sets"]) == {"multisine", "arrow_full"}  # the quick run's test sets
+    for test, gru in (("multisine", 1.49), ("arrow_full", 2.80)):  # mV
+        for key in ("sindy_duffing_refined", "sindy_second_order_refined"):
+            assert rmse[key][test] < gru, (key, test)
+            assert rmse[key][test] < min(rmse[k][test] for k in ("arx", "nnarx", "sindy_poly")), (key, test)
+    text = (quick_run / "silverbox" / "results.md").read_text()
+    assert "GRU (Champneys et al., 2024) RMSE 1.49" in text
+
+
 def test_quick_run_report(quick_run):
     text = (quick_run / "report.md").read_text()
     for title in ("Pick-and-place machine", "neural state-space protocol", "Bouc-Wen oscillator", "Cascaded tanks",
-                  "Electro-Mechanical Positioning", "test_nonlinear_benchmarks"):
+                  "Electro-Mechanical Positioning", "test_nonlinear_benchmarks", "Silverbox"):
         assert title in text
     assert "Total wall time" in text
     # the fit time of each model family and its share of the wall time, the NN-ARX baselines among them

@@ -21,6 +21,7 @@ from pathlib import Path
 from .._process import owner, owner_is_gone
 from ..plotting import plot_hysteresis, plot_simulation
 from ._best import best_model_markdown
+from ._published import reference_figures
 
 __all__ = [
     "check_output_dir",
@@ -279,6 +280,9 @@ def results_markdown(results, *, heading_level=1):
         )
         out.append("")
         out.append(_markdown_table(comparison_rows(results, name)))
+        others = reference_figures(results.get("benchmark", ""), name)
+        if others:
+            out += ["", f"Published on this test set (not trained here): {others}."]
     out += best_model_markdown(results.get("best_model"), f"{h}#")
     out += ["", f"{h}# Models", ""]
     for m in results["models"]:

@@ -103,9 +103,9 @@ def _normalized_stls_space(quick, n_init):
     """Threshold of the column-normalized STLS and the derivative's band.
 
     With normalized columns a coefficient is thresholded by the size of its
-    term's contribution (coefficient times column norm): the target ``y''``
-    (in mV/s^2) has a norm of about 5e9 on the training block, and 1e5 keeps
-    every cubic term while 1e9 removes all.
+    term's contribution (coefficient times column norm). On the training block
+    the target ``y''`` (mV/s^2) has a norm of 2.5e9 and ``y'`` (mV/s) of 5.4e6:
+    the range runs from keeping every cubic term to removing them all.
     """
     from ..model_selection import LogUniform, Uniform
 

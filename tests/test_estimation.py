@@ -383,3 +383,61 @@ def test_a_diverging_filter_raises(rng):
     with pytest.raises(FilterDivergenceError, match="diverged at sample 1[0-9] of 40: the model's step") as info:
         extended_kalman_filter(m, None, np.full((40, 1), 1.0), Q=0.0, R=1e6, x0=[1.0], P0=1e-6)
     assert 10 <= info.value.step < 20
+
+
+# the compiled paths index states and inputs with these values unchecked: each is refused before
+# (output_index 5 or 10**6 read and wrote out of bounds, n_inputs 0 dropped the input, dt <= 0 ran)
+BAD_MODEL_FIELDS = [
+    (dict(output_index=(5,)), r"output_index\[0\] must be an integer in \[0, 1\]; got 5"),
+    (dict(output_index=(10**6,)), r"output_index\[0\] must be an integer in \[0, 1\]; got 1000000"),
+    (dict(output_index=(-1,)), r"output_index\[0\] must be an integer in \[0, 1\]; got -1"),
+    (dict(output_index=()), "output_index must be a non-empty sequence"),
+    (dict(output_index=(0, 0)), "repeats a state"),
+    (dict(n_inputs=0), "n_inputs = 0, but the model's terms use column 2 .* expected n_inputs >= 1"),
+    (dict(n_inputs=-1), "n_inputs must be an integer >= 0"),
+    (dict(dt=0.0), "dt must be a finite number > 0; got 0.0"),
+    (dict(dt=-1.0), "dt must be a finite number > 0; got -1.0"),
+    (dict(dt=np.nan), "dt must be a finite number > 0"),
+    (dict(n_substeps=0), "n_substeps must be an integer >= 1"),
+    (dict(method="rk2"), "method must be one of"),
+    (dict(x0=[np.nan, 0.0]), "x0 = .*expected 2 finite values"),
+    (dict(state_scale=[1.0]), "state_scale = .*expected 2 finite values > 0"),
+    (dict(lower=np.zeros(3)), "lower .* and upper .* must hold 2 values each"),
+]
+
+
+@pytest.mark.parametrize("kw, match", BAD_MODEL_FIELDS)
+def test_model_step_from_rhs_refuses_bad_indices_and_sizes(kw, match):
+    args = dict(dt=DT, n_inputs=1)
+    if "lower" in kw:
+        with pytest.raises(ValueError, match=match):
+            duffing()._replace(**kw).checked()
+        return
+    args.update(kw)
+    with pytest.raises(ValueError, match=match):
+        ModelStep.from_rhs(DUFFING, **args)
+
+
+@pytest.mark.parametrize("kw, match", BAD_MODEL_FIELDS)
+def test_every_compiled_path_refuses_a_model_edited_out_of_bounds(kw, match, rng):
+    # a ModelStep edited with _replace skips from_rhs: each public path checks it again before its kernel
+    m = duffing()._replace(**kw)
+    u = drive(30, rng)
+    y = simulate(DUFFING, [0.2, 0.0], u, DT)[:, :1]
+    args = dict(Q=1e-6, R=1e-4)
+    calls = [lambda: extended_kalman_filter(m, u, y, **args), lambda: rts_smoother(m, u, y, **args),
+             lambda: predict_k_step(m, u, y, 3, **args), lambda: k_step_rmse(m, u, y, 3, **args),
+             lambda: smooth_initial_state(m, u, y[:10], **args), lambda: estimate_noise(m, u, y, max_iter=2),
+             lambda: linearize(m, [0.0, 0.0], [0.0])]
+    for call in calls:
+        with pytest.raises(ValueError, match=match):
+            call()
+
+
+def test_a_fitted_model_with_a_tampered_output_index_is_refused(rng):
+    u = drive(80, rng)
+    y = simulate(DUFFING, [0.2, 0.0], u, DT)[:, :1]
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=DT).fit(u, y)
+    object.__setattr__(model.dynamics_, "output_index", (5,))  # as a hand-edited value would hold
+    with pytest.raises(ValueError, match=r"output_index\[0\] must be an integer in \[0, 0\]; got 5"):
+        extended_kalman_filter(model, u, y, Q=1e-6, R=1e-4)

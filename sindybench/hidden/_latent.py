@@ -38,7 +38,7 @@ from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
 from ..simulate import TermsRHS, simulate
-from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term
+from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term, with_defaults
 
 __all__ = ["LatentHiddenState", "latent_invariants"]
 
@@ -142,7 +142,7 @@ class LatentHiddenState(HiddenStrategy):
         self.search_space()
 
     def search_space(self):
-        bounds = {"tau": (1e-3, 1e3), "gain": (1e-3, 1e3), **(self.bounds or {})}
+        bounds = with_defaults(self.bounds, {"tau": (1e-3, 1e3), "gain": (1e-3, 1e3)})
         names = ("tau", "gain") if self.scale == "range" else ("tau",)
         return bounds_space(self, names, bounds, positive=True)
 

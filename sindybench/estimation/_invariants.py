@@ -11,20 +11,32 @@ from ._model_step import model_step
 __all__ = ["latent_invariants"]
 
 
-def _equilibrium(m, u_op, start):
-    """The state where ``rhs(x, u_op) = 0`` nearest ``start`` (least squares within the bounds, exact Jacobian)."""
-    start = np.clip(start, m.lower, m.upper)
+def _equilibrium(m, u_op, start, free=None):
+    """Where ``rhs(x, u_op) = 0`` near ``start``: least squares over the ``free`` states within the bounds.
 
-    def residual(x):
-        return m.rhs(x, u_op)
+    The other states keep their values in ``start`` (states held at a bound)
+    and their rows are left out.
+    """
+    x = np.clip(start, m.lower, m.upper)
+    free = np.ones(m.n_states, dtype=bool) if free is None else free
+    if not free.any():
+        return x
 
-    def jacobian(x):
-        return m.rhs.jacobian(x, u_op)[1][:, :m.n_states]
+    def full(v):
+        out = x.copy()
+        out[free] = v
+        return out
+
+    def residual(v):
+        return m.rhs(full(v), u_op)[free]
+
+    def jacobian(v):
+        return m.rhs.jacobian(full(v), u_op)[1][np.ix_(free, free)]
 
     with np.errstate(all="ignore"):
-        sol = least_squares(residual, start, jac=jacobian, bounds=(m.lower, m.upper), xtol=1e-14, ftol=1e-14,
-                            gtol=1e-14)
-    return sol.x
+        sol = least_squares(residual, x[free], jac=jacobian, bounds=(m.lower[free], m.upper[free]), xtol=1e-14,
+                            ftol=1e-14, gtol=1e-14)
+    return full(sol.x)
 
 
 def _settled(m, u_op, start, n_samples):
@@ -75,7 +87,11 @@ def latent_invariants(model, u_op, *, y_guess=None, rtol=1e-6):
         ``"state"``: the equilibrium, ``"jacobian"``: the state Jacobian there
         (:func:`linearize`'s ``A``), ``"poles"``: its eigenvalues (1/time),
         ``"gain"``: d y / d u at steady state (n_outputs, n_inputs) or None,
-        ``"residual"``: the right-hand side at the equilibrium.
+        ``"residual"``: the right-hand side at the equilibrium, ``"held"``:
+        the states that rest against a bound there (the derivative pushes
+        them outward and the simulator holds them, as a full tank's level);
+        the poles and the gain are then those of the other states, with
+        the held ones constant.
 
     Raises
     ------
@@ -121,23 +137,38 @@ def latent_invariants(model, u_op, *, y_guess=None, rtol=1e-6):
     tol = rtol * m.state_scale / m.dt  # a state that moves less than rtol of its spread over one sample
 
     def is_equilibrium(x):
-        return bool(np.all(np.abs(m.rhs(x, u_op)) <= tol))
+        return bool(np.all(np.abs(_at_rest(m, x, u_op)[0]) <= tol))
 
     x = _equilibrium(m, u_op, start)
     if not is_equilibrium(x):
         settled = _settled(m, u_op, start, max(len(states), 10))
         if settled is not None:
             x = _equilibrium(m, u_op, settled)
-    f = m.rhs(x, u_op)
+    f, held = _at_rest(m, x, u_op)
+    if held.any():  # held at its bound (where the library may switch, [z >= 10]): the others at rest there
+        x = _equilibrium(m, u_op, np.where(held, np.where(m.rhs(x, u_op) > 0, m.upper, m.lower), x), ~held)
+        f, held = _at_rest(m, x, u_op)
     if not is_equilibrium(x):
         raise ValueError(f"no equilibrium found for u_op = {u_op.tolist()}: the best point, {x}, has the right-hand "
                          f"side {f} (expected |f| <= {tol}); the model may have no steady state there. Expected "
                          "another y_guess or operating point.")
     lin = linearize(m, x, u_op)
-    A, B = lin.A, lin.B
-    poles = np.linalg.eigvals(A)
+    free = ~held  # a state held at its bound does not move under small changes: the rest is the linear system
+    A, B, C = lin.A[np.ix_(free, free)], lin.B[free], lin.C[:, free]
+    poles = np.linalg.eigvals(A) if free.any() else np.zeros(0)
     magnitude = np.abs(poles)
     gain = None  # an integrator or a continuum of equilibria (a hysteresis state at rest): no static gain
-    if magnitude.min() > rtol * magnitude.max() and np.linalg.cond(A) < 1e10:
-        gain = -(lin.C @ np.linalg.solve(A, B))
-    return {"state": x, "jacobian": A, "poles": poles, "gain": gain, "residual": f}
+    if not free.any():
+        gain = np.zeros((len(m.output_index), m.n_inputs))
+    elif magnitude.min() > rtol * magnitude.max() and np.linalg.cond(A) < 1e10:
+        gain = -(C @ np.linalg.solve(A, B))
+    return {"state": x, "jacobian": lin.A, "poles": poles, "gain": gain, "residual": f,
+            "held": tuple(int(i) for i in np.flatnonzero(held))}
+
+
+def _at_rest(m, x, u_op):
+    """The right-hand side as the simulator applies it (zero where it pushes a state past its bound), and where."""
+    f = m.rhs(x, u_op)
+    near = 1e-9 * np.maximum(1.0, np.abs(x))  # least squares within bounds stops a rounding short of them
+    held = ((x <= m.lower + near) & (f < 0)) | ((x >= m.upper - near) & (f > 0))
+    return np.where(held, 0.0, f), held

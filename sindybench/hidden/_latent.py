@@ -299,7 +299,7 @@ class LatentHiddenState(HiddenStrategy):
                 z0 = fit.x if np.all(np.isfinite(fit.x)) else start
             except ValueError:
                 z0 = start
-        return np.r_[meas, z0]
+        return np.r_[meas, np.clip(z0, zlo[0], zhi[0])]  # at rest may lie past the range: the range holds it
 
 
 def _fitted_gauge(strategy, model, drivers):

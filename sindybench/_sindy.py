@@ -47,6 +47,25 @@ def _check_names(names, n, prefix, name):
     return list(names)
 
 
+def check_distinct_names(out_names, in_names):
+    """Outputs and inputs name the columns of ``Z = [y, u]``: one name for two columns is a ``ValueError``.
+
+    Examples
+    --------
+    >>> check_distinct_names(["u0"], ["u0"])
+    Traceback (most recent call last):
+    ...
+    ValueError: the name 'u0' is given to output 0 and input 0; expected distinct output and input names (the equations and the library's features name the columns by them).
+    """
+    seen = {}
+    for kind, names in (("output", out_names), ("input", in_names)):
+        for i, name in enumerate(names):
+            if name in seen:
+                raise ValueError(f"output_names and input_names share {name!r} ({seen[name]} and {kind} {i}); expected "
+                                 "distinct names (the equations and the library's features name the columns by them).")
+            seen[name] = f"{kind} {i}"
+
+
 class SINDy(DynamicsEstimator):
     """Continuous-time SINDy with control: ``y' = Theta([y, u]) coef``.
 
@@ -301,6 +320,7 @@ class SINDy(DynamicsEstimator):
         n_states = y.shape[1]
         out_names = _check_names(self.output_names, n_states, "y", "output_names")
         in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
+        check_distinct_names(out_names, in_names)
         library = clone(as_library(self.library))
         optimizer = clone(STLS() if self.optimizer is None else self.optimizer)
         coef = fit_sparse(library, optimizer, np.hstack([y, X]), x_dot, what="library output Theta([y, u])")

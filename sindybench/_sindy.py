@@ -51,6 +51,25 @@ def _scaling_record(Z):
     return {"mean": mean.tolist(), "scale": scale.tolist()}
 
 
+def check_distinct_names(out_names, in_names):
+    """Outputs and inputs name the columns of ``Z = [y, u]``: one name for two columns is a ``ValueError``.
+
+    Examples
+    --------
+    >>> check_distinct_names(["u0"], ["u0"])
+    Traceback (most recent call last):
+    ...
+    ValueError: output_names and input_names share 'u0' (output 0 and input 0); expected distinct names (the equations and the library's features name the columns by them).
+    """
+    seen = {}
+    for kind, names in (("output", out_names), ("input", in_names)):
+        for i, name in enumerate(names):
+            if name in seen:
+                raise ValueError(f"output_names and input_names share {name!r} ({seen[name]} and {kind} {i}); expected "
+                                 "distinct names (the equations and the library's features name the columns by them).")
+            seen[name] = f"{kind} {i}"
+
+
 class SINDy(DynamicsEstimator):
     """Continuous-time SINDy with control: ``y' = Theta([y, u]) coef``.
 
@@ -326,6 +345,7 @@ class SINDy(DynamicsEstimator):
         n_states = y.shape[1]
         out_names = _check_names(self.output_names, n_states, "y", "output_names")
         in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
+        check_distinct_names(out_names, in_names)
         library = clone(as_library(self.library))
         optimizer = clone(STLS() if self.optimizer is None else self.optimizer)
         Z = np.hstack([y, X])

@@ -507,7 +507,7 @@ class HiddenStateSINDy(DynamicsEstimator):
 
     def _equation_notes(self):
         gauge = getattr(self.hidden_, "gauge", None)  # strategies with latent states say how their scale is fixed
-        return gauge().splitlines() if callable(gauge) else []
+        return gauge(model=self).splitlines() if callable(gauge) else []
 
     def _equation_rows(self):
         check_is_fitted(self)

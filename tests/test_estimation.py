@@ -383,3 +383,20 @@ def test_a_diverging_filter_raises(rng):
     with pytest.raises(FilterDivergenceError, match="diverged at sample 1[0-9] of 40: the model's step") as info:
         extended_kalman_filter(m, None, np.full((40, 1), 1.0), Q=0.0, R=1e6, x0=[1.0], P0=1e-6)
     assert 10 <= info.value.step < 20
+
+
+@pytest.mark.parametrize("Q, match", [
+    (None, r"Q is None; expected a covariance: an \(1, 1\) matrix, a diagonal of length 1 or a number"),
+    ("0.1", r"Q is '0.1'; expected a covariance"),
+    (1j, r"Q could not be read as a covariance"),
+])
+def test_a_covariance_that_is_no_number_says_so(Q, match):
+    # issue 30, item 19: Q=None said "Q contains NaN or inf"
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((80, 1))
+    y = np.cumsum(u, axis=0) * 0.01
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=0.1).fit(u, y)
+    with pytest.raises(ValueError, match=match):
+        extended_kalman_filter(model, u, y, Q=Q, R=1e-4)
+    with pytest.raises(ValueError, match=match.replace("Q", "R", 1) if Q is not None else r"R is None"):
+        extended_kalman_filter(model, u, y, Q=1e-6, R=Q)

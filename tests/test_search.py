@@ -183,3 +183,18 @@ def test_dimensions_are_stored_by_their_fields(dim):
     data = encode_value({"k": dim}, "params.bounds")
     back = decode_value(data, "params.bounds")["k"]
     assert back == dim and type(back) is type(dim)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(n_trials=0), r"n_trials must be an integer >= 1; got 0\."),  # was: min() arg is an empty sequence
+    (dict(n_trials=2.5), r"n_trials must be an integer >= 1; got 2\.5\."),
+    (dict(n_trials=5, n_local=5), r"n_local must be an integer in \[0, 4\]; got 5\."),
+    (dict(n_trials=5, n_local=-1), r"n_local must be an integer in \[0, 4\]; got -1\."),
+    (dict(n_trials=5, n_local=2, n_starts=0), r"n_starts must be an integer >= 1; got 0\."),
+    (dict(n_trials=5, step=0.0), r"step must be a finite number > 0; got 0\.0\."),
+])
+def test_minimize_refuses_budgets_it_cannot_spend(kwargs, match):
+    calls = []
+    with pytest.raises(ValueError, match=match):
+        minimize(lambda v: calls.append(v) or 0.0, {"a": Uniform(0.0, 1.0)}, **kwargs)
+    assert calls == []

@@ -141,6 +141,13 @@ def _configure_logging(quiet):
     import optuna  # a dependency of sindybench; imported here so that --help stays fast
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    for optuna_handler in logging.getLogger("optuna").handlers:
+        optuna_handler.addFilter(_not_an_interrupt)
+
+
+def _not_an_interrupt(record):
+    """Drop Optuna's "Trial n failed" record of a Ctrl-C (with its traceback): the command says it once."""
+    return not (record.exc_info and isinstance(record.exc_info[1], KeyboardInterrupt))
 
 
 def _run(args):
@@ -406,6 +413,14 @@ def main(argv=None):
         bad, or (``simulate``) a file cannot be read or does not fit the model.
     """
     args = build_parser().parse_args(argv)
+    try:  # from the first import on: a Ctrl-C at any time exits with 130, without a traceback
+        return _command(args)
+    except KeyboardInterrupt:
+        print("sindybench: interrupted; no output written.", file=sys.stderr)
+        return 130
+
+
+def _command(args):
     _configure_logging(args.quiet)
     if args.command == "simulate":
         try:
@@ -423,9 +438,6 @@ def main(argv=None):
     except (DataNotFoundError, OSError, ValueError, ImportError) as exc:  # data, output folder, storage
         print(f"sindybench: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("sindybench: interrupted; no output written.", file=sys.stderr)
-        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

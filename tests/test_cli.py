@@ -524,6 +524,31 @@ def test_simulate_refuses_an_endless_or_huge_input_within_a_second(saved_models,
     assert not (tmp_path / "y.csv").exists()
 
 
+@pytest.mark.parametrize("delay", [0.0, 0.3, 1.0])
+def test_ctrl_c_while_the_command_starts_exits_130_without_a_traceback(tmp_path, delay):
+    # issue 30, item 17: a Ctrl-C in the first seconds of `sindybench run` (importing the package) printed a
+    # KeyboardInterrupt traceback and the process died of the signal (-2); the console script now starts in
+    # sindybench_launcher, outside the package, and guards that import too
+    import sindybench
+
+    root = os.path.dirname(os.path.dirname(sindybench.__file__))
+    env = {**os.environ, "PYTHONPATH": root}
+    # Python's own start-up and the console script's first line (finding the launcher: milliseconds) are no place
+    # for this test: start the clock once the launcher is imported, as the package import begins
+    code = "import sys, sindybench_launcher; print('started', flush=True); sys.exit(sindybench_launcher.main())"
+    proc = subprocess.Popen([sys.executable, "-c", code, "run", "cascaded-tanks", "--quick", "--out",
+                             str(tmp_path / "out")], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as on a terminal
+    assert proc.stdout.readline().strip() == "started"
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and err.strip().endswith("sindybench: interrupted; no output written."), err
+    assert not (tmp_path / "out").exists()
+
+
 def _aliases(tmp_path, folder):
     """``{name: (argv, the file --output must not replace)}``: outputs that are one of simulate's inputs."""
     model, inputs, y0 = tmp_path / "model.json", tmp_path / "u.csv", tmp_path / "y0.csv"

@@ -515,3 +515,18 @@ def test_latent_invariants_checks_its_arguments(lag_model):
                              n_trials=1).fit(u, x[:, :1])
     with pytest.raises(ValueError, match="got HiddenStateSINDy with DerivativeHiddenState"):
         latent_invariants(other, [0.5])
+@pytest.mark.parametrize("Q, match", [
+    (None, r"Q is None; expected a covariance: an \(1, 1\) matrix, a diagonal of length 1 or a number"),
+    ("0.1", r"Q is '0.1'; expected a covariance"),
+    (1j, r"Q could not be read as a covariance"),
+])
+def test_a_covariance_that_is_no_number_says_so(Q, match):
+    # issue 30, item 19: Q=None said "Q contains NaN or inf"
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((80, 1))
+    y = np.cumsum(u, axis=0) * 0.01
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=0.1).fit(u, y)
+    with pytest.raises(ValueError, match=match):
+        extended_kalman_filter(model, u, y, Q=Q, R=1e-4)
+    with pytest.raises(ValueError, match=match.replace("Q", "R", 1) if Q is not None else r"R is None"):
+        extended_kalman_filter(model, u, y, Q=1e-6, R=Q)

@@ -258,3 +258,16 @@ def test_dimensions_at_their_edges_are_refused_or_map_finitely():
 @pytest.mark.slow
 def test_dimensions_at_their_edges_are_refused_or_map_finitely_at_length():
     _run_edges(5000, derandomize=False)
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(n_trials=0), r"n_trials must be an integer >= 1; got 0\."),  # was: min() arg is an empty sequence
+    (dict(n_trials=2.5), r"n_trials must be an integer >= 1; got 2\.5\."),
+    (dict(n_trials=5, n_local=5), r"n_local must be an integer in \[0, 4\]; got 5\."),
+    (dict(n_trials=5, n_local=-1), r"n_local must be an integer in \[0, 4\]; got -1\."),
+    (dict(n_trials=5, n_local=2, n_starts=0), r"n_starts must be an integer >= 1; got 0\."),
+    (dict(n_trials=5, step=0.0), r"step must be a finite number > 0; got 0\.0\."),
+])
+def test_minimize_refuses_budgets_it_cannot_spend(kwargs, match):
+    calls = []
+    with pytest.raises(ValueError, match=match):
+        minimize(lambda v: calls.append(v) or 0.0, {"a": Uniform(0.0, 1.0)}, **kwargs)
+    assert calls == []

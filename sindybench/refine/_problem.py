@@ -185,6 +185,22 @@ class _Problem:
             self._open_loop_key, self._open_loop = key, xs
         return self._open_loop
 
+    def trajectories(self, p):
+        """The trajectories the criterion reports on and pruning looks at: the records run open loop."""
+        return self.open_loop(p)
+
+    def n_columns(self):
+        """Parameters of the returned model (the leading columns of ``p``): model and initial states."""
+        return self.n_model + self.n_x0
+
+    def carry(self, p):
+        """What the next refinement round needs from this one's optimum beyond the model (nothing here)."""
+        return None
+
+    def result_fields(self, p):
+        """Criterion-specific fields of the :class:`RefinementResult` (none for output error)."""
+        return {}
+
     def output_cost(self, xs):
         """Half the mean squared scaled output error of the trajectories ``xs`` (diverged samples penalized)."""
         r = np.concatenate([((x[:, self.oidx] - y) / scale).ravel()
@@ -278,7 +294,7 @@ def _output_jacobian(problem, fit):
     parameter by forward differences on the Python path); the later
     segments' starts and the continuity residuals drop out.
     """
-    columns = problem.n_model + problem.n_x0
+    columns = problem.n_columns()
     if len(problem.segments) == 1:
         return fit.jac, fit.fun[: problem.n_res], columns
     single = copy.copy(problem)

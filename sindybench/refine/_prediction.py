@@ -29,6 +29,8 @@ starting model linearized at its first state, for given or default noise
 covariances.
 """
 
+import numbers
+
 import numpy as np
 from scipy.linalg import solve_discrete_are
 
@@ -65,15 +67,18 @@ def _check_noise(noise, n_states, n_outputs):
 
 
 def starting_gain(rhs, x0, u, y, dt, *, output_index, noise=None, settings=None):
-    """The steady-state Kalman gain of the model linearized at ``x0`` (measurement-update form).
+    """The start of the observer gain: a steady-state Kalman gain of the model linearized at ``x0``.
 
     ``noise = (Q, R)``: the process noise of one sample's step and the
-    measurement noise; default ``R`` = (10 % of each output's spread)^2 and
-    ``Q`` = (1 % of each state's spread)^2 per sample, the spreads of the
-    states read from the predictor that resets the measured states to the
-    measurements. When the Riccati equation has no stabilizing solution (an
-    undetectable linearization), that resetting gain (1 on the measured
-    states, 0 elsewhere) is the start.
+    measurement noise; that gain is the start. Without ``noise``, ``R`` is
+    (10 % of each output's spread)^2 and ``Q`` (1 %, 10 % or 100 % of each
+    state's spread)^2 per sample (the spreads read from the predictor that
+    resets the measured states to the measurements), and the start is the
+    one of those three gains and that resetting gain (1 on the measured
+    states, 0 elsewhere) whose one-step predictions of ``y`` are best: a
+    weak gain lets a poor starting model drift away, a strong one follows
+    the noise. A linearization without a stabilizing Riccati solution skips
+    its gains.
 
     Returns
     -------
@@ -84,24 +89,38 @@ def starting_gain(rhs, x0, u, y, dt, *, output_index, noise=None, settings=None)
     H = np.zeros((oidx.size, n))
     H[np.arange(oidx.size), oidx] = 1.0
     reset = H.T.copy()
+
+    def cost(K):
+        x, _, _ = predict_sensitivity(rhs, x0, u, y, dt, gain=K, output_index=oidx, sensitivities=False, **settings)
+        return x, float(np.mean((x[:, oidx] - y) ** 2)) if np.all(np.isfinite(x)) else np.inf
+
+    x, reset_cost = cost(reset)
     if noise is None:
-        x, _, _ = predict_sensitivity(rhs, x0, u, y, dt, gain=reset, output_index=oidx, sensitivities=False,
-                                      **settings)
         spread = np.nanstd(x, axis=0) if np.isfinite(x).any() else np.ones(n)
         spread = np.where(np.isfinite(spread) & (spread > 0), spread, 1.0)
         y_spread = np.std(y, axis=0)
-        Q = np.diag((0.01 * spread) ** 2)
         R = np.diag((0.1 * np.where(y_spread > 0, y_spread, 1.0)) ** 2)
+        covariances = [(np.diag((f * spread) ** 2), R) for f in (0.01, 0.1, 1.0)]
     else:
-        Q, R = noise
+        covariances = [noise]
     try:
         _, A, _ = step_jacobian(rhs, x0, u[0], u[1] if u.shape[0] > 1 else u[0], dt, **settings)
-        with np.errstate(all="ignore"):
-            P = solve_discrete_are(A.T, H.T, Q, R)
-            gain = P @ H.T @ np.linalg.inv(H @ P @ H.T + R)
-    except (ValueError, np.linalg.LinAlgError, SimulationError):
+    except SimulationError:
         return reset
-    return gain if np.all(np.isfinite(gain)) else reset
+    gains = []
+    for Q, R in covariances:
+        try:
+            with np.errstate(all="ignore"):
+                P = solve_discrete_are(A.T, H.T, Q, R)
+                K = P @ H.T @ np.linalg.inv(H @ P @ H.T + R)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        if np.all(np.isfinite(K)):
+            gains.append(K)
+    if noise is not None:
+        return gains[0] if gains else reset
+    costs = [cost(K)[1] for K in gains] + [reset_cost]
+    return (gains + [reset])[int(np.argmin(costs))]
 
 
 class _PredictionProblem(_Problem):
@@ -283,7 +302,10 @@ def refine_prediction_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         raise ValueError(f"output_index={output_index} does not match y with {ys[0].shape[1]} columns and "
                          f"{n_states} states; expected one state index per output column.")
     n_min = min(u_r.shape[0] for u_r in us)
-    horizon = check_integer(horizon, "horizon", high=n_min)
+    if isinstance(horizon, bool) or not isinstance(horizon, numbers.Integral) or not 1 <= horizon <= n_min:
+        raise ValueError(f"horizon must be an integer in [1, {n_min}] (1 = one-step predictions, at most the "
+                         f"record's {n_min} samples); got {horizon!r}.")
+    horizon = int(horizon)
     free = (coef != 0) if free is None else np.asarray(free, dtype=bool)
     if free.shape != coef.shape:
         raise ValueError(f"free has shape {free.shape}; expected {coef.shape} (the shape of coef).")
@@ -305,13 +327,18 @@ def refine_prediction_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     sim = {"settings": settings, "make_rhs": None}
 
     def build(coef, free, physical, x0s, carry):
-        K = carry if carry is not None else gain
-        if K is None:
-            C = coef + (physical.coef(physical.values) if physical is not None else 0.0)
-            K = starting_gain(TermsRHS(C, terms, n_states), x0s[0], us[0], ys[0], dt, output_index=output_index,
-                              noise=noise, settings=settings)
-        problem = _PredictionProblem(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim,
-                                     [(0, us[0].shape[0])], gain=K, free_gain=free_gain, horizon=horizon)
+        def problem_of(K):
+            return _PredictionProblem(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim,
+                                      [(0, us[0].shape[0])], gain=K, free_gain=free_gain, horizon=horizon)
+
+        problem = None if carry is None else problem_of(carry)  # after pruning: the last round's gain
+        if problem is None or not all(np.all(np.isfinite(x)) for x in problem.trajectories(problem.pack())):
+            K = gain
+            if K is None:  # a fresh start of the gain (also when the pruned model diverges with the last one)
+                C = coef + (physical.coef(physical.values) if physical is not None else 0.0)
+                K = starting_gain(TermsRHS(C, terms, n_states), x0s[0], us[0], ys[0], dt,
+                                  output_index=output_index, noise=noise, settings=settings)
+            problem = problem_of(K)
         _check_diverged(problem, problem.pack(), "the starting predictor")
         return problem, problem.trajectories(problem.pack())
 

@@ -56,9 +56,10 @@ def test_sensitivities_match_finite_differences(rng, horizon, method, hold):
                                    **settings)[0][:, 0]
 
     C0, x00 = DUFFING_COEF * 1.1, np.array([0.4, 0.1])
-    _, S, bad = predict_sensitivity(TermsRHS(C0, DUFFING, 2), x00, u, y, 0.05, gain=gain, directions=D,
+    x, S, bad = predict_sensitivity(TermsRHS(C0, DUFFING, 2), x00, u, y, 0.05, gain=gain, directions=D,
                                     free_x0=[0, 1], free_gain=True, **settings)
     assert bad == -1 and S.shape == (60, 1, 4 + 2 + 2)
+    np.testing.assert_array_equal(x[:, 0], pred(C0, x00, gain))  # the state-only kernel: the same predictions
     eps, fd = 1e-6, []
     for k in range(4):
         fd.append((pred(C0 + eps * D[k], x00, gain) - pred(C0 - eps * D[k], x00, gain)) / (2 * eps))

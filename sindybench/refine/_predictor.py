@@ -26,7 +26,7 @@ import numpy as np
 from numba import njit
 
 from ..dynamics import TermsRHS, sensitivity_arrays, simulation_settings
-from ..dynamics._kernels import sensitivity_work, step_sensitivity
+from ..dynamics._kernels import sensitivity_work, step_sensitivity, step_state
 
 __all__ = ["predict_sensitivity"]
 
@@ -113,6 +113,51 @@ def run_predictor(x0, S0, y, gain, gcol, horizon, u, h, n_sub, offsets, weights,
     return -1
 
 
+@njit(cache=True)
+def run_predictor_state(x0, y, gain, horizon, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, model, user,
+                        oidx, out_x):
+    """:func:`run_predictor` without sensitivities, on the simulator's state-only step (the same states)."""
+    n, n_samples, n_out = x0.shape[0], out_x.shape[0], oidx.shape[0]
+    z = np.empty(n + u.shape[1])
+    theta = np.empty(model[0].shape[0] - 1)
+    K = np.zeros((offsets.shape[0], n))
+    e = np.empty(n_out)
+    xb = x0.copy()
+    for t in range(min(horizon - 1, n_samples)):
+        out_x[t, :] = xb
+        if step_state(xb, u, t, t + 1 if linear else t, h[t], n_sub, offsets, weights, lo, hi, max_abs, model, user,
+                      z, theta, K):
+            for tt in range(t + 1, min(horizon - 1, n_samples)):
+                out_x[tt, 0] = np.nan
+            break
+    x = x0.copy()
+    for s in range(n_samples - horizon + 1):
+        t = s + horizon - 1
+        xb[:] = x
+        bad = False
+        for j in range(s, t):
+            bad = step_state(xb, u, j, j + 1 if linear else j, h[j], n_sub, offsets, weights, lo, hi, max_abs, model,
+                             user, z, theta, K)
+            if bad:
+                break
+        out_x[t, :] = xb
+        if bad:
+            out_x[t, 0] = np.nan
+        if s + 1 > n_samples - horizon:
+            break
+        for r in range(n_out):
+            e[r] = y[s, r] - x[oidx[r]]
+        for i in range(n):
+            acc = 0.0
+            for r in range(n_out):
+                acc += gain[i, r] * e[r]
+            x[i] = min(max(x[i] + acc, lo[i]), hi[i])
+        if step_state(x, u, s, s + 1 if linear else s, h[s], n_sub, offsets, weights, lo, hi, max_abs, model, user, z,
+                      theta, K):
+            return s + 1
+    return -1
+
+
 def predict_sensitivity(rhs, x0, u, y, dt, *, gain, horizon=1, directions=None, free_x0=None, free_gain=False,
                         output_index=(0,), sensitivities=True, n_substeps=1, method="rk4", input_hold="zoh",
                         bounds=None, max_abs=np.inf):
@@ -174,7 +219,12 @@ def predict_sensitivity(rhs, x0, u, y, dt, *, gain, horizon=1, directions=None, 
     y = np.ascontiguousarray(y, dtype=float).reshape(u.shape[0], oidx.size)
     gain = np.ascontiguousarray(gain, dtype=float).reshape(n, oidx.size)
     if not sensitivities:
-        directions, free_x0, free_gain = None, None, False
+        out_x = np.zeros((u.shape[0], n))
+        with np.errstate(all="ignore"):
+            bad = run_predictor_state(x0, y, gain, int(horizon), u, st.h, st.n_sub, st.offsets, st.weights,
+                                      st.linear, st.lo, st.hi, st.max_abs, rhs._arrays, rhs.user, oidx, out_x)
+        out_s = np.zeros((u.shape[0], oidx.size, 0))
+        return _diverged(out_x, out_s, bad)
     terms, coef, par = sensitivity_arrays(rhs, directions)
     free_x0 = np.array([] if free_x0 is None else free_x0, dtype=np.int64).reshape(-1)
     n_coef = par[0].shape[0] - 1
@@ -187,6 +237,11 @@ def predict_sensitivity(rhs, x0, u, y, dt, *, gain, horizon=1, directions=None, 
     with np.errstate(all="ignore"):
         bad = run_predictor(x0, S0, y, gain, gcol, int(horizon), u, st.h, st.n_sub, st.offsets, st.weights,
                             st.linear, st.lo, st.hi, st.max_abs, terms, coef, par, rhs.user, oidx, out_x, out_s)
+    return _diverged(out_x, out_s, bad)
+
+
+def _diverged(out_x, out_s, bad):
+    """NaN from the sample where the filter diverged on, and in the rows of diverged branches."""
     if bad >= 0:
         out_x[bad:] = np.nan
         out_s[bad:] = np.nan

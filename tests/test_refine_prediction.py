@@ -239,3 +239,35 @@ def test_output_error_unchanged_by_the_shared_solver(rng):
     res = refine_simulation_error(DUFFING, _start(0.9), u, x[:, :1], 0.05, x0=[0.5, 0.0], free=DUFFING_FREE)
     np.testing.assert_allclose(res.coef, DUFFING_COEF, atol=1e-6)
     assert res.gain is None and "criterion" not in res.summary()
+
+
+def _first_order_closed_loop(n=1500, noise=0.05, seed=1):
+    """x' = 1.5 x + u (unstable) under u = r - 3 y with y = x + noise: the controller reacts to the noise."""
+    rng = np.random.default_rng(seed)
+    terms = [((0, 0, 1, 0),), ((1, 0, 1, 0),)]
+    plant = TermsRHS([[1.5], [1.0]], terms, 1)
+    r = np.repeat(rng.uniform(-1, 1, n // 50 + 1), 50)[:n]
+    x, y, u = np.zeros(n), np.zeros(n), np.zeros(n)
+    for k in range(n):
+        y[k] = x[k] + noise * rng.normal()
+        u[k] = r[k] - 3.0 * y[k]
+        if k + 1 < n:
+            x[k + 1] = simulate(plant, [x[k]], [[u[k]], [u[k]]], 0.05)[1, 0]
+    return terms, u[:, None], y[:, None]
+
+
+def test_closed_loop_assumptions():
+    """Under feedback: the fitted gain gives the truth; a gain held at 0 is output error, which cannot follow."""
+    terms, u, y = _first_order_closed_loop()
+    start = [[1.2], [0.8]]
+    res = refine_prediction_error(terms, start, u, y, 0.05, x0=[0.0])
+    np.testing.assert_allclose(res.coef.ravel(), [1.5, 1.0], rtol=0.05)
+    zero = np.zeros((1, 1))
+    x, _, _ = predict_sensitivity(TermsRHS(start, terms, 1), [0.0], u[:50], y[:50], 0.05, gain=zero,
+                                  sensitivities=False)
+    np.testing.assert_array_equal(x, simulate(TermsRHS(start, terms, 1), [0.0], u[:50], 0.05))  # K = 0: open loop
+    with pytest.raises(SimulationError, match="the starting predictor diverges at sample"):
+        refine_prediction_error(terms, start, u, y, 0.05, x0=[0.0], gain=zero, free_gain=False,
+                                simulation={"max_abs": 1e6})
+    with pytest.raises(SimulationError, match="cannot refine: the starting model's simulation diverges"):
+        refine_simulation_error(terms, start, u, y, 0.05, x0=[0.0], max_abs=1e6)

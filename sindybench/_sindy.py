@@ -81,12 +81,14 @@ class SINDy(DynamicsEstimator):
     output_names, input_names : list of str or None, default=None
         Names of the columns of ``y`` and ``X`` (default ``y0, y1, ...`` and
         ``u0, u1, ...``), used by :meth:`equations` and the feature names.
-    refine : OutputErrorRefinement or None, default=None
+    refine : OutputErrorRefinement, PredictionErrorRefinement or None, default=None
         After the equation-error fit, refine the nonzero coefficients and the
         first state by the open-loop simulation error of the training record
         (:class:`~sindybench.refine.OutputErrorRefinement`; needs uniform
-        sampling). A model whose simulation of the training record diverges
-        is kept as fitted, with a warning.
+        sampling), or by its prediction error
+        (:class:`~sindybench.refine.PredictionErrorRefinement`). A model whose
+        simulation (predictor) of the training record diverges is kept as
+        fitted, with a warning.
 
     Attributes
     ----------
@@ -182,7 +184,8 @@ class SINDy(DynamicsEstimator):
         check_bounds(self.bounds, n_states)
         check_estimator_param(self.optimizer, "optimizer", "a regressor with coef_ such as STLS()")
         if self.refine is not None and not hasattr(self.refine, "run"):
-            raise ValueError(f"refine must be an OutputErrorRefinement or None; got {type(self.refine).__name__}.")
+            raise ValueError(f"refine must be an OutputErrorRefinement, a PredictionErrorRefinement or None; got "
+                             f"{type(self.refine).__name__}.")
 
     @staticmethod
     def _resolve_time(dt, t, n_samples, fallback):

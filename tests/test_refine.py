@@ -313,7 +313,8 @@ def test_output_error_refinement_bad_params(duffing, params, match):
 
 def test_hidden_state_sindy_bad_refine_and_initial_state(duffing):
     u, y = duffing
-    with pytest.raises(ValueError, match="refine must be an OutputErrorRefinement or None; got object"):
+    with pytest.raises(ValueError, match="refine must be an OutputErrorRefinement, a PredictionErrorRefinement or "
+                                         "None; got object"):
         HiddenStateSINDy(refine=object(), dt=DT).fit(u, y)
     with pytest.raises(ValueError, match="initial_state must be one of .'strategy', 'fit', 'periodic'.; got 'bogus'"):
         HiddenStateSINDy(initial_state="bogus", dt=DT).fit(u, y)

@@ -26,7 +26,8 @@ from sklearn.base import clone
 
 from ..metrics import fit_index, r2, rmse
 
-__all__ = ["HORIZONS", "K_STEP_SAMPLES", "free_run_scores", "k_step_scores", "report_best_model", "smoothed_start_scores", "test_record"]
+__all__ = ["HORIZONS", "K_STEP_SAMPLES", "free_run_scores", "k_step_scores", "report_best_model",
+           "smoothed_start_scores", "test_record"]
 
 logger = logging.getLogger(__name__)
 

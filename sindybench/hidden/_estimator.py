@@ -123,9 +123,12 @@ class HiddenStateSINDy(DynamicsEstimator):
         Input interpolation between samples in simulations.
     max_abs : float, default=1e6
         A simulated state beyond this magnitude counts as divergence.
-    refine : OutputErrorRefinement or None, default=None
+    refine : OutputErrorRefinement, PredictionErrorRefinement or None, default=None
         Refine the final model by its open-loop simulation error on the
-        training record (:class:`~sindybench.refine.OutputErrorRefinement`):
+        training record (:class:`~sindybench.refine.OutputErrorRefinement`;
+        or by its prediction error,
+        :class:`~sindybench.refine.PredictionErrorRefinement`, for a model
+        whose simulation diverges or drifts: compiled models only):
         the nonzero learned coefficients, the strategy's physical parameters
         (:meth:`HiddenStrategy.refinable`, e.g. ``m, c, k`` or ``k1, k2``) and
         the initial state. Only the model chosen by the inner search is
@@ -262,7 +265,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         check_option(self.initial_state, "initial_state", _INITIAL_STATES)
         if self.refine is not None and not hasattr(self.refine, "run"):
             raise ValueError(
-                f"refine must be an OutputErrorRefinement or None; got {type(self.refine).__name__}."
+                f"refine must be an OutputErrorRefinement, a PredictionErrorRefinement or None; got "
+                f"{type(self.refine).__name__}."
             )
         space = _check_search_params(self.search_params)
         bad = [k for k in space if k.startswith(_HIDDEN_PREFIX)]

@@ -1,9 +1,9 @@
-"""Fit by simulation or prediction error: forward sensitivities, output- and prediction-error refinement, initial states, covariance."""
+"""Fit by simulation or prediction error: sensitivities, output- and prediction-error refinement, covariance."""
 
 from ._core import Physical, estimate_initial_state, refine_simulation_error
+from ._covariance import ParameterCovariance, parameter_covariance
 from ._prediction import refine_prediction_error
 from ._predictor import predict_sensitivity
-from ._covariance import ParameterCovariance, parameter_covariance
 from ._report import UncertaintyMixin, confidence_intervals, standard_errors
 from ._result import RefinementResult
 from ._sensitivity import simulate_sensitivity

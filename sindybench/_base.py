@@ -57,9 +57,11 @@ def _per_record(value, n_records, name):
 
 
 def check_refinement(value, name):
-    """``refine``: an :class:`~sindybench.refine.OutputErrorRefinement` (anything with ``run``) or None."""
+    """``refine``: an :class:`~sindybench.refine.OutputErrorRefinement`, a
+    :class:`~sindybench.refine.PredictionErrorRefinement` (anything with ``run``) or None."""
     if value is not None and not hasattr(value, "run"):
-        raise ValueError(f"{name} must be an OutputErrorRefinement or None; got {type(value).__name__}.")
+        raise ValueError(f"{name} must be an OutputErrorRefinement, a PredictionErrorRefinement or None; got "
+                         f"{type(value).__name__}.")
     return value
 
 

@@ -120,12 +120,14 @@ class SINDy(DynamicsEstimator):
     output_names, input_names : list of str or None, default=None
         Names of the columns of ``y`` and ``X`` (default ``y0, y1, ...`` and
         ``u0, u1, ...``), used by :meth:`equations` and the feature names.
-    refine : OutputErrorRefinement or None, default=None
+    refine : OutputErrorRefinement, PredictionErrorRefinement or None, default=None
         After the equation-error fit, refine the nonzero coefficients and the
         first state by the open-loop simulation error of the training record
         (:class:`~sindybench.refine.OutputErrorRefinement`; needs uniform
-        sampling). A model whose simulation of the training record diverges
-        is kept as fitted, with a warning.
+        sampling), or by its prediction error
+        (:class:`~sindybench.refine.PredictionErrorRefinement`). A model whose
+        simulation (predictor) of the training record diverges is kept as
+        fitted, with a warning.
 
     Attributes
     ----------

@@ -18,7 +18,7 @@ import pysindy as ps
 from sindybench import STLS, HiddenStateSINDy, SINDy
 from sindybench.baselines import ARX, NNARX
 from sindybench.hidden import DerivativeHiddenState
-from sindybench.refine import OutputErrorRefinement
+from sindybench.refine import OutputErrorRefinement, PredictionErrorRefinement
 from sindybench.libraries import (
     AbsProductLibrary,
     ConcatLibrary,
@@ -63,6 +63,7 @@ ESTIMATORS = [
     STLS(threshold=0.05, alpha=0.1, normalize_columns=True),
     SINDy(dt=0.1, library=PolynomialLibrary(degree=1)),
     SINDy(dt=0.1, library=PolynomialLibrary(degree=1), refine=OutputErrorRefinement(max_nfev=3)),
+    SINDy(dt=0.1, library=PolynomialLibrary(degree=1), refine=PredictionErrorRefinement(max_nfev=3)),
     PolynomialLibrary(degree=2),
     SqrtLibrary(),
     IndicatorLibrary(variables=[0], lower=0.0),

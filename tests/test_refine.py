@@ -126,14 +126,36 @@ def test_refine_python_rhs_uses_finite_differences(duffing):
     assert res.cost < 1e-12 < res.initial_cost
 
 
-@pytest.mark.parametrize("n_segments, match", [(1, "cannot refine: the starting model's simulation diverges"),
-                                               (3, "cannot start multiple shooting: the starting model diverges")])
-def test_refine_refuses_a_diverging_start(duffing, n_segments, match):
+def test_refine_refuses_a_diverging_start(duffing):
     u, y = duffing
     bad = TRUE_COEF.copy()
     bad[3, 1] = 2.0  # +2 y^3: finite-time blow-up
-    with pytest.raises(SimulationError, match=match):
-        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3, n_segments=n_segments)
+    with pytest.raises(SimulationError, match="cannot refine: the starting model's simulation diverges.*n_segments"):
+        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3)
+
+
+@pytest.mark.parametrize("n_segments", [2, 3])
+def test_multiple_shooting_starts_from_a_diverging_model(duffing, n_segments):
+    """Segments cut where the start leaves the record; the refined model simulates the whole record exactly."""
+    u, y = duffing
+    bad = TRUE_COEF.copy()
+    bad[3, 1] = 2.0  # +2 y^3: finite-time blow-up from x0 = (1, 1)
+    free = FREE.copy()
+    free[0, 0] = False  # y' = v held (else the scale of v is free)
+    res = refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], free=free, max_abs=1e3,
+                                  n_segments=n_segments, max_nfev=200)
+    assert res.initial_cost > 1e3  # the start's open loop diverges: penalized
+    np.testing.assert_allclose(res.coef, TRUE_COEF, rtol=1e-5, atol=1e-8)
+    np.testing.assert_allclose(res.x0, TRUE_X0, rtol=1e-5, atol=1e-8)
+    assert res.cost < 1e-10
+
+
+def test_multiple_shooting_refuses_a_start_that_cannot_take_one_step(duffing):
+    u, y = duffing
+    bad = TRUE_COEF.copy()
+    bad[3, 1] = 1e4
+    with pytest.raises(SimulationError, match="diverges within one sample of sample 0"):
+        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3, n_segments=3)
 
 
 def test_diverging_trial_steps_never_reach_the_optimizer(duffing, monkeypatch):
@@ -291,7 +313,8 @@ def test_output_error_refinement_bad_params(duffing, params, match):
 
 def test_hidden_state_sindy_bad_refine_and_initial_state(duffing):
     u, y = duffing
-    with pytest.raises(ValueError, match="refine must be an OutputErrorRefinement or None; got object"):
+    with pytest.raises(ValueError, match="refine must be an OutputErrorRefinement, a PredictionErrorRefinement or "
+                                         "None; got object"):
         HiddenStateSINDy(refine=object(), dt=DT).fit(u, y)
     with pytest.raises(ValueError, match="initial_state must be one of .'strategy', 'fit', 'periodic'.; got 'bogus'"):
         HiddenStateSINDy(initial_state="bogus", dt=DT).fit(u, y)

@@ -14,7 +14,7 @@ from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import BoucWenHiddenState, DerivativeHiddenState, TanksHiddenState
 from sindybench.libraries import ABS_POW, POW, SIGN, PolynomialLibrary, SqrtLibrary, TermsLibrary
-from sindybench.refine import OutputErrorRefinement
+from sindybench.refine import OutputErrorRefinement, PredictionErrorRefinement
 from sindybench.simulate import TermsRHS, simulate
 from sindybench.systems import BoucWen, CascadedTanks, multisine
 
@@ -121,6 +121,18 @@ def bouc_wen_model(hidden, n_rows, refine=None, **kwargs):
     return HiddenStateSINDy(hidden=hidden, optimizer=STLS(threshold=threshold, normalize_columns=True),
                             differentiation=SavitzkyGolay(window_length=5, polyorder=4), dt=BW_DT, n_substeps=2,
                             input_hold="linear", refine=refine, **kwargs)
+
+
+def test_bouc_wen_physical_parameters_by_prediction_error(rng):
+    """The strategy's physical parameters through their map, refined by one-step prediction error."""
+    u, y = bouc_wen_record(rng, 3000)
+    wrong = {"m": 2.1, "c": 12.0, "k": 5.2e4}
+    refined = bouc_wen_model(BoucWenHiddenState(**wrong), len(u), PredictionErrorRefinement(max_nfev=40)).fit(u, y)
+    assert refined.refinement_["criterion"]["name"] == "prediction error"
+    assert worst_error(refined.params_, BW_TRUE) < TOL  # measured 6e-4 (c)
+    assert worst_error(learned_row(refined, ["y", "v", "z", "u"]), BW_LAW) < TOL  # measured 5e-4
+    errors = refined.standard_errors()
+    assert {"m", "c", "k", "K[v, 0]"} <= set(errors) and errors["c"] < 0.1
 
 
 def test_bouc_wen_refined_from_wrong_mass_damping_stiffness(rng):

@@ -26,7 +26,8 @@ from sklearn.base import clone
 
 from ..metrics import fit_index, r2, rmse
 
-__all__ = ["HORIZONS", "K_STEP_SAMPLES", "free_run_scores", "report_best_model", "smoothed_start_scores", "test_record"]
+__all__ = ["HORIZONS", "K_STEP_SAMPLES", "free_run_scores", "k_step_scores", "report_best_model",
+           "smoothed_start_scores", "test_record"]
 
 logger = logging.getLogger(__name__)
 
@@ -110,6 +111,20 @@ def _noise(estimator, X, y):
                             "likelihood",
                   "Q_diag": np.diag(Q).tolist(), "R_diag": np.diag(R).tolist(),
                   "time_s": time.perf_counter() - start}
+
+
+def k_step_scores(estimator, X, y, tests):
+    """``{"noise": ..., "k_step": {test: {k: ...}}}``: a row's k-step scores (``X, y``: its training samples).
+
+    The protocol of the designated row's k-step scores: ``Q`` and ``R``
+    estimated on the first training samples, then the filter on each test
+    record's own outputs.
+    """
+    try:
+        Q, R, noise = _noise(estimator, X, y)
+    except Exception as exc:
+        return {"noise": {"status": _failed(exc)}, "k_step": {}}
+    return {"noise": noise, "k_step": {name: _k_step(estimator, test, Q, R, HORIZONS) for name, test in tests.items()}}
 
 
 def _k_step(estimator, test, Q, R, horizons):

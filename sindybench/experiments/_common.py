@@ -27,6 +27,22 @@ def refinement(**kwargs):
     return make
 
 
+def prediction_refinement(**kwargs):
+    """Settings factory of a "+ prediction-error refinement" row (:attr:`ModelSpec.refines`).
+
+    As :func:`refinement`, with :class:`~sindybench.refine.PredictionErrorRefinement`:
+    fitted by the errors of its one-step predictions through the observer,
+    scored by free run like every other row.
+    """
+    def make(*, random_state, quick, dt, n_val, n_samples):
+        from ..refine import PredictionErrorRefinement
+
+        budget = REFINE_NFEV_QUICK if quick else REFINE_NFEV
+        return {"refine": PredictionErrorRefinement(max_nfev=budget, **kwargs), "initial_state": "fit"}
+
+    return make
+
+
 def stls_space(*, threshold=(1e-4, 1e1), alpha=(1e-8, 1e-1), gamma=None):
     """Search space of an STLS model: log-uniform threshold and ridge alpha.
 

@@ -18,7 +18,7 @@ from sklearn.exceptions import ConvergenceWarning
 
 from .. import __version__
 from .._json import jsonable
-from ._best import free_run_scores, report_best_model, test_record
+from ._best import free_run_scores, k_step_scores, report_best_model, test_record
 from ._published import published
 
 __all__ = ["DataNotFoundError", "evaluate", "fit_model", "load_data", "run_benchmark", "test_sets"]
@@ -343,6 +343,8 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
             simulations[name][spec.key] = y_pred
             entry["scores"][name] = scores
             entry["published"][name] = published(benchmark.name, spec.key, name)
+        if spec.k_step and estimator is not None:
+            entry["k_step"] = k_step_scores(estimator, X[:n_train], y[:n_train], tests)
         results["models"].append(entry)
     results["best_model"] = report_best_model(benchmark, results, fitted, X, y, n_train, tests, quick=quick, seed=seed)
     results["wall_time_s"] = time.perf_counter() - start

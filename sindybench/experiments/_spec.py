@@ -44,6 +44,9 @@ class ModelSpec:
         searches chose (outer and inner), sets the parameters that ``make``
         returns (e.g. ``refine=OutputErrorRefinement(...)``,
         ``initial_state="fit"``) and fits it on the whole estimation record.
+    k_step : bool
+        Also report this row's k-step-ahead scores on the test sets (the
+        protocol of the designated row's, :func:`~sindybench.experiments._best.k_step_scores`).
     """
 
     key: str
@@ -56,6 +59,7 @@ class ModelSpec:
     max_train: int | None = None
     max_train_quick: int | None = None
     refines: str | None = None
+    k_step: bool = False
 
     def train_cap(self, *, quick):
         """Largest number of training samples this model uses (``None``: all)."""

@@ -2,12 +2,22 @@
 
 Models: naive first-order SINDy ``y' = f(y, u)`` with a quadratic polynomial
 library, the second-order remedy (derivative-coordinate augmentation,
-:class:`~sindybench.hidden.DerivativeHiddenState`), and the ARX / NN-ARX
-baselines. Data decimated to 400 Hz and standardised; training 3840,
+:class:`~sindybench.hidden.DerivativeHiddenState`), its Coulomb-friction
+variant refined by simulation error and by prediction error (scored by free
+run, with its k-step scores), and the ARX / NN-ARX baselines. Data decimated to 400 Hz and standardised; training 3840,
 validation 960, test the last 1201 samples.
 """
 
-from ._common import arx_model, arx_space, nnarx_model, nnarx_space, refinement, sindy_model, stls_space
+from ._common import (
+    arx_model,
+    arx_space,
+    nnarx_model,
+    nnarx_space,
+    prediction_refinement,
+    refinement,
+    sindy_model,
+    stls_space,
+)
 from ._spec import Benchmark, ModelSpec
 
 __all__ = ["BENCHMARK"]
@@ -74,6 +84,10 @@ BENCHMARK = Benchmark(
         ModelSpec("sindy_friction_refined", "SINDy, 2nd order, Coulomb friction + simulation-error refinement",
                   refinement(), refines="sindy_friction",
                   description="the friction model refined by the simulation error of the estimation record"),
+        ModelSpec("sindy_friction_pem", "SINDy, 2nd order, Coulomb friction + prediction-error refinement",
+                  prediction_refinement(), refines="sindy_friction", k_step=True,
+                  description="the friction model refined by its one-step prediction errors through a fitted "
+                              "observer gain on the estimation record, scored by free run"),
         ModelSpec("arx", "ARX", arx_model(), arx_space(), n_trials=50, n_trials_quick=6,
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(dtype="float32"), nnarx_space(), n_trials=20, n_trials_quick=3,

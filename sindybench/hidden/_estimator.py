@@ -140,9 +140,12 @@ class HiddenStateSINDy(DynamicsEstimator):
         ``normalize``): the library's features of the centred, scaled states
         and inputs, each target divided by its root mean square, the
         coefficients mapped back exactly to the user's units.
-    refine : OutputErrorRefinement or None, default=None
+    refine : OutputErrorRefinement, PredictionErrorRefinement or None, default=None
         Refine the final model by its open-loop simulation error on the
-        training record (:class:`~sindybench.refine.OutputErrorRefinement`):
+        training record (:class:`~sindybench.refine.OutputErrorRefinement`;
+        or by its prediction error,
+        :class:`~sindybench.refine.PredictionErrorRefinement`, for a model
+        whose simulation diverges or drifts: compiled models only):
         the nonzero learned coefficients, the strategy's physical parameters
         (:meth:`HiddenStrategy.refinable`, e.g. ``m, c, k`` or ``k1, k2``) and
         the initial state. Only the model chosen by the inner search is

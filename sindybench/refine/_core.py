@@ -44,7 +44,7 @@ from ..simulate import TermsRHS
 from ._result import RefinementResult
 from ._problem import Physical, _build, _output_jacobian
 
-__all__ = ["Physical", "RefinementResult", "estimate_initial_state", "refine_simulation_error"]
+__all__ = ["Physical", "RefinementResult", "estimate_initial_state", "refine_simulation_error", "solve"]
 
 logger = logging.getLogger(__name__)
 
@@ -208,10 +208,33 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     settings = dict(n_substeps=n_substeps, method=method, input_hold=input_hold, bounds=bounds, max_abs=max_abs)
     sim = {"settings": settings, "make_rhs": make_rhs}
 
-    pruned, nfev, njev, initial_cost = [], 0, 0, None
+    def build(coef, free, physical, x0s, carry):
+        problem, xs = _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, n_segments,
+                             continuity_weight, lo, hi)
+        return problem, xs
+
+    return solve(build, terms, coef, free, physical, x0s, us, ys, bounds=(lo, hi, x0_lo, x0_hi), prune=prune,
+                 output_scale=output_scale, max_nfev=max_nfev, tols=(ftol, xtol, gtol), warn_budget=warn_budget)
+
+
+def solve(build, terms, coef, free, physical, x0s, us, ys, *, bounds, prune, output_scale, max_nfev, tols,
+          warn_budget):
+    """The refinement rounds shared by the criteria: least squares, prune, refine again; a :class:`RefinementResult`.
+
+    ``build(coef, free, physical, x0s, carry) -> (problem, trajectories)`` makes one
+    round's problem (:class:`~sindybench.refine._problem._Problem` or a
+    criterion's subclass) and the starting model's trajectories;
+    ``problem.trajectories(p)`` gives those of ``p`` (the open-loop
+    simulation, or the predictor's predictions), from which the reported
+    costs and the pruned terms' contributions are computed; ``carry`` is
+    what the last round hands to the next (``problem.carry(p)``: the
+    predictor's gain; None in the first round).
+    """
+    lo, hi, x0_lo, x0_hi = bounds
+    ftol, xtol, gtol = tols
+    pruned, nfev, njev, initial_cost, carry = [], 0, 0, None, None
     while True:
-        problem, x = _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, n_segments,
-                            continuity_weight, lo, hi)
+        problem, x = build(coef, free, physical, x0s, carry)
         if output_scale is not None:
             problem.scale_outputs(output_scale)
         if initial_cost is None:
@@ -227,13 +250,13 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         nfev, njev = nfev + fit.nfev, njev + (fit.njev or 0)
         p = fit.x
         coef_all = problem.matrix(p)
-        x0s = problem.record_starts(p)
+        x0s, carry = problem.record_starts(p), problem.carry(p)
         if physical is not None:
             physical = physical._replace(values=p[: problem.n_phys])
         coef = coef_all - (physical.coef(physical.values) if physical is not None else 0.0)
-        # the returned model run open loop: the trajectory pruning looks at, and its cost (with multiple
-        # shooting too, not the segmented cost)
-        x = problem.open_loop(p)
+        # output error: the returned model run open loop, the trajectory pruning looks at, and its cost (with
+        # multiple shooting too, not the segmented cost); prediction error: the predictions
+        x = problem.trajectories(p)
         if prune <= 0 or terms is None or not problem.free.size:
             break
         x_all = np.vstack(x)
@@ -254,14 +277,15 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
                       f"(cost {initial_cost:.4g} -> {problem.output_cost(x):.4g}); raise max_nfev "
                       "(refine__max_nfev) for a converged model.", ConvergenceWarning, stacklevel=2)
     jac, res, columns = _output_jacobian(problem, fit)
+    extra = problem.result_fields(fit.x)
     return RefinementResult(coef=coef_all, physical=phys, x0=x0s[0], initial_cost=initial_cost,
                             cost=problem.output_cost(x), nfev=nfev, njev=njev, status=int(fit.status),
                             message=str(fit.message), jacobian="sensitivity" if problem.compiled else "2-point",
                             pruned=pruned, jac=jac, residuals=res, parameters=problem.parameters()[:columns],
                             values=fit.x[:columns].copy(), at_bound=fit.active_mask[:columns] != 0,
-                            budget_exhausted=budget, n_outputs=len(output_index),
+                            budget_exhausted=budget, n_outputs=ys[0].shape[1],
                             initial_states=np.array(x0s) if len(x0s) > 1 else None,
-                            record_samples=tuple(y_r.shape[0] for y_r in ys) if len(ys) > 1 else None)
+                            record_samples=tuple(y_r.shape[0] for y_r in ys) if len(ys) > 1 else None, **extra)
 
 
 def _check_records(u, y, x0, n_states):

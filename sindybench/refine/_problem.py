@@ -185,6 +185,22 @@ class _Problem:
             self._open_loop_key, self._open_loop = key, xs
         return self._open_loop
 
+    def trajectories(self, p):
+        """The trajectories the criterion reports on and pruning looks at: the records run open loop."""
+        return self.open_loop(p)
+
+    def n_columns(self):
+        """Parameters of the returned model (the leading columns of ``p``): model and initial states."""
+        return self.n_model + self.n_x0
+
+    def carry(self, p):
+        """What the next refinement round needs from this one's optimum beyond the model (nothing here)."""
+        return None
+
+    def result_fields(self, p):
+        """Criterion-specific fields of the :class:`RefinementResult` (none for output error)."""
+        return {}
+
     def output_cost(self, xs):
         """Half the mean squared scaled output error of the trajectories ``xs`` (diverged samples penalized)."""
         r = np.concatenate([((x[:, self.oidx] - y) / scale).ravel()
@@ -278,7 +294,7 @@ def _output_jacobian(problem, fit):
     parameter by forward differences on the Python path); the later
     segments' starts and the continuity residuals drop out.
     """
-    columns = problem.n_model + problem.n_x0
+    columns = problem.n_columns()
     if len(problem.segments) == 1:
         return fit.jac, fit.fun[: problem.n_res], columns
     single = copy.copy(problem)
@@ -302,20 +318,70 @@ def _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, 
 
     That simulation checks the start, scales the continuity residuals by
     the states' spread and starts the later segments of multiple shooting.
+    With multiple shooting, a start whose simulation of the record diverges
+    gets segments short enough to simulate (:func:`_adaptive_segments`).
     """
     problem = _Problem(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim,
                        _segments(us[0].shape[0], n_segments))
     xs = problem.open_loop(problem.pack())
     for r, x_r in enumerate(xs):
         finite = np.all(np.isfinite(x_r), axis=1)
-        if not finite.all():
+        if not finite.all() and n_segments == 1:
             where = "the record" if len(xs) == 1 else f"record {r}"
-            what = (f"cannot start multiple shooting: the starting model diverges on {where}." if n_segments > 1 else
-                    f"cannot refine: the starting model's simulation diverges on {where}; "
-                    "expected a model that simulates the training data.")
-            raise SimulationError(what, step=int(np.argmin(finite)))
+            raise SimulationError(f"cannot refine: the starting model's simulation diverges on {where}; expected a "
+                                  "model that simulates the training data (or multiple shooting, n_segments > 1, "
+                                  "or PredictionErrorRefinement).", step=int(np.argmin(finite)))
     x = xs[0]
+    if np.all(np.isfinite(x)):
+        problem.x_segments = [np.clip(x[a], lo, hi) for a, _ in problem.segments[1:]]
+    else:
+        problem.segments, problem.x_segments, x = _adaptive_segments(problem, problem.pack(), lo, hi)
     spread = np.std(x, axis=0)
     problem.weight = continuity_weight / np.where(spread > 0, spread, 1.0)
-    problem.x_segments = [np.clip(x[a], lo, hi) for a, _ in problem.segments[1:]]
     return problem, xs
+
+
+def _adaptive_segments(problem, p, lo, hi):
+    """Segments of the record short enough that the starting model simulates each one; their starts.
+
+    From each segment's start, the model runs to the next of the planned
+    edges; where its output leaves the measured one by more than the
+    output's spread (or diverges), the segment ends there instead, and the
+    next one starts from the state reached there with its measured outputs
+    put back to the measurements.
+    Returns ``(segments, later starts, the segments' trajectory)``.
+    """
+    u, y, oidx = problem.u, problem.y, problem.oidx
+    n = u.shape[0]
+    planned = [b for _, b in problem.segments]
+    rhs, start = problem.rhs(p), problem.record_starts(p)[0]
+    segments, starts, pieces, a = [], [], [], 0
+    while a < n:
+        b = next(e for e in planned if e > a)
+        with np.errstate(all="ignore"):
+            x = simulate(rhs, start, u[a : b + 1] if b < n else u[a:b], problem.dt, on_divergence="nan",
+                         **problem.sim["settings"])
+        with np.errstate(invalid="ignore"):
+            far = ~(np.abs(x[:, oidx] - y[a : a + x.shape[0]]) <= problem.y_scale).all(axis=1)
+        if far.any():  # the run leaves the record (or diverges): end the segment where it does
+            if not np.all(np.isfinite(x[: min(2, x.shape[0])])):
+                raise SimulationError(f"cannot start multiple shooting: the starting model diverges within one "
+                                      f"sample of sample {a}, even from the measured outputs.", step=a + 1)
+            b = min(b, a + max(1, int(np.argmax(far))))
+            if b not in planned:
+                planned = sorted(planned + [b])
+        segments.append((a, b))
+        pieces.append(x[: b - a])
+        if b < n:
+            nxt = x[b - a].copy()
+            nxt[oidx] = y[b]
+            starts.append(np.clip(nxt, lo, hi))
+            start = starts[-1]
+        a = b
+    max_segments = max(1, n // 10)
+    if len(segments) > max_segments:
+        raise SimulationError(f"cannot start multiple shooting: the starting model needs {len(segments)} segments "
+                              f"(more than {max_segments}, one per 10 samples) to simulate the record; expected a "
+                              "model that simulates at least 10 samples at a time (or PredictionErrorRefinement).",
+                              step=segments[-1][0])
+    return segments, starts, np.vstack(pieces)

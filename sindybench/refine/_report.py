@@ -53,6 +53,8 @@ def parameter_names(parameters, rows):
         elif q[0] == "coef":
             row = rows[int(q[2])]
             out.append(f"{row.name}': {row.features[int(q[1])]}")
+        elif q[0] == "gain":  # prediction error: ("gain", state, output) of the observer gain K
+            out.append(f"K[{rows[int(q[1])].name}, {int(q[2])}]")
         elif len(q) > 2:  # several records: ("x0", state, record)
             out.append(f"{rows[int(q[1])].name}(0) [record {int(q[2])}]")
         else:

@@ -62,6 +62,14 @@ class RefinementResult(NamedTuple):
     initial_states : ndarray of shape (n_records, n_states) or None
         With several records: the refined initial state of each record
         (``x0`` is the first row); None for one record.
+    gain : ndarray of shape (n_states, n_outputs) or None
+        Prediction error (:func:`~sindybench.refine.refine_prediction_error`):
+        the predictor's observer gain at the optimum; None for output error.
+    horizon : int or None
+        Prediction error: the steps ahead of the fitted predictions; None for
+        output error. With prediction error, ``initial_cost``, ``cost``,
+        ``jac`` and ``residuals`` are those of the predictions, and the
+        free gain entries are columns ``("gain", state, output)`` of ``jac``.
     record_samples : tuple of int or None
         With several records: the samples of each record, in the order of
         the rows of ``jac`` (the ``"hac"`` covariance sums lagged products
@@ -88,6 +96,8 @@ class RefinementResult(NamedTuple):
     n_outputs: int = 1
     initial_states: np.ndarray = None
     record_samples: tuple = None
+    gain: np.ndarray = None
+    horizon: int = None
 
     def summary(self):
         """JSON-able record (no arrays; the covariances, ``"white"`` and ``"hac"``, as nested lists)."""
@@ -98,6 +108,9 @@ class RefinementResult(NamedTuple):
         if self.jac is not None:
             out["budget_exhausted"] = bool(self.budget_exhausted)
             out["covariance"] = {kind: self.covariance(kind).to_dict() for kind in ("white", "hac")}
+        if self.gain is not None:
+            out["criterion"] = {"name": "prediction error", "horizon": int(self.horizon),
+                                "gain": np.asarray(self.gain, dtype=float).tolist()}
         if self.initial_states is not None:
             out["initial_states"] = np.asarray(self.initial_states, dtype=float).tolist()
         return out

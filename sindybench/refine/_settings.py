@@ -1,4 +1,4 @@
-"""``OutputErrorRefinement``: the refinement settings an estimator's ``refine`` parameter takes."""
+"""``OutputErrorRefinement``, ``PredictionErrorRefinement``: the refinement settings an estimator's ``refine`` takes."""
 
 import numbers
 
@@ -7,11 +7,42 @@ from sklearn.base import BaseEstimator
 from .._validation import check_bool, check_integer, check_positive, is_records
 from ..io import register_model
 from ._core import refine_simulation_error
+from ._prediction import refine_prediction_error
 
-__all__ = ["OutputErrorRefinement"]
+__all__ = ["OutputErrorRefinement", "PredictionErrorRefinement"]
 
 
-class OutputErrorRefinement(BaseEstimator):
+class _Refinement(BaseEstimator):
+    """What both criteria's settings share: held physical parameters, the first ``max_samples``."""
+
+    def _validate_common(self):
+        check_integer(self.max_nfev, "max_nfev")
+        check_positive(self.prune, "prune", strict=False)
+        check_bool(self.physical, "physical")
+        check_bool(self.initial_state, "initial_state")
+        if self.max_samples is not None and (isinstance(self.max_samples, bool)
+                                             or not isinstance(self.max_samples, numbers.Integral)
+                                             or self.max_samples < 10):
+            raise ValueError(f"max_samples must be an integer >= 10 or None (all samples); got {self.max_samples!r}.")
+
+    def _prepare(self, coef, u, y, physical, make_rhs):
+        """``(coef, u, y, physical, make_rhs)`` with the physical parameters held if not refined, records cut."""
+        if physical is not None and not self.physical:  # held at their values
+            coef = coef + physical.coef(physical.values)
+            if physical.make_rhs is not None:
+                make_rhs = _Held(physical.make_rhs, physical.values)
+            physical = None
+        if is_records(y):  # several records: the first max_samples of each
+            u, y = [self._head(u_r) for u_r in u], [self._head(y_r) for y_r in y]
+        else:
+            u, y = self._head(u), self._head(y)
+        return coef, u, y, physical, make_rhs
+
+    def _head(self, a):
+        return a if self.max_samples is None else a[: self.max_samples]
+
+
+class OutputErrorRefinement(_Refinement):
     """Refine a fitted sparse model by its open-loop simulation error.
 
     Pass it as ``refine=`` to :class:`~sindybench.SINDy` or
@@ -61,29 +92,14 @@ class OutputErrorRefinement(BaseEstimator):
         self.max_samples = max_samples
 
     def _validate(self):
-        check_integer(self.max_nfev, "max_nfev")
+        self._validate_common()
         check_integer(self.n_segments, "n_segments")
         check_positive(self.continuity_weight, "continuity_weight")
-        check_positive(self.prune, "prune", strict=False)
-        check_bool(self.physical, "physical")
-        check_bool(self.initial_state, "initial_state")
-        if self.max_samples is not None and (isinstance(self.max_samples, bool)
-                                             or not isinstance(self.max_samples, numbers.Integral)
-                                             or self.max_samples < 10):
-            raise ValueError(f"max_samples must be an integer >= 10 or None (all samples); got {self.max_samples!r}.")
 
     def run(self, terms, coef, u, y, dt, *, x0, output_index, free=None, physical=None, make_rhs=None, **settings):
         """Refine with these settings (see :func:`~sindybench.refine.refine_simulation_error`)."""
         self._validate()
-        if physical is not None and not self.physical:  # held at their values
-            coef = coef + physical.coef(physical.values)
-            if physical.make_rhs is not None:
-                make_rhs = _Held(physical.make_rhs, physical.values)
-            physical = None
-        if is_records(y):  # several records: the first max_samples of each
-            u, y = [self._head(u_r) for u_r in u], [self._head(y_r) for y_r in y]
-        else:
-            u, y = self._head(u), self._head(y)
+        coef, u, y, physical, make_rhs = self._prepare(coef, u, y, physical, make_rhs)
         return refine_simulation_error(
             terms, coef, u, y, dt, x0=x0, output_index=output_index, free=free,
             physical=physical, free_x0=None if self.initial_state else [],
@@ -91,8 +107,79 @@ class OutputErrorRefinement(BaseEstimator):
             prune=self.prune, max_nfev=self.max_nfev, **settings,
         )
 
-    def _head(self, a):
-        return a if self.max_samples is None else a[: self.max_samples]
+
+class PredictionErrorRefinement(_Refinement):
+    """Refine a fitted sparse model by the errors of its one-step (or ``horizon``-step) predictions.
+
+    Pass it as ``refine=`` to :class:`~sindybench.SINDy` or
+    :class:`~sindybench.HiddenStateSINDy`, like
+    :class:`OutputErrorRefinement`: the same free parameters (nonzero
+    coefficients, the strategy's physical parameters, the initial state) and
+    the gain of the predictor are refined by
+    :func:`~sindybench.refine.refine_prediction_error`, which corrects the
+    predicted state from the measured outputs at every sample. Use it when
+    the starting model's open-loop simulation diverges or drifts on the
+    training record (an unstable plant recorded under feedback, an
+    integrator, a self-excited oscillator), then judge the model by free run
+    as before. It needs a compiled model (a built-in or custom library).
+
+    Parameters
+    ----------
+    horizon : int, default=1
+        Steps ahead of the fitted predictions (1 = one-step prediction error;
+        larger values bridge to output error).
+    max_nfev : int, default=30
+        Budget of predictor runs per refinement round.
+    prune : float, default=0.0
+        As in :class:`OutputErrorRefinement`, along the predictions.
+    physical : bool, default=True
+        Refine the strategy's physical parameters.
+    initial_state : bool, default=True
+        Refine the first predicted state.
+    fit_gain : bool, default=True
+        Refine the observer gain with the model (else keep its start).
+    noise : (Q, R) or None, default=None
+        Process and measurement noise covariances (or diagonals) of the
+        starting gain (the steady-state Kalman gain of the starting model);
+        None: 1 % of each state's spread and 10 % of each output's.
+    max_samples : int or None, default=None
+        Refine on the first ``max_samples`` samples only (of each record).
+
+    See Also
+    --------
+    OutputErrorRefinement : the open-loop simulation error.
+
+    Examples
+    --------
+    >>> PredictionErrorRefinement(horizon=5).get_params()["horizon"]
+    5
+    """
+
+    def __init__(self, *, horizon=1, max_nfev=30, prune=0.0, physical=True, initial_state=True, fit_gain=True,
+                 noise=None, max_samples=None):
+        self.horizon = horizon
+        self.max_nfev = max_nfev
+        self.prune = prune
+        self.physical = physical
+        self.initial_state = initial_state
+        self.fit_gain = fit_gain
+        self.noise = noise
+        self.max_samples = max_samples
+
+    def run(self, terms, coef, u, y, dt, *, x0, output_index, free=None, physical=None, make_rhs=None, **settings):
+        """Refine with these settings (see :func:`~sindybench.refine.refine_prediction_error`)."""
+        self._validate_common()
+        check_integer(self.horizon, "horizon")
+        check_bool(self.fit_gain, "fit_gain")
+        if terms is None:
+            raise ValueError("PredictionErrorRefinement needs a compiled model (a built-in or custom library whose "
+                             "terms numba compiles); got a Python right-hand side. Use OutputErrorRefinement.")
+        coef, u, y, physical, _ = self._prepare(coef, u, y, physical, make_rhs)
+        return refine_prediction_error(
+            terms, coef, u, y, dt, x0=x0, output_index=output_index, free=free, physical=physical,
+            free_x0=None if self.initial_state else [], horizon=self.horizon, free_gain=self.fit_gain,
+            noise=self.noise, prune=self.prune, simulation=settings, max_nfev=self.max_nfev,
+        )
 
 
 class _Held:
@@ -106,3 +193,4 @@ class _Held:
 
 
 register_model(OutputErrorRefinement)
+register_model(PredictionErrorRefinement)

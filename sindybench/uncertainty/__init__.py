@@ -9,5 +9,19 @@ simulation residuals, any estimator and strategy) and :func:`prediction_band`.
 
 from ._bands import PredictionBand, prediction_band
 from ._bootstrap import BootstrapEnsemble, circular_block_indices
+from ._conformal import ConformalBand, ConformalCalibration, conformal_calibration, conformal_quantile
+from ._residuals import ResidualAnalysis, k_step_prediction, residual_analysis
 
-__all__ = ["BootstrapEnsemble", "PredictionBand", "circular_block_indices", "prediction_band"]
+__all__ = [
+    "BootstrapEnsemble",
+    "ConformalBand",
+    "ConformalCalibration",
+    "PredictionBand",
+    "ResidualAnalysis",
+    "circular_block_indices",
+    "conformal_calibration",
+    "conformal_quantile",
+    "k_step_prediction",
+    "prediction_band",
+    "residual_analysis",
+]

@@ -29,6 +29,7 @@ from ._validation import (
     count_records,
     is_records,
 )
+from ._model_checks import ModelChecksMixin
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer
 from .refine._report import UncertaintyMixin
@@ -66,8 +67,8 @@ def _check_score_records(X, y):
     return [X_i for X_i, _ in pairs], [y_i for _, y_i in pairs]
 
 
-class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin,
-                        BaseEstimator):
+class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin,
+                        RegressorMixin, BaseEstimator):
     """Base class: ``simulate``, ``predict``, ``score`` and ``equations`` of a fitted ``dynamics_``.
 
     Subclasses set ``dynamics_``, ``x0_``, ``n_features_in_`` and ``_y_1d``

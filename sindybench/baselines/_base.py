@@ -5,6 +5,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from .._divergence import warn_divergence
+from .._model_checks import ModelChecksMixin
 from .._validation import check_integer, check_signal, validate_named
 from ..metrics import make_simulation_scorer
 from ._lags import input_lags, lagged_regressors, n_lags
@@ -12,7 +13,7 @@ from ._lags import input_lags, lagged_regressors, n_lags
 __all__ = ["LagModel"]
 
 
-class LagModel(RegressorMixin, BaseEstimator):
+class LagModel(ModelChecksMixin, RegressorMixin, BaseEstimator):
     """Base class of models ``y[t] = f(y[t-1..t-na], u[t-nk..t-nk-nb+1])``.
 
     Subclasses implement ``fit(X, y)``, which starts with ``_fit_lags(X, y)``

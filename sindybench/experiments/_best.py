@@ -11,6 +11,13 @@ each under its own protocol name:
   first ``n_init`` test samples only
   (:func:`sindybench.estimation.smooth_initial_state`);
 - the standard errors of its refined parameters (``model.standard_errors()``);
+- the residual analysis of its free run on the validation block (whiteness and
+  independence from past inputs, :func:`sindybench.uncertainty.residual_analysis`);
+- the coverage and mean width, on every test set, of its conformal 95 %
+  free-run band, calibrated on the validation block (the last ``n_val``
+  samples of the estimation record) as the test is run: started from the
+  block's first ``n_init`` samples, scored from ``score_from``
+  (:func:`sindybench.uncertainty.conformal_calibration`; no refit);
 - the coverage of the test outputs by the 95 % band of a small block-bootstrap
   ensemble (:class:`sindybench.uncertainty.BootstrapEnsemble`).
 
@@ -171,6 +178,47 @@ def _band(estimator, X, y, tests, test_info, *, n_members, seed):
     return info
 
 
+CONFORMAL_PROTOCOL = ("split conformal band of the free run, calibrated on the validation block (the last n_val samples "
+                      "of the estimation record, which the refined row was also fitted on; never the test set): the "
+                      "block simulated from its first n_init samples as the test is, the 95 % half-width the "
+                      "ceil((n + 1) 0.95)-th smallest of its absolute errors from score_from on; coverage = fraction "
+                      "of the scored test outputs inside prediction +- half-width")
+
+
+def _residuals(estimator, X_val, y_val, n_init):
+    from ..uncertainty import residual_analysis
+
+    try:
+        ra = residual_analysis(estimator, X_val, y_val, kind="free_run", n_init=n_init)
+    except Exception as exc:
+        return {"status": _failed(exc)}
+    return {"status": "ok", "kind": "free_run", "n_init": n_init, "white": ra.white, "independent": ra.independent,
+            "message": ra.message(), "test": ra.test.to_dict()}
+
+
+def _conformal(estimator, X_val, y_val, tests, test_info):
+    from ..uncertainty import conformal_calibration
+
+    start = time.perf_counter()
+    out = {"alpha": 0.05, "protocol": CONFORMAL_PROTOCOL, "coverage": {}}
+    for name, test in tests.items():
+        u, yt = test_record(test)
+        n_init, first = test_info[name]["n_init"], test_info[name]["score_from"]
+        try:
+            cal = conformal_calibration(estimator, X_val, y_val, alpha=0.05, n_init=n_init, score_from=first)
+            band = cal.band(estimator, u, y_init=yt[:n_init])
+            if not np.all(np.isfinite(band.prediction)):
+                raise ValueError("the test simulation diverged")
+        except Exception as exc:
+            out["coverage"][name] = {"coverage": None, "status": _failed(exc)}
+            continue
+        out["name"] = cal.name
+        out["coverage"][name] = {"coverage": band.coverage(yt, first), "mean_width": band.mean_width(first),
+                                 "half_width": cal.half_width.tolist(), "n_scores": cal.n_scores, "status": "ok"}
+    out.update(status="ok", time_s=time.perf_counter() - start)
+    return out
+
+
 def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick, seed=0):
     """The extra reports of the benchmark's designated row (see the module docstring).
 
@@ -220,6 +268,11 @@ def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick
             out["smoothed_start"][name] = smoothed_start_scores(
                 estimator, test, info["n_init"], Q=Q, R=R, score_from=info["score_from"])[0]
     out["standard_errors"], out["standard_errors_status"] = _standard_errors(estimator)
+    n_val = results.get("n_validation") or 0
+    if n_val:  # the validation block: the last n_val samples of the estimation record
+        n_init = min(info["n_init"] for info in results["test_sets"].values())
+        out["residual_analysis"] = _residuals(estimator, X[-n_val:], y[-n_val:], n_init)
+        out["conformal_band"] = _conformal(estimator, X[-n_val:], y[-n_val:], tests, results["test_sets"])
     n_members = benchmark.band_members_quick if quick else benchmark.band_members
     if n_members:
         keep = spec.train_rows(quick=quick, n_train=n_train, n_samples=len(y))  # the rows the row was fitted on
@@ -261,6 +314,16 @@ def best_model_markdown(best, h="##"):
     out += ["", "Standard errors of the refined parameters (Jacobian at the optimum, white residuals): "
             + (", ".join(f"{k} {v:.3g}" for k, v in se.items()) if se else best.get("standard_errors_status", "-"))
             + "."]
+    ra = best.get("residual_analysis")
+    if ra:
+        out.append("Residual analysis of the free run on the validation block (Ljung-Box whiteness, cross-correlation "
+                   "with past inputs): " + (f"residuals {ra['message']}." if ra["status"] == "ok" else ra["status"]))
+    conformal = best.get("conformal_band")
+    if conformal:
+        cells = ", ".join(f"`{k}` " + (f"{v['coverage']:.3f} (mean width {v['mean_width']:.3g})" if v["status"] == "ok"
+                                        else v["status"]) for k, v in conformal["coverage"].items())
+        out.append(f"{conformal.get('name', 'conformal 95 % free-run band')} ({conformal['protocol']}): coverage "
+                   f"{cells}.")
     band = best.get("band", {})
     if band.get("status") == "ok":
         cov = ", ".join(f"`{k}` {_num(v['coverage'], '.3f')} (with the residuals: "

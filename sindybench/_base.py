@@ -20,6 +20,7 @@ from sklearn.utils.validation import check_is_fitted
 from ._divergence import warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
+from ._residual_tests import refinement_residual_test
 from ._validation import (
     check_inputs_outputs,
     check_model_inputs,
@@ -364,6 +365,8 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
         except SimulationError as exc:
             warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=4)
             return None, {"status": -1, "message": f"skipped: {exc}"}
+        if result.residuals is not None:  # recorded for standard_errors to warn on (see uncertainty)
+            result = result._replace(residual_test=refinement_residual_test(result.residuals, result.n_outputs, u))
         return result, None
 
     def __sklearn_tags__(self):

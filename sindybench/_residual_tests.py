@@ -37,7 +37,11 @@ import numpy as np
 from scipy import stats
 from scipy.linalg import toeplitz
 
-__all__ = ["ResidualTest", "correlation", "residual_test"]
+__all__ = ["ModelErrorWarning", "ResidualTest", "correlation", "refinement_residual_test", "residual_test"]
+
+
+class ModelErrorWarning(UserWarning):
+    """Residuals that are not white or depend on the input: intervals that assume otherwise are too narrow."""
 
 
 def _next_fast(n):
@@ -215,3 +219,21 @@ def residual_test(residuals, inputs=None, *, max_lag=25, alpha=0.05):
                 s = n * ru[:, i, j] @ np.linalg.lstsq(P, ru[:, i, j], rcond=1e-10)[0]
                 indep[i, j] = stats.chi2.sf(s, M + 1)
     return ResidualTest(M, float(alpha), n, white, indep)
+
+
+def refinement_residual_test(residuals, n_outputs, inputs, *, max_lag=25, alpha=0.05):
+    """:func:`residual_test` of a refinement's output residuals (rows sample by sample), or None if too short.
+
+    ``inputs`` is the record's input array, or a list of them (several records,
+    their samples stacked in order as the residuals are).
+    """
+    e = np.asarray(residuals, dtype=float).reshape(-1, n_outputs)
+    if isinstance(inputs, list):
+        inputs = np.vstack(inputs) if inputs and all(a is not None for a in inputs) else None
+    u = None if inputs is None else np.asarray(inputs, dtype=float).reshape(e.shape[0], -1)
+    if u is not None and u.shape[1] == 0:
+        u = None
+    lag = min(int(max_lag), e.shape[0] // 4 - 1)
+    if lag < 1 or not np.all(np.isfinite(e)):
+        return None
+    return residual_test(e, u, max_lag=lag, alpha=alpha)

@@ -13,9 +13,38 @@ work with every estimator without knowing it:
   ``"<state>(0) [record <i>]"``).
 """
 
+import warnings
+
 import numpy as np
 
+from .._residual_tests import ModelErrorWarning, ResidualTest
 from ._covariance import ParameterCovariance
+
+_ASSUMES = {
+    "white": "white residuals (independent measurement noise) and the right model structure",
+    "hac": "the right model structure (residuals independent of the input; noise correlated in time is allowed)",
+}
+
+
+def warn_model_error(record, kind, stacklevel=3):
+    """Warn (:class:`ModelErrorWarning`) when the refinement's residual test contradicts what ``kind`` assumes.
+
+    ``"white"`` intervals need white residuals independent of the input,
+    ``"hac"`` intervals residuals independent of the input. Returns the
+    warning's text, or None (no test recorded, or it passed).
+    """
+    data = (record or {}).get("residual_test")
+    if data is None:
+        return None
+    test = ResidualTest.from_dict(data)
+    if test.independent and (test.white or kind == "hac"):
+        return None
+    text = (f"the refinement's residuals are {test.message()}: these {kind!r} intervals assume {_ASSUMES[kind]}, "
+            "so they are too narrow. " + ("kind='hac' allows residuals correlated in time; " if kind == "white" else "")
+            + "under model error no parameter interval holds: check the structure (residual_analysis), and for "
+            "predictions use a calibrated band (conformal_calibration).")
+    warnings.warn(text, ModelErrorWarning, stacklevel=stacklevel)
+    return text
 
 __all__ = ["UncertaintyMixin", "coef_errors", "confidence_intervals", "model_covariance", "standard_errors"]
 
@@ -41,6 +70,7 @@ def model_covariance(model, kind="white"):
                          "refine=OutputErrorRefinement().")
     if kind not in record["covariance"]:
         raise ValueError(f"kind must be one of {sorted(record['covariance'])}; got {kind!r}.")
+    warn_model_error(record, kind, stacklevel=4)
     return ParameterCovariance.from_dict(record["covariance"][kind])
 
 

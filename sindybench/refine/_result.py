@@ -66,6 +66,10 @@ class RefinementResult(NamedTuple):
         With several records: the samples of each record, in the order of
         the rows of ``jac`` (the ``"hac"`` covariance sums lagged products
         within a record only); None for one record.
+    residual_test : ResidualTest or None
+        The whiteness and input-independence tests of ``residuals``, set by
+        the estimator that ran the refinement (which has the inputs);
+        ``standard_errors`` warns when they fail.
     """
 
     coef: np.ndarray
@@ -88,6 +92,7 @@ class RefinementResult(NamedTuple):
     n_outputs: int = 1
     initial_states: np.ndarray = None
     record_samples: tuple = None
+    residual_test: object = None
 
     def summary(self):
         """JSON-able record (no arrays; the covariances, ``"white"`` and ``"hac"``, as nested lists)."""
@@ -98,6 +103,8 @@ class RefinementResult(NamedTuple):
         if self.jac is not None:
             out["budget_exhausted"] = bool(self.budget_exhausted)
             out["covariance"] = {kind: self.covariance(kind).to_dict() for kind in ("white", "hac")}
+        if self.residual_test is not None:
+            out["residual_test"] = self.residual_test.to_dict()
         if self.initial_states is not None:
             out["initial_states"] = np.asarray(self.initial_states, dtype=float).tolist()
         return out

@@ -27,10 +27,12 @@ on the first training samples (:func:`sindybench.estimation.estimate_noise`).
 
 import logging
 import time
+import warnings
 
 import numpy as np
 from sklearn.base import clone
 
+from ..uncertainty import ModelErrorWarning
 from ..metrics import fit_index, r2, rmse
 
 __all__ = ["HORIZONS", "K_STEP_SAMPLES", "free_run_scores", "report_best_model", "smoothed_start_scores", "test_record"]
@@ -138,9 +140,13 @@ def _standard_errors(estimator):
     if method is None or getattr(estimator, "refinement_", None) is None:
         return None, "not a refined row: no covariance at a simulation-error optimum"
     try:
-        return {k: float(v) for k, v in method().items()}, "ok"
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            errors = {k: float(v) for k, v in method().items()}
     except Exception as exc:
         return None, _failed(exc)
+    warned = [str(w.message) for w in caught if issubclass(w.category, ModelErrorWarning)]
+    return errors, ("ok" if not warned else f"warning: {warned[0]}")
 
 
 def _band(estimator, X, y, tests, test_info, *, n_members, seed):
@@ -311,9 +317,10 @@ def best_model_markdown(best, h="##"):
             cells = [_num(rows[str(k)]["rmse"]) for k in ks]
             out.append(f"| {name} | " + " | ".join(cells) + f" | {_num(sm['rmse'])} | {_num(sm['fit_index'], '.2f')} |")
     se = best.get("standard_errors")
+    status = best.get("standard_errors_status", "-")
     out += ["", "Standard errors of the refined parameters (Jacobian at the optimum, white residuals): "
-            + (", ".join(f"{k} {v:.3g}" for k, v in se.items()) if se else best.get("standard_errors_status", "-"))
-            + "."]
+            + (", ".join(f"{k} {v:.3g}" for k, v in se.items()) if se else status) + "."
+            + (f" **Warning**: {status[len('warning: '):]}" if se and status.startswith("warning: ") else "")]
     ra = best.get("residual_analysis")
     if ra:
         out.append("Residual analysis of the free run on the validation block (Ljung-Box whiteness, cross-correlation "

@@ -7,6 +7,7 @@ in :mod:`sindybench.refine` (``model.standard_errors()``,
 simulation residuals, any estimator and strategy) and :func:`prediction_band`.
 """
 
+from .._residual_tests import ModelErrorWarning, ResidualTest, residual_test
 from ._bands import PredictionBand, prediction_band
 from ._bootstrap import BootstrapEnsemble, circular_block_indices
 from ._conformal import ConformalBand, ConformalCalibration, conformal_calibration, conformal_quantile
@@ -16,12 +17,15 @@ __all__ = [
     "BootstrapEnsemble",
     "ConformalBand",
     "ConformalCalibration",
+    "ModelErrorWarning",
     "PredictionBand",
     "ResidualAnalysis",
+    "ResidualTest",
     "circular_block_indices",
     "conformal_calibration",
     "conformal_quantile",
     "k_step_prediction",
     "prediction_band",
     "residual_analysis",
+    "residual_test",
 ]

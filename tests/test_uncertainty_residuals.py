@@ -4,7 +4,7 @@ Synthetic system: ``y' = -y + 2 u - 0.5 y^3`` under a random staircase input
 with white measurement noise. The true structure (terms ``y, u, y^3``) leaves
 white residuals and 95 % intervals that cover the truth; a slightly wrong one
 (``sign(y) |y|^2.5`` for ``y^3``) is flagged by the residual test. Quick
-versions use 20 noise realizations, ``--runslow`` 100 (measured over 100:
+versions use 10 noise realizations, ``--runslow`` 100 (measured over 100:
 coverage 95 %, 96 %, 95 % for the three coefficients; the wrong structure
 flagged in 100 %, its white intervals covering the truth 0 %, 70 %, 0 %).
 """
@@ -43,7 +43,7 @@ def refined(terms):
 
 @pytest.fixture
 def n_runs(runslow):
-    return 100 if runslow else 20
+    return 100 if runslow else 10
 
 
 # ------------------------------------------------------------------ the statistics
@@ -132,7 +132,7 @@ def test_true_structure_intervals_cover_and_the_wrong_structure_is_flagged(n_run
         test = wrong.refinement_["residual_test"]
         flagged.append(not (test["white"] and test["independent"]))
     rate = np.mean(hits)
-    assert (0.90 <= rate <= 0.98) if runslow else rate >= 0.85, rate  # measured: 0.953 over 100
+    assert (0.90 <= rate <= 0.98) if runslow else rate >= 0.8, rate  # measured: 0.953 over 100
     assert np.mean(flagged) >= 0.9  # measured: 1.0 over 100
 
 

@@ -202,19 +202,23 @@ def _residuals(estimator, X_val, y_val, n_init):
             "message": ra.message(), "test": ra.test.to_dict()}
 
 
-def _conformal(estimator, X_val, y_val, tests, test_info):
+def _conformal(estimator, X_val, y_val, tests, test_info, simulations=None):
+    """The conformal band of each test set; ``simulations`` (``{test: y_pred}``) are the runner's, not redone."""
     from ..uncertainty import conformal_calibration
 
     start = time.perf_counter()
     out = {"alpha": 0.05, "protocol": CONFORMAL_PROTOCOL, "coverage": {}}
+    calibrations = {}
     for name, test in tests.items():
         u, yt = test_record(test)
         n_init, first = test_info[name]["n_init"], test_info[name]["score_from"]
         try:
-            cal = conformal_calibration(estimator, X_val, y_val, alpha=0.05, n_init=n_init, score_from=first)
-            band = cal.band(estimator, u, y_init=yt[:n_init])
-            if not np.all(np.isfinite(band.prediction)):
-                raise ValueError("the test simulation diverged")
+            if (n_init, first) not in calibrations:  # one calibration per test protocol
+                calibrations[n_init, first] = conformal_calibration(estimator, X_val, y_val, alpha=0.05,
+                                                                    n_init=n_init, score_from=first)
+            cal = calibrations[n_init, first]
+            y_pred = (simulations or {}).get(name)
+            band = cal.band(estimator, u, y_init=yt[:n_init]) if y_pred is None else cal.around(y_pred)
         except Exception as exc:
             out["coverage"][name] = {"coverage": None, "status": _failed(exc)}
             continue
@@ -225,7 +229,7 @@ def _conformal(estimator, X_val, y_val, tests, test_info):
     return out
 
 
-def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick, seed=0):
+def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick, seed=0, simulations=None):
     """The extra reports of the benchmark's designated row (see the module docstring).
 
     Parameters
@@ -242,6 +246,9 @@ def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick
         ``{test name: Bunch}`` as evaluated.
     quick : bool
     seed : int
+    simulations : dict, optional
+        The runner's ``{test name: {model key: y_pred or None}}``; the conformal
+        band is drawn around the row's simulation instead of simulating again.
 
     Returns
     -------
@@ -278,7 +285,8 @@ def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick
     if n_val:  # the validation block: the last n_val samples of the estimation record
         n_init = min(info["n_init"] for info in results["test_sets"].values())
         out["residual_analysis"] = _residuals(estimator, X[-n_val:], y[-n_val:], n_init)
-        out["conformal_band"] = _conformal(estimator, X[-n_val:], y[-n_val:], tests, results["test_sets"])
+        runs = {name: sims.get(key) for name, sims in (simulations or {}).items()}
+        out["conformal_band"] = _conformal(estimator, X[-n_val:], y[-n_val:], tests, results["test_sets"], runs)
     n_members = benchmark.band_members_quick if quick else benchmark.band_members
     if n_members:
         keep = spec.train_rows(quick=quick, n_train=n_train, n_samples=len(y))  # the rows the row was fitted on

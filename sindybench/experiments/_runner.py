@@ -344,6 +344,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
             entry["scores"][name] = scores
             entry["published"][name] = published(benchmark.name, spec.key, name)
         results["models"].append(entry)
-    results["best_model"] = report_best_model(benchmark, results, fitted, X, y, n_train, tests, quick=quick, seed=seed)
+    results["best_model"] = report_best_model(benchmark, results, fitted, X, y, n_train, tests, quick=quick, seed=seed,
+                                              simulations=simulations)
     results["wall_time_s"] = time.perf_counter() - start
     return results, fitted, simulations

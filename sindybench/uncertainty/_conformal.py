@@ -195,10 +195,29 @@ class ConformalCalibration(NamedTuple):
                 raise ValueError(f"a {self.horizon}-step band needs y, the measured outputs of the record.")
             X, y = check_record(X, y, "ConformalCalibration.band")
             pred, start = k_step_prediction(model, X, y, self.horizon, Q=Q, R=R), self.horizon
+        return self.around(pred, start)
+
+    def around(self, prediction, start=0):
+        """The band around a prediction already made (the free run, or the k-step prediction of ``y[start:]``).
+
+        Parameters
+        ----------
+        prediction : array-like of shape (n_predicted, n_outputs)
+        start : int, default=0
+            The first sample predicted (``horizon`` for a k-step prediction).
+
+        Returns
+        -------
+        ConformalBand
+        """
+        pred = np.asarray(prediction, dtype=float)
+        pred = pred.reshape(len(pred), -1)
         if pred.shape[1] != self.half_width.shape[0]:
-            raise ValueError(f"the model predicts {pred.shape[1]} outputs; the calibration has "
+            raise ValueError(f"the prediction has {pred.shape[1]} outputs; the calibration has "
                              f"{self.half_width.shape[0]} (another model?).")
-        return ConformalBand(pred, pred - self.half_width, pred + self.half_width, start, self.name)
+        if not np.all(np.isfinite(pred)):
+            raise ValueError("the prediction contains NaN or inf (a diverged simulation); expected a finite one.")
+        return ConformalBand(pred, pred - self.half_width, pred + self.half_width, int(start), self.name)
 
     def to_dict(self):
         """JSON-able dict; :meth:`from_dict` inverts it."""

@@ -41,3 +41,31 @@ def test_smoothed_start_reads_only_n_init_samples():
                                             R=np.eye(1) * 1e-6)
     np.testing.assert_array_equal(x0_later, x0)
     assert moved["rmse"] > 50.0  # scored against the moved samples, from the same start
+
+
+def test_conformal_band_is_calibrated_on_validation_data_only():
+    """The band's half-width does not move when the test outputs do; the coverage and width are reported."""
+    from sindybench.baselines import ARX
+    from sindybench.experiments._best import _conformal
+
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=(1500, 1))
+    y = np.zeros((1500, 1))
+    for t in range(1, 1500):
+        y[t] = 0.9 * y[t - 1] + u[t - 1]
+    y += 0.1 * rng.normal(size=y.shape)
+    model = ARX(na=1, nb=1).fit(u[:800], y[:800])
+    info = {"test": {"n_init": 5, "score_from": 0}}
+    test = {"u": u[1000:], "y": y[1000:]}
+    out = _conformal(model, u[800:1000], y[800:1000], {"test": test}, info)
+    moved = _conformal(model, u[800:1000], y[800:1000], {"test": {"u": u[1000:], "y": y[1000:] + 1.0}}, info)
+    entry = out["coverage"]["test"]
+    assert out["name"] == "conformal 95 % free-run band" and entry["status"] == "ok"
+    assert 0.9 <= entry["coverage"] <= 0.99 and entry["mean_width"] == pytest.approx(2 * entry["half_width"][0])
+    assert moved["coverage"]["test"]["half_width"] == entry["half_width"] and moved["coverage"]["test"]["coverage"] < 0.5
+    best = {"key": "m", "label": "M", "choice": "designated", "status": "ok", "noise": {"status": "-"}, "k_step": {},
+            "standard_errors": {"a": 0.1}, "standard_errors_status": "warning: the residuals are not white",
+            "residual_analysis": {"status": "ok", "message": "not white"}, "conformal_band": out}
+    text = "\n".join(best_model_markdown(best))
+    assert "**Warning**: the residuals are not white" in text and "residuals not white." in text
+    assert "conformal 95 % free-run band (" in text and f"`test` {entry['coverage']:.3f} (mean width" in text

@@ -21,6 +21,7 @@ from ._divergence import warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import SharedDefaultsMixin
 from ._residual_tests import refinement_residual_test
+from ._uncertainty_methods import ModelChecksMixin, UncertaintyMixin
 from ._validation import (
     check_inputs_outputs,
     check_model_inputs,
@@ -30,10 +31,8 @@ from ._validation import (
     count_records,
     is_records,
 )
-from ._model_checks import ModelChecksMixin
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer
-from .refine._report import UncertaintyMixin
 from .simulate import SimulationError
 
 __all__ = ["DynamicsEstimator"]

@@ -163,3 +163,17 @@ def test_no_warning_for_white_residuals_or_old_model_files(rng):
         model.standard_errors()
         del model.refinement_["residual_test"]  # a model file written before the test was recorded
         model.confidence_intervals()
+
+
+def test_moved_covariance_names_still_import_from_refine_with_a_warning():
+    import sindybench.refine as refine
+    import sindybench.uncertainty as uncertainty
+    from sindybench._uncertainty_methods import UncertaintyMixin
+
+    for name in ("ParameterCovariance", "parameter_covariance", "standard_errors", "confidence_intervals"):
+        with pytest.warns(FutureWarning, match=f"sindybench.refine.{name} moved to sindybench.uncertainty"):
+            assert getattr(refine, name) is getattr(uncertainty, name)
+    with pytest.warns(FutureWarning):
+        assert refine.UncertaintyMixin is UncertaintyMixin
+    with pytest.raises(AttributeError, match="has no attribute 'nothing'"):
+        refine.nothing

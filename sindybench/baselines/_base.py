@@ -5,7 +5,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from .._divergence import warn_divergence
-from .._model_checks import ModelChecksMixin
+from .._uncertainty_methods import ModelChecksMixin
 from .._validation import check_integer, check_signal, validate_named
 from ..metrics import make_simulation_scorer
 from ._lags import input_lags, lagged_regressors, n_lags

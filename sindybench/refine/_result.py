@@ -117,7 +117,7 @@ class RefinementResult(NamedTuple):
         kind : {"white", "hac"}, default="white"
             ``"white"``: independent residuals; ``"hac"``: Newey-West
             estimate for residuals correlated in time (see
-            :func:`~sindybench.refine.parameter_covariance`).
+            :func:`~sindybench.uncertainty.parameter_covariance`).
         lags : int, optional
             Lags of the ``"hac"`` estimate.
 

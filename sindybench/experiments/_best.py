@@ -17,7 +17,10 @@ each under its own protocol name:
   free-run band, calibrated on the validation block (the last ``n_val``
   samples of the estimation record) as the test is run: started from the
   block's first ``n_init`` samples, scored from ``score_from``
-  (:func:`sindybench.uncertainty.conformal_calibration`; no refit);
+  (:func:`sindybench.uncertainty.conformal_calibration`; no refit), and the same
+  band with its half-width from the row refitted without the validation block
+  (one more fit: the validation block then is held out, as split conformal
+  prediction asks; the band is drawn around the row's own simulation);
 - the coverage of the test outputs by the 95 % band of a small block-bootstrap
   ensemble (:class:`sindybench.uncertainty.BootstrapEnsemble`).
 
@@ -190,6 +193,27 @@ CONFORMAL_PROTOCOL = ("split conformal band of the free run, calibrated on the v
                       "ceil((n + 1) 0.95)-th smallest of its absolute errors from score_from on; coverage = fraction "
                       "of the scored test outputs inside prediction +- half-width")
 
+HELD_OUT_PROTOCOL = ("the same band with its half-width from the errors on the validation block of the row refitted "
+                     "on the training block only (the validation block held out of the fit, as split conformal "
+                     "prediction asks; one more fit of the row), drawn around the row's own test simulation")
+
+HELD_OUT_NAME = "conformal 95 % free-run band, held-out refit"
+
+
+def _held_out(estimator, X, y, n_val, tests, test_info, simulations):
+    """The conformal band with the half-width of the row refitted without the validation block (``HELD_OUT_PROTOCOL``)."""
+    start = time.perf_counter()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the fit's own warnings are the row's, reported with it
+            held = clone(estimator).fit(X[:-n_val], y[:-n_val])
+    except Exception as exc:
+        return {"alpha": 0.05, "protocol": HELD_OUT_PROTOCOL, "name": HELD_OUT_NAME, "coverage": {},
+                "status": _failed(exc), "time_s": time.perf_counter() - start}
+    out = _conformal(estimator, X[-n_val:], y[-n_val:], tests, test_info, simulations, calibrated=held)
+    out.update(name=HELD_OUT_NAME, time_s=time.perf_counter() - start)
+    return out
+
 
 def _residuals(estimator, X_val, y_val, n_init):
     from ..uncertainty import residual_analysis
@@ -202,19 +226,25 @@ def _residuals(estimator, X_val, y_val, n_init):
             "message": ra.message(), "test": ra.test.to_dict()}
 
 
-def _conformal(estimator, X_val, y_val, tests, test_info, simulations=None):
-    """The conformal band of each test set; ``simulations`` (``{test: y_pred}``) are the runner's, not redone."""
+def _conformal(estimator, X_val, y_val, tests, test_info, simulations=None, *, calibrated=None):
+    """The conformal band of each test set; ``simulations`` (``{test: y_pred}``) are the runner's, not redone.
+
+    ``calibrated``: the model whose validation errors set the half-width
+    (default ``estimator``); the band is drawn around ``estimator``'s prediction.
+    """
     from ..uncertainty import conformal_calibration
 
     start = time.perf_counter()
-    out = {"alpha": 0.05, "protocol": CONFORMAL_PROTOCOL, "coverage": {}}
+    out = {"alpha": 0.05, "protocol": CONFORMAL_PROTOCOL if calibrated is None else HELD_OUT_PROTOCOL,
+           "coverage": {}}
+    calibrated = estimator if calibrated is None else calibrated
     calibrations = {}
     for name, test in tests.items():
         u, yt = test_record(test)
         n_init, first = test_info[name]["n_init"], test_info[name]["score_from"]
         try:
             if (n_init, first) not in calibrations:  # one calibration per test protocol
-                calibrations[n_init, first] = conformal_calibration(estimator, X_val, y_val, alpha=0.05,
+                calibrations[n_init, first] = conformal_calibration(calibrated, X_val, y_val, alpha=0.05,
                                                                     n_init=n_init, score_from=first)
             cal = calibrations[n_init, first]
             y_pred = (simulations or {}).get(name)
@@ -222,7 +252,7 @@ def _conformal(estimator, X_val, y_val, tests, test_info, simulations=None):
         except Exception as exc:
             out["coverage"][name] = {"coverage": None, "status": _failed(exc)}
             continue
-        out["name"] = cal.name
+        out["name"] = cal.name if calibrated is estimator else HELD_OUT_NAME
         out["coverage"][name] = {"coverage": band.coverage(yt, first), "mean_width": band.mean_width(first),
                                  "half_width": cal.half_width.tolist(), "n_scores": cal.n_scores, "status": "ok"}
     out.update(status="ok", time_s=time.perf_counter() - start)
@@ -287,6 +317,9 @@ def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick
         out["residual_analysis"] = _residuals(estimator, X[-n_val:], y[-n_val:], n_init)
         runs = {name: sims.get(key) for name, sims in (simulations or {}).items()}
         out["conformal_band"] = _conformal(estimator, X[-n_val:], y[-n_val:], tests, results["test_sets"], runs)
+        keep = spec.train_rows(quick=quick, n_train=n_train, n_samples=len(y))  # the rows the row was fitted on
+        out["conformal_band_held_out"] = _held_out(estimator, X[keep], y[keep], n_val, tests, results["test_sets"],
+                                                   runs)
     n_members = benchmark.band_members_quick if quick else benchmark.band_members
     if n_members:
         keep = spec.train_rows(quick=quick, n_train=n_train, n_samples=len(y))  # the rows the row was fitted on
@@ -333,12 +366,16 @@ def best_model_markdown(best, h="##"):
     if ra:
         out.append("Residual analysis of the free run on the validation block (Ljung-Box whiteness, cross-correlation "
                    "with past inputs): " + (f"residuals {ra['message']}." if ra["status"] == "ok" else ra["status"]))
-    conformal = best.get("conformal_band")
-    if conformal:
+    for conformal in (best.get("conformal_band"), best.get("conformal_band_held_out")):
+        if not conformal:
+            continue
+        if conformal.get("status") != "ok":
+            out.append(f"{conformal['name']}: {conformal.get('status')}.")
+            continue
         cells = ", ".join(f"`{k}` " + (f"{v['coverage']:.3f} (mean width {v['mean_width']:.3g})" if v["status"] == "ok"
                                         else v["status"]) for k, v in conformal["coverage"].items())
-        out.append(f"{conformal.get('name', 'conformal 95 % free-run band')} ({conformal['protocol']}): coverage "
-                   f"{cells}.")
+        out.append(f"{conformal.get('name', 'conformal 95 % free-run band')} ({conformal['protocol']}; "
+                   f"{conformal['time_s']:.2f} s): coverage {cells}.")
     band = best.get("band", {})
     if band.get("status") == "ok":
         cov = ", ".join(f"`{k}` {_num(v['coverage'], '.3f')} (with the residuals: "

@@ -69,3 +69,26 @@ def test_conformal_band_is_calibrated_on_validation_data_only():
     text = "\n".join(best_model_markdown(best))
     assert "**Warning**: the residuals are not white" in text and "residuals not white." in text
     assert "conformal 95 % free-run band (" in text and f"`test` {entry['coverage']:.3f} (mean width" in text
+
+
+def test_held_out_band_takes_its_half_width_from_a_refit_without_the_validation_block():
+    from sindybench.baselines import ARX
+    from sindybench.experiments._best import HELD_OUT_NAME, _held_out
+    from sindybench.uncertainty import conformal_calibration
+
+    rng = np.random.default_rng(1)
+    u = rng.normal(size=(1200, 1))
+    y = np.zeros((1200, 1))
+    for t in range(1, 1200):
+        y[t] = 0.9 * y[t - 1] + u[t - 1] + 0.05 * y[t - 1] ** 2 / (1 + y[t - 1] ** 2)
+    y += 0.1 * rng.normal(size=y.shape)
+    row = ARX(na=1, nb=1).fit(u[:1000], y[:1000])  # the row, fitted on training and validation blocks
+    info = {"test": {"n_init": 5, "score_from": 0}}
+    out = _held_out(row, u[:1000], y[:1000], 200, {"test": {"u": u[1000:], "y": y[1000:]}}, info, None)
+    held = ARX(na=1, nb=1).fit(u[:800], y[:800])
+    expected = conformal_calibration(held, u[800:1000], y[800:1000], n_init=5).half_width
+    assert out["name"] == HELD_OUT_NAME and out["status"] == "ok" and out["time_s"] > 0
+    assert out["coverage"]["test"]["half_width"] == expected.tolist()
+    text = "\n".join(best_model_markdown({"key": "m", "label": "M", "choice": "c", "status": "ok", "noise": {},
+                                          "k_step": {}, "conformal_band_held_out": out}))
+    assert f"{HELD_OUT_NAME} (the same band" in text

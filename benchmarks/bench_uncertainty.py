@@ -22,7 +22,8 @@ benchmark's estimation record (1024 samples). Printed side by side in one proces
    free-run band as ``run all`` makes it (calibration on the validation block, one per test
    protocol, and the band around the runner's simulation of every test set) against a refit of the row (its refinement on the
    estimation record, what ``run all`` times as the row's fit), and the coverage of every test
-   set; then the residual analysis (free run, 25 lags) of the row on its longest test record
+   set; the same for the band whose half-width comes from the row refitted without the
+   validation block (one more fit); then the residual analysis (free run, 25 lags) of the row on its longest test record
    and the residual test alone on 100,000 samples.
 
 Numba, BLAS and OpenMP run on one thread per process (as the other scripts here; many
@@ -103,7 +104,7 @@ def covariance_cost(args, kwargs, repeat, n_segments):
 def conformal_cost(results, repeat):
     """Part 4: the conformal band's cost against a refit of each designated row; the residual test's time."""
     from sindybench.experiments import get_benchmark
-    from sindybench.experiments._best import _conformal, test_record
+    from sindybench.experiments._best import _conformal, _held_out, test_record
     from sindybench.experiments._runner import _test_info, _training_record, load_data, test_sets
     from sindybench.uncertainty import residual_analysis, residual_test
 
@@ -124,6 +125,9 @@ def conformal_cost(results, repeat):
         cover = ", ".join(f"{k} {v['coverage']:.3f} (width {v['mean_width']:.3g})" for k, v in out["coverage"].items())
         print(f"{name}: conformal band {t_band:.3f} s = {100 * t_band / t_fit:.1f} % of the row's refit "
               f"({t_fit:.2f} s); coverage {cover}")
+        t_held, held = best_time(lambda: _held_out(model, X[keep], y[keep], n_val, tests, info, sims), 1)
+        cover = ", ".join(f"{k} {v['coverage']:.3f} (width {v['mean_width']:.3g})" for k, v in held["coverage"].items())
+        print(f"  held-out refit band {t_held:.3f} s = {100 * t_held / t_fit:.0f} % of the row's refit; coverage {cover}")
     u, yt = max((test_record(t) for t in tests.values()), key=lambda r: len(r[1]))
     t_ra, _ = best_time(lambda: residual_analysis(model, u, yt), repeat)
     rng = np.random.default_rng(0)

@@ -24,8 +24,10 @@ What it assumes: the calibration errors are representative of the new ones
 prediction needs exchangeable scores; the errors of a simulation are
 correlated in time, so the band's coverage is a long-run fraction of samples,
 reached over records long compared with the errors' correlation time, not a
-per-sample promise. Calibrating on the training record itself gives a band a
-little too narrow (the fit made those errors small).
+per-sample promise. Calibrating on data the model was fitted on gives a band
+too narrow (the fit made those errors small: on the cascaded tanks, a refined
+model's band from its own validation-block errors covered 0.875 of the test
+samples, from those of the same model refitted without that block 0.958).
 
 Why not MAPIE: its regressors (``SplitConformalRegressor``, and
 ``TimeSeriesRegressor`` for EnbPI / ACI) call ``estimator.predict(X_conf)``

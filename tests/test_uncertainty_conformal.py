@@ -29,7 +29,7 @@ def sindy_model():
 
 
 def test_quantile_is_mapies_split_conformal_bound(rng):
-    mapie = pytest.importorskip("mapie.regression")
+    mapie = pytest.importorskip("mapie.regression")  # in the test extra: CI runs it
     from sklearn.base import BaseEstimator, RegressorMixin
 
     class Column(RegressorMixin, BaseEstimator):  # the precomputed prediction as the only feature

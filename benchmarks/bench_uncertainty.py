@@ -17,14 +17,15 @@ benchmark's estimation record (1024 samples). Printed side by side in one proces
    ``n_jobs=2`` (joblib processes: their start-up and numba's compilation in each worker are
    included); the CPU time of the serial one is what it would take on an idle core.
 
-4. (``--conformal RESULTS``, a ``sindybench run all`` output folder) for each benchmark's designated
-   row, loaded from ``RESULTS/<benchmark>/models/<row>.json``: the time of its conformal 95 %
-   free-run band as ``run all`` makes it (calibration on the validation block, one per test
-   protocol, and the band around the runner's simulation of every test set) against a refit of the row (its refinement on the
-   estimation record, what ``run all`` times as the row's fit), and the coverage of every test
-   set; the same for the band whose half-width comes from the row refitted without the
-   validation block (one more fit); then the residual analysis (free run, 25 lags) of the row on its longest test record
-   and the residual test alone on 100,000 samples.
+4. (``--conformal RESULTS``, a ``sindybench run all`` output folder) for each benchmark's
+   designated row, loaded from ``RESULTS/<benchmark>/models/<row>.json``: the time of its
+   conformal 95 % free-run band as ``run all`` makes it (calibration on the validation block,
+   one per test protocol, and the band around the runner's simulation of every test set)
+   against a refit of the row (its refinement on the estimation record, what ``run all`` times
+   as the row's fit), and the coverage of every test set; the same for the band whose
+   half-width comes from the row refitted without the validation block (one more fit); then
+   the residual analysis (free run, 25 lags) of the row on its longest test record and the
+   residual test alone on 100,000 samples.
 
 Numba, BLAS and OpenMP run on one thread per process (as the other scripts here; many
 threads on small matrices on a loaded machine cost more than they give). Run::
@@ -127,7 +128,8 @@ def conformal_cost(results, repeat):
               f"({t_fit:.2f} s); coverage {cover}")
         t_held, held = best_time(lambda: _held_out(model, X[keep], y[keep], n_val, tests, info, sims), 1)
         cover = ", ".join(f"{k} {v['coverage']:.3f} (width {v['mean_width']:.3g})" for k, v in held["coverage"].items())
-        print(f"  held-out refit band {t_held:.3f} s = {100 * t_held / t_fit:.0f} % of the row's refit; coverage {cover}")
+        print(f"  held-out refit band {t_held:.3f} s = {100 * t_held / t_fit:.0f} % of the row's refit; "
+              f"coverage {cover}")
     u, yt = max((test_record(t) for t in tests.values()), key=lambda r: len(r[1]))
     t_ra, _ = best_time(lambda: residual_analysis(model, u, yt), repeat)
     rng = np.random.default_rng(0)

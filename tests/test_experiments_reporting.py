@@ -62,7 +62,8 @@ def test_conformal_band_is_calibrated_on_validation_data_only():
     entry = out["coverage"]["test"]
     assert out["name"] == "conformal 95 % free-run band" and entry["status"] == "ok"
     assert 0.9 <= entry["coverage"] <= 0.99 and entry["mean_width"] == pytest.approx(2 * entry["half_width"][0])
-    assert moved["coverage"]["test"]["half_width"] == entry["half_width"] and moved["coverage"]["test"]["coverage"] < 0.5
+    shifted = moved["coverage"]["test"]
+    assert shifted["half_width"] == entry["half_width"] and shifted["coverage"] < 0.5
     best = {"key": "m", "label": "M", "choice": "designated", "status": "ok", "noise": {"status": "-"}, "k_step": {},
             "standard_errors": {"a": 0.1}, "standard_errors_status": "warning: the residuals are not white",
             "residual_analysis": {"status": "ok", "message": "not white"}, "conformal_band": out}

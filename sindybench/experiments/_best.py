@@ -187,8 +187,8 @@ def _band(estimator, X, y, tests, test_info, *, n_members, seed):
     return info
 
 
-CONFORMAL_PROTOCOL = ("split conformal band of the free run, calibrated on the validation block (the last n_val samples "
-                      "of the estimation record, which the refined row was also fitted on; never the test set): the "
+CONFORMAL_PROTOCOL = ("split conformal band of the free run, calibrated on the validation block (the last n_val "
+                      "samples of the estimation record, which the refined row was also fitted on; never the test set): the "
                       "block simulated from its first n_init samples as the test is, the 95 % half-width the "
                       "ceil((n + 1) 0.95)-th smallest of its absolute errors from score_from on; coverage = fraction "
                       "of the scored test outputs inside prediction +- half-width")
@@ -201,7 +201,7 @@ HELD_OUT_NAME = "conformal 95 % free-run band, held-out refit"
 
 
 def _held_out(estimator, X, y, n_val, tests, test_info, simulations):
-    """The conformal band with the half-width of the row refitted without the validation block (``HELD_OUT_PROTOCOL``)."""
+    """The conformal band, its half-width from the row refitted without the validation block (``HELD_OUT_PROTOCOL``)."""
     start = time.perf_counter()
     try:
         with warnings.catch_warnings():

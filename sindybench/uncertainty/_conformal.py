@@ -313,7 +313,7 @@ def conformal_calibration(model, X, y, *, alpha=0.05, horizon=None, block_length
     X, y = check_record(X, y, "conformal_calibration")
     n = y.shape[0]
     if horizon is None:
-        n_init = getattr(model, "n_lags_", 10) if n_init is None else check_integer(n_init, "n_init", low=1)
+        n_init = max(getattr(model, "n_lags_", 10), 1) if n_init is None else check_integer(n_init, "n_init", low=1)
         score_from = check_integer(score_from, "score_from", low=0)
         blocks, length = _blocks(n, block_length, max(n_init, score_from), "n_init (and score_from)")
     else:

@@ -168,12 +168,13 @@ def residual_analysis(model, X, y, *, kind="free_run", n_init=None, max_lag=25, 
     >>> residual_analysis(ARX(na=2, nb=1).fit(u, y), u, y, kind="one_step").white
     True
     >>> residual_analysis(ARX(na=1, nb=1).fit(u, y), u, y, kind="one_step").message()
-    'not white (smallest Ljung-Box p-value 0) and correlated with past inputs (smallest p-value 0) at level 0.05 (25 lags, 2999 samples)'
+    'not white (smallest Ljung-Box p-value 0) and correlated with past inputs (smallest p-value 0)
+     at level 0.05 (25 lags, 2999 samples)'
     """
     check_option(kind, "kind", ["free_run", "one_step"])
     X, y = check_record(X, y, "residual_analysis")
     if kind == "free_run":
-        n_init = getattr(model, "n_lags_", 10) if n_init is None else check_integer(n_init, "n_init", low=1)
+        n_init = max(getattr(model, "n_lags_", 10), 1) if n_init is None else check_integer(n_init, "n_init", low=1)
         if n_init >= y.shape[0]:
             raise ValueError(f"n_init = {n_init} leaves no residual in a record of {y.shape[0]} samples.")
         e = (y - free_run_prediction(model, X, y, n_init))[n_init:]

@@ -17,10 +17,21 @@ benchmark's estimation record (1024 samples). Printed side by side in one proces
    ``n_jobs=2`` (joblib processes: their start-up and numba's compilation in each worker are
    included); the CPU time of the serial one is what it would take on an idle core.
 
+4. (``--conformal RESULTS``, a ``sindybench run all`` output folder) for each benchmark's
+   designated row, loaded from ``RESULTS/<benchmark>/models/<row>.json``: the time of its
+   conformal 95 % free-run band as ``run all`` makes it (calibration on the validation block,
+   one per test protocol, and the band around the runner's simulation of every test set)
+   against a refit of the row (its refinement on the estimation record, what ``run all`` times
+   as the row's fit), and the coverage of every test set; the same for the band whose
+   half-width comes from the row refitted without the validation block (one more fit); then
+   the residual analysis (free run, 25 lags) of the row on its longest test record and the
+   residual test alone on 100,000 samples.
+
 Numba, BLAS and OpenMP run on one thread per process (as the other scripts here; many
 threads on small matrices on a loaded machine cost more than they give). Run::
 
     SINDYBENCH_DATA=../shared/data python benchmarks/bench_uncertainty.py [--repeat 3] [--members 50]
+    SINDYBENCH_DATA=../shared/data python benchmarks/bench_uncertainty.py --conformal sindybench_results
 """
 
 import argparse
@@ -91,13 +102,54 @@ def covariance_cost(args, kwargs, repeat, n_segments):
           f" -> the covariance adds {100 * (t_jac + t_cov) / (t_refine - t_jac):.1f} % to the refinement")
 
 
+def conformal_cost(results, repeat):
+    """Part 4: the conformal band's cost against a refit of each designated row; the residual test's time."""
+    from sindybench.experiments import get_benchmark
+    from sindybench.experiments._best import _conformal, _held_out, test_record
+    from sindybench.experiments._runner import _test_info, _training_record, load_data, test_sets
+    from sindybench.uncertainty import residual_analysis, residual_test
+
+    for name in ("cascaded-tanks", "pick-and-place", "pick-and-place-nss", "emps", "bouc-wen"):
+        bench = get_benchmark(name)
+        data = load_data(bench)
+        X, y, n_train, n_val = _training_record(bench, data, False)
+        model = load_model(os.path.join(results, name, "models", f"{bench.reported_model}.json"))
+        keep = bench.model(bench.reported_model).train_rows(quick=False, n_train=n_train, n_samples=len(y))
+        tests = test_sets(data)
+        info = {k: _test_info(bench, data, t) for k, t in tests.items()}
+        t_fit, _ = best_time(lambda: clone(model).fit(X[keep], y[keep]), repeat)
+        sims = {}  # the runner's test simulations, which the band reuses
+        for k, t in tests.items():
+            u, yt = test_record(t)
+            sims[k] = np.asarray(model.predict(u, y_init=yt[:info[k]["n_init"]]), float).reshape(yt.shape)
+        t_band, out = best_time(lambda: _conformal(model, X[-n_val:], y[-n_val:], tests, info, sims), repeat)
+        cover = ", ".join(f"{k} {v['coverage']:.3f} (width {v['mean_width']:.3g})" for k, v in out["coverage"].items())
+        print(f"{name}: conformal band {t_band:.3f} s = {100 * t_band / t_fit:.1f} % of the row's refit "
+              f"({t_fit:.2f} s); coverage {cover}")
+        t_held, held = best_time(lambda: _held_out(model, X[keep], y[keep], n_val, tests, info, sims), 1)
+        cover = ", ".join(f"{k} {v['coverage']:.3f} (width {v['mean_width']:.3g})" for k, v in held["coverage"].items())
+        print(f"  held-out refit band {t_held:.3f} s = {100 * t_held / t_fit:.0f} % of the row's refit; "
+              f"coverage {cover}")
+    u, yt = max((test_record(t) for t in tests.values()), key=lambda r: len(r[1]))
+    t_ra, _ = best_time(lambda: residual_analysis(model, u, yt), repeat)
+    rng = np.random.default_rng(0)
+    e, x = rng.normal(size=(100_000, 1)), rng.normal(size=(100_000, 1))
+    t_test, _ = best_time(lambda: residual_test(e, x), repeat)
+    print(f"residual analysis of the Bouc-Wen row on {len(yt)} samples (free run included): {t_ra:.3f} s; "
+          f"residual test alone on 100,000 samples: {t_test:.3f} s")
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--model", default=MODEL)
     parser.add_argument("--repeat", type=int, default=3)
     parser.add_argument("--members", type=int, default=50)
+    parser.add_argument("--conformal", metavar="RESULTS", help="part 4 only, on a run-all output folder")
     a = parser.parse_args()
     warnings.simplefilter("ignore")
+    if a.conformal:
+        conformal_cost(a.conformal, a.repeat)
+        return
     saved = load_model(a.model)
     data = load_cascaded_tanks().estimation
     u, y = data.u.reshape(len(data.u), -1), data.y.reshape(len(data.y), -1)

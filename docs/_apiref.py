@@ -14,7 +14,7 @@ MODULES = (
     ("sindybench.refine", "Fitting by simulation error"),
     ("sindybench.estimation", "State estimation, prediction, linearization"),
     ("sindybench.export", "Export (CasADi)"),
-    ("sindybench.uncertainty", "Uncertainty: ensembles and prediction bands"),
+    ("sindybench.uncertainty", "Uncertainty: residual analysis, calibrated bands, covariance, ensembles"),
     ("sindybench.metrics", "Metrics and scorers"),
     ("sindybench.plotting", "Plotting"),
     ("sindybench.search", "Search spaces and the Optuna driver"),

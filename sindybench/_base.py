@@ -21,6 +21,8 @@ from ._divergence import warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
 from ._params import Constraint, ParameterChecksMixin, SharedDefaultsMixin
 from ._preprocessing import delay_inputs
+from ._residual_tests import refinement_residual_test
+from ._uncertainty_methods import ModelChecksMixin, UncertaintyMixin
 from ._validation import (
     check_bool,
     check_estimator_param,
@@ -37,7 +39,6 @@ from ._validation import (
 )
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer
-from .refine._report import UncertaintyMixin
 from .simulate import _HOLDS, _METHODS, SimulationError
 
 __all__ = ["DynamicsEstimator"]
@@ -95,7 +96,7 @@ def _check_score_records(X, y):
     return [X_i for X_i, _ in pairs], [y_i for _, y_i in pairs]
 
 
-class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin,
+class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin,
                         ParameterChecksMixin, RegressorMixin, BaseEstimator):
     """Base class: ``simulate``, ``predict``, ``score`` and ``equations`` of a fitted ``dynamics_``.
 
@@ -419,6 +420,8 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         except SimulationError as exc:
             warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=4)
             return None, {"status": -1, "message": f"skipped: {exc}"}
+        if result.residuals is not None:  # recorded for standard_errors to warn on (see uncertainty)
+            result = result._replace(residual_test=refinement_residual_test(result.residuals, result.n_outputs, u))
         return result, None
 
     def __sklearn_tags__(self):

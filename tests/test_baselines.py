@@ -327,3 +327,28 @@ def test_predict_warns_when_the_free_run_diverges(model):
     first = int(np.argmax(~np.isfinite(y_pred)))
     assert 3 < first < 2000 and np.isfinite(y_pred[:first]).all()
     assert f"at sample {first} of 2000;" in str(record[0].message)
+
+
+@pytest.mark.parametrize("make", [lambda: ARX(na=2, nb=2, nk=1),
+                                  lambda: NNARX(na=2, nb=2, nk=2, hidden_layer_sizes=(6,), n_estimators=2, max_iter=50,
+                                                random_state=0)])
+def test_k_step_prediction_is_the_free_run_from_each_origin(make):
+    rng = np.random.default_rng(0)
+    u = rng.uniform(-1, 1, (120, 2))
+    y = np.zeros((120, 2))
+    for t in range(2, 120):
+        y[t] = 0.5 * y[t - 1] - 0.1 * y[t - 2] + np.tanh(u[t - 1]) + 0.1 * y[t - 1, ::-1]
+    model = make().fit(u, y)
+    k, n0 = 4, model.n_lags_
+    pred = model.predict_k_step(u, y, k)
+    for j in range(k, 120):
+        s = max(j - k + 1, n0)  # the first simulated sample of the prediction of y[j]
+        ref = y[j] if j < n0 else model.simulate(u[s - n0:j + 1], y_init=y[s - n0:s])[-1]
+        assert np.allclose(pred[j - k], ref)
+    one = model.predict_k_step(u, y, 1)  # the one-step predictor the model was fitted with
+    phi, target = lagged_regressors(u, y, model.na, model.nb, model.nk)
+    assert np.allclose(one[n0 - 1:], model._one_step(phi))
+    with pytest.raises(ValueError, match="k must be"):
+        model.predict_k_step(u, y, 0)
+    with pytest.raises(ValueError, match="y has shape"):
+        model.predict_k_step(u, y[:, :1], 2)

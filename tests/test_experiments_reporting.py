@@ -72,3 +72,53 @@ def test_a_staging_folder_that_cannot_be_made_names_the_output_folder(tmp_path, 
         with staged_output_dir(tmp_path / "out"):
             pass
     assert ".tmp-" not in str(info.value)
+def test_conformal_band_is_calibrated_on_validation_data_only():
+    """The band's half-width does not move when the test outputs do; the coverage and width are reported."""
+    from sindybench.baselines import ARX
+    from sindybench.experiments._best import _conformal
+
+    rng = np.random.default_rng(0)
+    u = rng.normal(size=(1500, 1))
+    y = np.zeros((1500, 1))
+    for t in range(1, 1500):
+        y[t] = 0.9 * y[t - 1] + u[t - 1]
+    y += 0.1 * rng.normal(size=y.shape)
+    model = ARX(na=1, nb=1).fit(u[:800], y[:800])
+    info = {"test": {"n_init": 5, "score_from": 0}}
+    test = {"u": u[1000:], "y": y[1000:]}
+    out = _conformal(model, u[800:1000], y[800:1000], {"test": test}, info)
+    moved = _conformal(model, u[800:1000], y[800:1000], {"test": {"u": u[1000:], "y": y[1000:] + 1.0}}, info)
+    entry = out["coverage"]["test"]
+    assert out["name"] == "conformal 95 % free-run band" and entry["status"] == "ok"
+    assert 0.9 <= entry["coverage"] <= 0.99 and entry["mean_width"] == pytest.approx(2 * entry["half_width"][0])
+    shifted = moved["coverage"]["test"]
+    assert shifted["half_width"] == entry["half_width"] and shifted["coverage"] < 0.5
+    best = {"key": "m", "label": "M", "choice": "designated", "status": "ok", "noise": {"status": "-"}, "k_step": {},
+            "standard_errors": {"a": 0.1}, "standard_errors_status": "warning: the residuals are not white",
+            "residual_analysis": {"status": "ok", "message": "not white"}, "conformal_band": out}
+    text = "\n".join(best_model_markdown(best))
+    assert "**Warning**: the residuals are not white" in text and "residuals not white." in text
+    assert "conformal 95 % free-run band (" in text and f"`test` {entry['coverage']:.3f} (mean width" in text
+
+
+def test_held_out_band_takes_its_half_width_from_a_refit_without_the_validation_block():
+    from sindybench.baselines import ARX
+    from sindybench.experiments._best import HELD_OUT_NAME, _held_out
+    from sindybench.uncertainty import conformal_calibration
+
+    rng = np.random.default_rng(1)
+    u = rng.normal(size=(1200, 1))
+    y = np.zeros((1200, 1))
+    for t in range(1, 1200):
+        y[t] = 0.9 * y[t - 1] + u[t - 1] + 0.05 * y[t - 1] ** 2 / (1 + y[t - 1] ** 2)
+    y += 0.1 * rng.normal(size=y.shape)
+    row = ARX(na=1, nb=1).fit(u[:1000], y[:1000])  # the row, fitted on training and validation blocks
+    info = {"test": {"n_init": 5, "score_from": 0}}
+    out = _held_out(row, u[:1000], y[:1000], 200, {"test": {"u": u[1000:], "y": y[1000:]}}, info, None)
+    held = ARX(na=1, nb=1).fit(u[:800], y[:800])
+    expected = conformal_calibration(held, u[800:1000], y[800:1000], n_init=5).half_width
+    assert out["name"] == HELD_OUT_NAME and out["status"] == "ok" and out["time_s"] > 0
+    assert out["coverage"]["test"]["half_width"] == expected.tolist()
+    text = "\n".join(best_model_markdown({"key": "m", "label": "M", "choice": "c", "status": "ok", "noise": {},
+                                          "k_step": {}, "conformal_band_held_out": out}))
+    assert f"{HELD_OUT_NAME} (the same band" in text

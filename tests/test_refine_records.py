@@ -5,7 +5,8 @@ import pytest
 
 from sindybench import SINDy, STLS
 from sindybench.libraries import POW, PolynomialLibrary
-from sindybench.refine import OutputErrorRefinement, parameter_covariance, refine_simulation_error
+from sindybench.refine import OutputErrorRefinement, refine_simulation_error
+from sindybench.uncertainty import parameter_covariance
 from sindybench.simulate import TermsRHS, simulate
 
 DT = 0.05

@@ -113,6 +113,9 @@ class ARX(SaveLoadMixin, LagModel):
         self.coef_, self.intercept_, _ = least_squares(phi, target, fit_intercept=self.fit_intercept)
         return self
 
+    def _one_step(self, phi):
+        return phi @ self.coef_ + self.intercept_
+
     def _simulate(self, u, y_start):
         na, nb, nk = int(self.na), int(self.nb), int(self.nk)
         n_y = na * self.n_outputs_

@@ -5,14 +5,15 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from .._divergence import warn_divergence
+from .._uncertainty_methods import ModelChecksMixin
 from .._validation import check_integer, check_signal, validate_named
 from ..metrics import make_simulation_scorer
-from ._lags import lagged_regressors, n_lags
+from ._lags import input_lags, lagged_regressors, n_lags
 
 __all__ = ["LagModel"]
 
 
-class LagModel(RegressorMixin, BaseEstimator):
+class LagModel(ModelChecksMixin, RegressorMixin, BaseEstimator):
     """Base class of models ``y[t] = f(y[t-1..t-na], u[t-nk..t-nk-nb+1])``.
 
     Subclasses implement ``fit(X, y)``, which starts with ``_fit_lags(X, y)``
@@ -94,6 +95,72 @@ class LagModel(RegressorMixin, BaseEstimator):
     def predict(self, X, *, y_init=None):
         """Simulated output (the free run of :meth:`simulate`); warns when it diverged."""
         return warn_divergence(self.simulate(X, y_init), type(self).__name__)
+
+    def predict_k_step(self, X, y, k):
+        """k-step-ahead prediction: the measured outputs up to ``t``, then ``k`` steps of the model's own.
+
+        The same protocol as :func:`sindybench.estimation.predict_k_step` for
+        the state-space models (``k = 1`` is the one-step predictor the model
+        was fitted with; a large ``k`` approaches the free run). All origins
+        are stepped together, ``k`` vectorized steps in all.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs)
+        y : array-like of shape (n_samples, n_outputs) or (n_samples,)
+            The measured outputs.
+        k : int
+            Horizon in samples, ``1 <= k < n_samples``.
+
+        Returns
+        -------
+        ndarray of shape (n_samples - k, n_outputs)
+            The predictions of ``y[k:]``; a sample before ``n_lags_`` is its
+            measured value (as in the free run), a sample before ``n_lags_ + k
+            - 1`` is predicted from the first ``n_lags_`` samples, with fewer
+            than ``k`` steps.
+
+        Examples
+        --------
+        >>> from sindybench.baselines import ARX
+        >>> u = np.random.default_rng(0).normal(size=(200, 1))
+        >>> y = np.zeros((200, 1))
+        >>> for t in range(1, 200):
+        ...     y[t] = 0.9 * y[t - 1] + u[t - 1]
+        >>> model = ARX(na=1, nb=1, fit_intercept=False).fit(u, y)
+        >>> bool(np.allclose(model.predict_k_step(u, y, 5), y[5:]))
+        True
+        """
+        check_is_fitted(self)
+        u = np.asarray(validate_named(self, X, reset=False), dtype=float)
+        y = check_signal(y, "y")
+        n = y.shape[0]
+        if y.shape[1] != self.n_outputs_ or u.shape[0] != n:
+            raise ValueError(f"y has shape {y.shape}; expected ({u.shape[0]}, {self.n_outputs_}) (one row per "
+                             "row of X, one column per output).")
+        k = check_integer(k, "k", low=1, high=max(n - 1, 1))
+        if k >= n:
+            raise ValueError(f"k = {k} leaves no sample to predict in a record of {n}; expected k < n_samples.")
+        na, nb, nk, n0 = int(self.na), int(self.nb), int(self.nk), self.n_lags_
+        target = np.arange(k, n)
+        times = target[:, None] - (na + k - 1) + np.arange(na + k)[None, :]  # the window of each target
+        window = y[np.clip(times, 0, None)]  # (n - k, na + k, n_outputs): measured, predictions written over
+        drive = np.zeros((n, nb * u.shape[1]))
+        if n > n0:
+            drive[n0:] = input_lags(u, nb, nk, n0)
+        with np.errstate(over="ignore", invalid="ignore"):
+            for s in range(k):
+                tau = times[:, na + s]
+                rows = tau >= n0  # samples before n0 stay measured, as in the free run
+                if not rows.any():
+                    continue
+                past = window[rows, s:na + s][:, ::-1].reshape(int(rows.sum()), -1)
+                window[rows, na + s] = self._one_step(np.hstack([past, drive[tau[rows]]]))
+        return window[:, -1]
+
+    def _one_step(self, phi):
+        """The model's prediction from regressor rows ``phi`` (output lags first, as :func:`lagged_regressors`)."""
+        raise NotImplementedError
 
     def score(self, X, y, sample_weight=None):
         """R^2 of the simulation started from the first samples of ``y``.

@@ -251,6 +251,15 @@ class NNARX(SaveLoadMixin, LagModel):
             random_state=int(seed),
         )
 
+    def _one_step(self, phi):
+        na, nb = int(self.na), int(self.nb)
+        shift = np.concatenate([np.tile(self.y_mean_, na), np.tile(self.u_mean_, nb)])
+        scale = np.concatenate([np.tile(self.y_scale_, na), np.tile(self.u_scale_, nb)])
+        features = (phi - shift) / scale
+        z = np.mean([net.predict(features).reshape(len(phi), -1) for net in self.estimators_], axis=0)
+        z = z + features @ self.linear_coef_ + self.linear_intercept_
+        return z * self.y_scale_ + self.y_mean_
+
     def _simulate(self, u, y_start):
         na, nb, nk = int(self.na), int(self.nb), int(self.nk)
         n_y = na * self.n_outputs_

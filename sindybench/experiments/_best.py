@@ -11,6 +11,16 @@ each under its own protocol name:
   first ``n_init`` test samples only
   (:func:`sindybench.estimation.smooth_initial_state`);
 - the standard errors of its refined parameters (``model.standard_errors()``);
+- the residual analysis of its free run on the validation block (whiteness and
+  independence from past inputs, :func:`sindybench.uncertainty.residual_analysis`);
+- the coverage and mean width, on every test set, of its conformal 95 %
+  free-run band, calibrated on the validation block (the last ``n_val``
+  samples of the estimation record) as the test is run: started from the
+  block's first ``n_init`` samples, scored from ``score_from``
+  (:func:`sindybench.uncertainty.conformal_calibration`; no refit), and the same
+  band with its half-width from the row refitted without the validation block
+  (one more fit: the validation block then is held out, as split conformal
+  prediction asks; the band is drawn around the row's own simulation);
 - the coverage of the test outputs by the 95 % band of a small block-bootstrap
   ensemble (:class:`sindybench.uncertainty.BootstrapEnsemble`).
 
@@ -20,10 +30,12 @@ on the first training samples (:func:`sindybench.estimation.estimate_noise`).
 
 import logging
 import time
+import warnings
 
 import numpy as np
 from sklearn.base import clone
 
+from ..uncertainty import ModelErrorWarning
 from ..metrics import fit_index, r2, rmse
 
 __all__ = ["HORIZONS", "K_STEP_SAMPLES", "free_run_scores", "k_step_scores", "report_best_model",
@@ -146,9 +158,13 @@ def _standard_errors(estimator):
     if method is None or getattr(estimator, "refinement_", None) is None:
         return None, "not a refined row: no covariance at a simulation-error optimum"
     try:
-        return {k: float(v) for k, v in method().items()}, "ok"
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            errors = {k: float(v) for k, v in method().items()}
     except Exception as exc:
         return None, _failed(exc)
+    warned = [str(w.message) for w in caught if issubclass(w.category, ModelErrorWarning)]
+    return errors, ("ok" if not warned else f"warning: {warned[0]}")
 
 
 def _band(estimator, X, y, tests, test_info, *, n_members, seed):
@@ -186,7 +202,79 @@ def _band(estimator, X, y, tests, test_info, *, n_members, seed):
     return info
 
 
-def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick, seed=0):
+CONFORMAL_PROTOCOL = ("split conformal band of the free run, calibrated on the validation block (the last n_val "
+                      "samples of the estimation record, which the refined row was also fitted on; never the test set): the "
+                      "block simulated from its first n_init samples as the test is, the 95 % half-width the "
+                      "ceil((n + 1) 0.95)-th smallest of its absolute errors from score_from on; coverage = fraction "
+                      "of the scored test outputs inside prediction +- half-width")
+
+HELD_OUT_PROTOCOL = ("the same band with its half-width from the errors on the validation block of the row refitted "
+                     "on the training block only (the validation block held out of the fit, as split conformal "
+                     "prediction asks; one more fit of the row), drawn around the row's own test simulation")
+
+HELD_OUT_NAME = "conformal 95 % free-run band, held-out refit"
+
+
+def _held_out(estimator, X, y, n_val, tests, test_info, simulations):
+    """The conformal band, its half-width from the row refitted without the validation block (``HELD_OUT_PROTOCOL``)."""
+    start = time.perf_counter()
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # the fit's own warnings are the row's, reported with it
+            held = clone(estimator).fit(X[:-n_val], y[:-n_val])
+    except Exception as exc:
+        return {"alpha": 0.05, "protocol": HELD_OUT_PROTOCOL, "name": HELD_OUT_NAME, "coverage": {},
+                "status": _failed(exc), "time_s": time.perf_counter() - start}
+    out = _conformal(estimator, X[-n_val:], y[-n_val:], tests, test_info, simulations, calibrated=held)
+    out.update(name=HELD_OUT_NAME, time_s=time.perf_counter() - start)
+    return out
+
+
+def _residuals(estimator, X_val, y_val, n_init):
+    from ..uncertainty import residual_analysis
+
+    try:
+        ra = residual_analysis(estimator, X_val, y_val, kind="free_run", n_init=n_init)
+    except Exception as exc:
+        return {"status": _failed(exc)}
+    return {"status": "ok", "kind": "free_run", "n_init": n_init, "white": ra.white, "independent": ra.independent,
+            "message": ra.message(), "test": ra.test.to_dict()}
+
+
+def _conformal(estimator, X_val, y_val, tests, test_info, simulations=None, *, calibrated=None):
+    """The conformal band of each test set; ``simulations`` (``{test: y_pred}``) are the runner's, not redone.
+
+    ``calibrated``: the model whose validation errors set the half-width
+    (default ``estimator``); the band is drawn around ``estimator``'s prediction.
+    """
+    from ..uncertainty import conformal_calibration
+
+    start = time.perf_counter()
+    out = {"alpha": 0.05, "protocol": CONFORMAL_PROTOCOL if calibrated is None else HELD_OUT_PROTOCOL,
+           "coverage": {}}
+    calibrated = estimator if calibrated is None else calibrated
+    calibrations = {}
+    for name, test in tests.items():
+        u, yt = test_record(test)
+        n_init, first = test_info[name]["n_init"], test_info[name]["score_from"]
+        try:
+            if (n_init, first) not in calibrations:  # one calibration per test protocol
+                calibrations[n_init, first] = conformal_calibration(calibrated, X_val, y_val, alpha=0.05,
+                                                                    n_init=n_init, score_from=first)
+            cal = calibrations[n_init, first]
+            y_pred = (simulations or {}).get(name)
+            band = cal.band(estimator, u, y_init=yt[:n_init]) if y_pred is None else cal.around(y_pred)
+        except Exception as exc:
+            out["coverage"][name] = {"coverage": None, "status": _failed(exc)}
+            continue
+        out["name"] = cal.name if calibrated is estimator else HELD_OUT_NAME
+        out["coverage"][name] = {"coverage": band.coverage(yt, first), "mean_width": band.mean_width(first),
+                                 "half_width": cal.half_width.tolist(), "n_scores": cal.n_scores, "status": "ok"}
+    out.update(status="ok", time_s=time.perf_counter() - start)
+    return out
+
+
+def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick, seed=0, simulations=None):
     """The extra reports of the benchmark's designated row (see the module docstring).
 
     Parameters
@@ -203,6 +291,9 @@ def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick
         ``{test name: Bunch}`` as evaluated.
     quick : bool
     seed : int
+    simulations : dict, optional
+        The runner's ``{test name: {model key: y_pred or None}}``; the conformal
+        band is drawn around the row's simulation instead of simulating again.
 
     Returns
     -------
@@ -235,6 +326,15 @@ def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick
             out["smoothed_start"][name] = smoothed_start_scores(
                 estimator, test, info["n_init"], Q=Q, R=R, score_from=info["score_from"])[0]
     out["standard_errors"], out["standard_errors_status"] = _standard_errors(estimator)
+    n_val = results.get("n_validation") or 0
+    if n_val:  # the validation block: the last n_val samples of the estimation record
+        n_init = min(info["n_init"] for info in results["test_sets"].values())
+        out["residual_analysis"] = _residuals(estimator, X[-n_val:], y[-n_val:], n_init)
+        runs = {name: sims.get(key) for name, sims in (simulations or {}).items()}
+        out["conformal_band"] = _conformal(estimator, X[-n_val:], y[-n_val:], tests, results["test_sets"], runs)
+        keep = spec.train_rows(quick=quick, n_train=n_train, n_samples=len(y))  # the rows the row was fitted on
+        out["conformal_band_held_out"] = _held_out(estimator, X[keep], y[keep], n_val, tests, results["test_sets"],
+                                                   runs)
     n_members = benchmark.band_members_quick if quick else benchmark.band_members
     if n_members:
         keep = spec.train_rows(quick=quick, n_train=n_train, n_samples=len(y))  # the rows the row was fitted on
@@ -273,9 +373,24 @@ def best_model_markdown(best, h="##"):
             cells = [_num(rows[str(k)]["rmse"]) for k in ks]
             out.append(f"| {name} | " + " | ".join(cells) + f" | {_num(sm['rmse'])} | {_num(sm['fit_index'], '.2f')} |")
     se = best.get("standard_errors")
+    status = best.get("standard_errors_status", "-")
     out += ["", "Standard errors of the refined parameters (Jacobian at the optimum, white residuals): "
-            + (", ".join(f"{k} {v:.3g}" for k, v in se.items()) if se else best.get("standard_errors_status", "-"))
-            + "."]
+            + (", ".join(f"{k} {v:.3g}" for k, v in se.items()) if se else status) + "."
+            + (f" **Warning**: {status[len('warning: '):]}" if se and status.startswith("warning: ") else "")]
+    ra = best.get("residual_analysis")
+    if ra:
+        out.append("Residual analysis of the free run on the validation block (Ljung-Box whiteness, cross-correlation "
+                   "with past inputs): " + (f"residuals {ra['message']}." if ra["status"] == "ok" else ra["status"]))
+    for conformal in (best.get("conformal_band"), best.get("conformal_band_held_out")):
+        if not conformal:
+            continue
+        if conformal.get("status") != "ok":
+            out.append(f"{conformal['name']}: {conformal.get('status')}.")
+            continue
+        cells = ", ".join(f"`{k}` " + (f"{v['coverage']:.3f} (mean width {v['mean_width']:.3g})" if v["status"] == "ok"
+                                        else v["status"]) for k, v in conformal["coverage"].items())
+        out.append(f"{conformal.get('name', 'conformal 95 % free-run band')} ({conformal['protocol']}; "
+                   f"{conformal['time_s']:.2f} s): coverage {cells}.")
     band = best.get("band", {})
     if band.get("status") == "ok":
         cov = ", ".join(f"`{k}` {_num(v['coverage'], '.3f')} (with the residuals: "

@@ -346,6 +346,7 @@ def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, sto
         if spec.k_step and estimator is not None:
             entry["k_step"] = k_step_scores(estimator, X[:n_train], y[:n_train], tests)
         results["models"].append(entry)
-    results["best_model"] = report_best_model(benchmark, results, fitted, X, y, n_train, tests, quick=quick, seed=seed)
+    results["best_model"] = report_best_model(benchmark, results, fitted, X, y, n_train, tests, quick=quick, seed=seed,
+                                              simulations=simulations)
     results["wall_time_s"] = time.perf_counter() - start
     return results, fitted, simulations

@@ -85,6 +85,7 @@ returned by :func:`sindybench.model_selection.tune` is drawn the same way):
 from ._band import plot_prediction_band
 from ._coefficients import coefficient_table, plot_coefficients
 from ._common import MAX_POINTS
+from ._residuals import plot_residual_analysis
 from ._search import plot_search_history
 from ._simulation import plot_hidden_states, plot_hysteresis, plot_simulation
 
@@ -95,6 +96,7 @@ __all__ = [
     "plot_hidden_states",
     "plot_hysteresis",
     "plot_prediction_band",
+    "plot_residual_analysis",
     "plot_search_history",
     "plot_simulation",
 ]

@@ -1,27 +1,46 @@
-"""Fit by simulation or prediction error: sensitivities, output- and prediction-error refinement, covariance."""
+"""Fit by simulation or prediction error: forward sensitivities, output- and prediction-error refinement,
+initial states.
+
+The covariance of the refined parameters and its reporting (standard errors,
+confidence intervals) moved to :mod:`sindybench.uncertainty`; the old names
+here still work, with a ``FutureWarning``.
+"""
+
+import warnings
 
 from ._core import Physical, estimate_initial_state, refine_simulation_error
-from ._covariance import ParameterCovariance, parameter_covariance
 from ._prediction import refine_prediction_error
 from ._predictor import predict_sensitivity
-from ._report import UncertaintyMixin, confidence_intervals, standard_errors
 from ._result import RefinementResult
 from ._sensitivity import simulate_sensitivity
 from ._settings import OutputErrorRefinement, PredictionErrorRefinement
 
 __all__ = [
     "OutputErrorRefinement",
-    "ParameterCovariance",
     "Physical",
     "PredictionErrorRefinement",
     "RefinementResult",
-    "UncertaintyMixin",
-    "confidence_intervals",
     "estimate_initial_state",
-    "parameter_covariance",
     "predict_sensitivity",
     "refine_prediction_error",
     "refine_simulation_error",
     "simulate_sensitivity",
-    "standard_errors",
 ]
+
+_MOVED = {"ParameterCovariance", "UncertaintyMixin", "confidence_intervals", "parameter_covariance",
+          "standard_errors"}
+
+
+def __getattr__(name):
+    """The names that moved to :mod:`sindybench.uncertainty` (``UncertaintyMixin``: the estimators' base)."""
+    if name not in _MOVED:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    warnings.warn(f"sindybench.refine.{name} moved to sindybench.uncertainty; import it from there "
+                  "(the old name will be removed).", FutureWarning, stacklevel=2)
+    if name == "UncertaintyMixin":
+        from .._uncertainty_methods import UncertaintyMixin
+
+        return UncertaintyMixin
+    from .. import uncertainty  # a deprecated alias only: nothing in refine uses the upper layer
+
+    return getattr(uncertainty, name)

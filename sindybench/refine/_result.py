@@ -74,6 +74,10 @@ class RefinementResult(NamedTuple):
         With several records: the samples of each record, in the order of
         the rows of ``jac`` (the ``"hac"`` covariance sums lagged products
         within a record only); None for one record.
+    residual_test : ResidualTest or None
+        The whiteness and input-independence tests of ``residuals``, set by
+        the estimator that ran the refinement (which has the inputs);
+        ``standard_errors`` warns when they fail.
     """
 
     coef: np.ndarray
@@ -98,6 +102,7 @@ class RefinementResult(NamedTuple):
     record_samples: tuple = None
     gain: np.ndarray = None
     horizon: int = None
+    residual_test: object = None
 
     def summary(self):
         """JSON-able record (no arrays; the covariances, ``"white"`` and ``"hac"``, as nested lists)."""
@@ -111,6 +116,8 @@ class RefinementResult(NamedTuple):
         if self.gain is not None:
             out["criterion"] = {"name": "prediction error", "horizon": int(self.horizon),
                                 "gain": np.asarray(self.gain, dtype=float).tolist()}
+        if self.residual_test is not None:
+            out["residual_test"] = self.residual_test.to_dict()
         if self.initial_states is not None:
             out["initial_states"] = np.asarray(self.initial_states, dtype=float).tolist()
         return out
@@ -123,7 +130,7 @@ class RefinementResult(NamedTuple):
         kind : {"white", "hac"}, default="white"
             ``"white"``: independent residuals; ``"hac"``: Newey-West
             estimate for residuals correlated in time (see
-            :func:`~sindybench.refine.parameter_covariance`).
+            :func:`~sindybench.uncertainty.parameter_covariance`).
         lags : int, optional
             Lags of the ``"hac"`` estimate.
 

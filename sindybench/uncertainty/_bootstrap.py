@@ -31,7 +31,7 @@ from sklearn.utils.validation import check_is_fitted
 from .._base import DynamicsEstimator
 from .._validation import check_integer, is_records
 from ..io import SaveLoadMixin, register_model
-from ..refine._covariance import insignificant_lag
+from .._covariance import insignificant_lag
 from ..simulate import SimulationError
 from ._persist import ensemble_from_dict, ensemble_to_dict
 

@@ -2,7 +2,9 @@
 
 An estimator refined with :class:`~sindybench.refine.OutputErrorRefinement`
 keeps in ``refinement_["covariance"]`` the covariance of its free parameters
-(:class:`~sindybench.refine.ParameterCovariance`, one per kind). The functions
+(:class:`~sindybench.uncertainty.ParameterCovariance`, one per kind) and in
+``refinement_["residual_test"]`` the test of its residuals, on which the
+intervals warn (:func:`warn_model_error`). The functions
 here name those parameters after the estimator's equation rows
 (``_equation_rows()``, the same rows ``equations()`` prints), so that they
 work with every estimator without knowing it:
@@ -13,12 +15,40 @@ work with every estimator without knowing it:
   ``"<state>(0) [record <i>]"``).
 """
 
+import warnings
+
 import numpy as np
 
-from ._covariance import ParameterCovariance
+from .._covariance import ParameterCovariance
+from .._residual_tests import ModelErrorWarning, ResidualTest
 
-__all__ = ["UncertaintyMixin", "coef_errors", "confidence_intervals", "model_covariance", "standard_errors"]
+__all__ = ["coef_errors", "confidence_intervals", "model_covariance", "standard_errors", "warn_model_error"]
 
+_ASSUMES = {
+    "white": "white residuals (independent measurement noise) and the right model structure",
+    "hac": "the right model structure (residuals independent of the input; noise correlated in time is allowed)",
+}
+
+
+def warn_model_error(record, kind, stacklevel=3):
+    """Warn (:class:`ModelErrorWarning`) when the refinement's residual test contradicts what ``kind`` assumes.
+
+    ``"white"`` intervals need white residuals independent of the input,
+    ``"hac"`` intervals residuals independent of the input. Returns the
+    warning's text, or None (no test recorded, or it passed).
+    """
+    data = (record or {}).get("residual_test")
+    if data is None:
+        return None
+    test = ResidualTest.from_dict(data)
+    if test.independent and (test.white or kind == "hac"):
+        return None
+    text = (f"the refinement's residuals are {test.message()}: these {kind!r} intervals assume {_ASSUMES[kind]}, "
+            "so they are too narrow. " + ("kind='hac' allows residuals correlated in time. " if kind == "white" else "")
+            + "Under model error no parameter interval holds: check the structure (residual_analysis), and for "
+            "predictions use a calibrated band (conformal_calibration).")
+    warnings.warn(text, ModelErrorWarning, stacklevel=stacklevel)
+    return text
 
 def model_covariance(model, kind="white"):
     """The :class:`ParameterCovariance` of a refined estimator (``refinement_``).
@@ -41,6 +71,7 @@ def model_covariance(model, kind="white"):
                          "refine=OutputErrorRefinement().")
     if kind not in record["covariance"]:
         raise ValueError(f"kind must be one of {sorted(record['covariance'])}; got {kind!r}.")
+    warn_model_error(record, kind, stacklevel=5)  # the caller of the estimator's method
     return ParameterCovariance.from_dict(record["covariance"][kind])
 
 
@@ -102,47 +133,3 @@ def coef_errors(model, kind="white"):
         if q[0] == "coef":
             out[int(q[2])][int(q[1])] = se
     return out
-
-
-class UncertaintyMixin:
-    """``standard_errors()`` and ``confidence_intervals()`` for estimators with ``refinement_`` and equation rows."""
-
-    def standard_errors(self, kind="white"):
-        """Standard errors of the refined parameters (needs ``refine``).
-
-        From the Jacobian of the simulation at the refined optimum and the
-        residual variance (see :doc:`/uncertainty`).
-
-        Parameters
-        ----------
-        kind : {"white", "hac"}, default="white"
-            ``"white"`` assumes independent residuals; ``"hac"`` (Newey-West)
-            allows residuals correlated in time.
-
-        Returns
-        -------
-        dict
-            ``{name: standard error}``: physical parameters by name,
-            coefficients as ``"<state>': <feature>"``, initial states as
-            ``"<state>(0)"``.
-        """
-        return standard_errors(self, kind)
-
-    def confidence_intervals(self, alpha=0.05, kind="white"):
-        """Two-sided ``1 - alpha`` confidence intervals of the refined parameters (needs ``refine``).
-
-        Parameters
-        ----------
-        alpha : float, default=0.05
-        kind : {"white", "hac"}, default="white"
-            As in :meth:`standard_errors`.
-
-        Returns
-        -------
-        dict
-            ``{name: (lower, upper)}``, named as in :meth:`standard_errors`.
-        """
-        return confidence_intervals(self, alpha, kind)
-
-    def _coef_errors(self):
-        return coef_errors(self)

@@ -1,0 +1,113 @@
+"""Conformal bands: the quantile rule (MAPIE's), coverage on new records, k-step bands, every estimator, bad input."""
+
+import numpy as np
+import pytest
+
+from sindybench import SINDy, STLS
+from sindybench.baselines import ARX, NNARX
+from sindybench.libraries import PolynomialLibrary
+from sindybench.refine import OutputErrorRefinement
+from sindybench.simulate import simulate
+from sindybench.uncertainty import ConformalCalibration, conformal_calibration, conformal_quantile
+
+DT = 0.05
+
+
+def first_order(seed, n, noise=0.05):
+    """``y' = -y + 2 u - 0.3 y^3``: a model of degree 1 has a small structural error, so the band must hold it."""
+    rng = np.random.default_rng(seed)
+    u = np.repeat(rng.uniform(-1, 1, n // 20), 20)[:, None]
+    x = simulate(lambda x, u: np.array([-x[0] + 2 * u[0] - 0.3 * x[0] ** 3]), [0.0], u, dt=DT)
+    return u, x + noise * rng.normal(size=x.shape)
+
+
+@pytest.fixture(scope="module")
+def sindy_model():
+    u, y = first_order(0, 1000)
+    return SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.1), dt=DT,
+                 refine=OutputErrorRefinement()).fit(u, y)
+
+
+def test_quantile_is_mapies_split_conformal_bound(rng):
+    mapie = pytest.importorskip("mapie.regression")  # in the test extra: CI runs it
+    from sklearn.base import BaseEstimator, RegressorMixin
+
+    class Column(RegressorMixin, BaseEstimator):  # the precomputed prediction as the only feature
+        def fit(self, X, y):
+            self.fitted_ = True
+            return self
+
+        def predict(self, X):
+            return np.asarray(X)[:, 0]
+
+    pred = rng.normal(size=(57, 1))
+    y = pred[:, 0] + rng.normal(size=57)
+    for alpha in (0.05, 0.1, 0.3):
+        split = mapie.SplitConformalRegressor(Column().fit(pred, y), confidence_level=1 - alpha, prefit=True)
+        _, bounds = split.conformalize(pred, y).predict_interval(np.zeros((1, 1)))
+        assert np.isclose(conformal_quantile(np.abs(y - pred[:, 0])[:, None], alpha)[0], bounds[0, 1, 0])
+
+
+def test_free_run_band_covers_new_records(sindy_model):
+    u, y = first_order(1, 1000)
+    cal = sindy_model.conformal_calibration(u, y, block_length=200)
+    assert (cal.n_blocks, cal.n_scores, cal.name) == (5, 1000, "conformal 95 % free-run band")
+    coverage = []
+    for seed in range(2, 7):
+        u_new, y_new = first_order(seed, 600)
+        band = cal.band(sindy_model, u_new, y_init=y_new[:10])
+        coverage.append(band.coverage(y_new))
+        assert np.allclose(band.upper - band.lower, 2 * cal.half_width)
+    assert 0.9 <= np.mean(coverage) <= 0.99, coverage  # measured: 0.95
+
+
+def test_k_step_band_is_narrower_and_covers(sindy_model):
+    u, y = first_order(1, 1000)
+    Q, R = np.eye(1) * 1e-6, np.eye(1) * 0.05**2
+    free = sindy_model.conformal_calibration(u, y)
+    step = sindy_model.conformal_calibration(u, y, horizon=5, block_length=250, Q=Q, R=R)
+    assert step.name == "conformal 95 % 5-step band" and step.n_scores == 4 * 245
+    assert step.half_width[0] < free.half_width[0]
+    u_new, y_new = first_order(8, 1000)
+    band = step.band(sindy_model, u_new, y=y_new, Q=Q, R=R)
+    assert band.start == 5 and band.prediction.shape == (995, 1)
+    assert 0.9 <= band.coverage(y_new) <= 0.99  # measured: 0.955
+    assert ConformalCalibration.from_dict(step.to_dict()).name == step.name
+
+
+@pytest.mark.parametrize("make", [lambda: ARX(na=2, nb=2),
+                                  lambda: NNARX(na=2, nb=2, hidden_layer_sizes=(8,), max_iter=200, random_state=0)])
+def test_lag_models_free_run_and_k_step(make):
+    u, y = first_order(0, 1000)
+    model = make().fit(u[:600], y[:600])
+    u_new, y_new = first_order(3, 1000)
+    for horizon in (None, 10):
+        cal = model.conformal_calibration(u[600:], y[600:], horizon=horizon)
+        band = cal.band(model, u_new, y_init=y_new, y=y_new)
+        assert 0.85 <= band.coverage(y_new) <= 1.0
+        assert band.mean_width() == pytest.approx(2 * cal.half_width[0])
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"alpha": 0.0}, "alpha must be in \\(0, 1\\)"),
+    ({"alpha": 1.5}, "alpha must be in \\(0, 1\\)"),
+    ({"horizon": 50, "block_length": 40}, "block_length = 40 is not longer than the horizon = 50"),
+    ({"horizon": 300}, "is not longer than the horizon = 300"),
+    ({"block_length": 5}, "not longer than n_init"),
+    ({"alpha": 0.001, "block_length": 100}, "too few for alpha = 0.001"),
+])
+def test_bad_input(kwargs, match):
+    u, y = first_order(0, 200)
+    model = ARX(na=1, nb=1).fit(u, y)
+    with pytest.raises(ValueError, match=match):
+        conformal_calibration(model, u, y, n_init=10, **kwargs)
+
+
+def test_nan_residuals_are_refused():
+    u, y = first_order(0, 200)
+    model = ARX(na=1, nb=1).fit(u, y)
+    model.coef_ = model.coef_ * 0 + np.array([[1e3], [0.0]])  # an unstable model: its free run overflows
+    with pytest.raises(ValueError, match="diverged: NaN errors"):
+        conformal_calibration(model, u, y)
+    with pytest.raises(ValueError, match="NaN or inf"):
+        conformal_quantile(np.array([[1.0], [np.nan]]), 0.5)

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
-from ._validation import shown
+from ._limits import shown
 
 __all__ = ["build_parser", "main"]
 

@@ -2,8 +2,10 @@
 
 import numpy as np
 
+from ._limits import MAX_BYTES, check_memory
 from ._preprocessing import feature_map, operating_point
 from ._validation import check_n_samples, check_signal
+from .libraries._spec import count_terms
 
 __all__ = ["fit_sparse"]
 
@@ -63,6 +65,7 @@ def fit_sparse(library, optimizer, Z, target, *, rows=None, feature_filter=None,
     [[0.0], [0.003]]
     """
     Zr = Z if rows is None else Z[rows]
+    _check_features_size(library, Z)
     library.fit(Zr)
     if feature_filter is None:
         theta = library.transform(Zr)
@@ -85,3 +88,17 @@ def fit_sparse(library, optimizer, Z, target, *, rows=None, feature_filter=None,
     if not np.all(np.isfinite(coef)):
         raise ValueError("the optimizer returned NaN or inf coefficients; check the data and its settings.")
     return coef
+
+
+def _check_features_size(library, Z):
+    """Refuse, before its terms are built, a library whose features of ``Z`` would take more than 1 GiB.
+
+    The terms are counted without building them (built-in libraries; others
+    are left to their own fit), so a state count that is a typo (a latent
+    model with ``n_latent=10**6``) fails at once with a clear message.
+    """
+    n_samples = max(1, Z.shape[0])
+    size = count_terms(library, Z.shape[1], MAX_BYTES // 8 // n_samples + 1)
+    if size is not None:
+        check_memory(f"the features of {type(library).__name__} on {Z.shape[1]} columns of Z = [states, inputs] "
+                     "(at least)", (n_samples, size), advice="Use fewer states or columns, or a smaller library.")

@@ -9,6 +9,8 @@ import numbers
 import numpy as np
 import scipy.sparse as sp
 
+from ._limits import shown
+
 __all__ = [
     "check_array_like",
     "check_bool",
@@ -30,39 +32,12 @@ __all__ = [
     "is_records",
     "real_scalar",
     "records_hint",
-    "shown",
     "uniform_step",
     "validate_named",
 ]
 
 # Relative spread of the sampling steps below which sample times count as uniform.
 UNIFORM_RTOL = 1e-6
-
-# The longest quotation of a given value in a message (characters of its repr).
-MAX_SHOWN = 120
-
-
-def shown(value, limit=MAX_SHOWN):
-    """``repr(value)`` for a message, cut to ``limit`` characters.
-
-    Every message that quotes what it was given goes through here, so that a
-    value of megabytes (a class name, a list) is not echoed whole.
-
-    Examples
-    --------
-    >>> shown("tanks")
-    "'tanks'"
-    >>> shown("x" * 10**7, limit=20)
-    "'xxxxxxxxxxxxxxxxxxx... (10,000,002 characters)"
-    """
-    if isinstance(value, str) and len(value) > limit:  # repr of the start only: a 1 GB string stays cheap
-        text = repr(value[:limit])
-        total = len(text) + len(value) - limit
-    else:
-        text = repr(value)
-        total = len(text)
-    return text if total <= limit else f"{text[:limit]}... ({total:,} characters)"
-
 
 def is_records(y):
     """Whether ``y`` holds several records: a non-empty Python list of NumPy arrays (pysindy's convention).
@@ -388,18 +363,9 @@ def check_positive(value, name, *, allow_none=False, strict=True, allow_inf=Fals
 
 
 def real_scalar(value):
-    """``value``, with a 0-d real NumPy array (what ``np.load`` gives for a number) as its NumPy scalar.
-
-    Any other value is returned as it is, for the caller's check.
-
-    Examples
-    --------
-    >>> real_scalar(np.array(0.1)), real_scalar(0.1), real_scalar(np.array([0.1]))
-    (np.float64(0.1), 0.1, array([0.1]))
-    """
-    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
-        return value[()]
-    return value
+    """``value``, or its NumPy scalar when it is a 0-d real array (what ``np.load`` gives for a number)."""
+    is_real = isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf"
+    return value[()] if is_real else value
 
 
 def check_integer(value, name, *, low=1, high=None):

@@ -33,7 +33,7 @@ import numpy as np
 
 from . import __version__
 from .experiments import BENCHMARKS  # the one list of benchmark names
-from ._validation import shown
+from ._limits import shown
 
 __all__ = ["build_parser", "main"]
 

@@ -527,3 +527,29 @@ def test_a_huge_value_is_quoted_in_part(files, field):
     with pytest.raises(ValueError) as info:
         sio.model_from_dict(data)
     assert len(str(info.value)) < 1000 and "10,000,002 characters" in str(info.value), str(info.value)[:2000]
+
+
+# ------------------------------------------------------ issue 30, items 13-14: products of sizes
+def test_a_file_within_each_limit_but_not_their_product_is_refused_within_a_second(files, tmp_path, data_home):
+    # grid_size 10000, n_substeps 1000 and init_size 10**6, each within its limit: simulate ran past 150 s
+    hidden = {"grid_size": 10_000, "n_substeps": 1000, "init_size": 10**6}
+    edits = [(["params", "n_substeps"], 1000)]
+    edits += [([part, "hidden", "estimator", "params", key], value)
+              for part in ("params", "fitted") for key, value in hidden.items()]
+    model = load_model(_edited(files, "TanksHiddenState", tmp_path, *edits))
+    u, y, _ = _record(load_cascaded_tanks, data_home, 200)
+    start = time.perf_counter()
+    with pytest.raises(ValueError, match=r"TanksHiddenState\(grid_size=10000, init_size=1000000\): the initial-state "
+                                         r"grid search asks for 10,000 grid points x 200 window samples x 1,000 "
+                                         r"sub-steps per sample = 2e\+09 integration steps; expected at most 1e\+06"):
+        model.predict(u, y_init=y)
+    assert time.perf_counter() - start < 1.0
+
+
+def test_a_parametric_file_with_a_grid_per_hidden_state_is_refused(files, tmp_path):
+    # two hidden states of 10,000 grid points each built a 10**8-point grid (MemoryError)
+    edits = [([part, "hidden", "estimator", "params", key], value) for part in ("params", "fitted")
+             for key, value in (("grid_size", 10_000), ("x0_bounds", {"tuple": [[0.0, 10.0], [0.0, 10.0]]}))]
+    _refused(_edited(files, "ParametricHiddenState", tmp_path, *edits),
+             r"ParametricHiddenState\(grid_size=10000\): the initial-state grid asks for 10,000 points of hidden "
+             r"state 0 x 10,000 points of hidden state 1 = 1e\+08 grid points")

@@ -107,7 +107,7 @@ def test_check_model_inputs():
 
 # --------------------------------------------------------------------------- issue 30: quotes and scalars
 def test_shown_cuts_a_long_value_and_says_how_long_it_was():
-    from sindybench._validation import shown
+    from sindybench._limits import shown
 
     assert shown("tanks") == "'tanks'" and shown([1, 2]) == "[1, 2]"
     text = shown("x" * 10**7)

@@ -14,7 +14,8 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .._validation import check_one_record, check_signal, shown
+from .._limits import shown
+from .._validation import check_one_record, check_signal
 from ..dynamics import jacobian_workspace, step_jacobian_into
 from ._model_step import model_step
 

@@ -175,10 +175,13 @@ class ModelView(NamedTuple):
         ``rhs(x, u) -> dxdt`` for one state ``x`` (n_states,) and input ``u`` (n_inputs,).
     simulate : callable
         ``simulate(x0, u) -> x`` (n_samples, n_states), NaN after a divergence.
+    n_substeps : int
+        Integration sub-steps per sample of ``simulate`` (what a run costs).
     """
 
     rhs: Callable
     simulate: Callable
+    n_substeps: int = 1
 
 
 def positive_dimension(spec, name, *, note=""):

@@ -165,7 +165,8 @@ def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):
     """
     dyn = cand.dynamics
     n = min(X.shape[0], y_init.shape[0])
-    view = ModelView(rhs=dyn.rhs, simulate=lambda x0, u: dyn.simulate(u, x0, on_divergence="nan"))
+    view = ModelView(rhs=dyn.rhs, simulate=lambda x0, u: dyn.simulate(u, x0, on_divergence="nan"),
+                     n_substeps=dyn.n_substeps)
     x0 = hidden.initial_state(X[:n], y_init[:n], dyn.dt, derivative=cand.derivative, params=cand.params,
                               model=view)
     x0 = np.asarray(x0, dtype=float).reshape(-1)

@@ -35,6 +35,7 @@ import numbers
 import numpy as np
 from scipy.optimize import least_squares
 
+from .._limits import check_memory
 from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
@@ -122,6 +123,8 @@ class LatentHiddenState(HiddenStrategy):
     def _validate(self):
         if isinstance(self.n_latent, bool) or not isinstance(self.n_latent, numbers.Integral) or self.n_latent < 1:
             raise ValueError(f"n_latent must be an integer >= 1; got {self.n_latent!r}.")
+        check_memory(f"LatentHiddenState(n_latent={self.n_latent}): the lag chain's coefficients",
+                     (int(self.n_latent) + 1, int(self.n_latent)), advice="Expected a few latent states.")
         if self.order not in (1, 2) or isinstance(self.order, bool):
             raise ValueError(f"order must be 1 or 2; got {self.order!r}.")
         if self.driver not in _DRIVERS:

@@ -47,8 +47,7 @@ from ..io import check_limit, check_params, encode_array, encode_value, fitted_t
 from ..libraries import check_terms, fitted_library_from_dict, fitted_library_to_dict, terms_to_json
 from ..libraries._spec import MAX_COLUMNS
 from ._base import HiddenStrategy, Structure
-
-MAX_GRID = 10_000  # grid points of a strategy's initial-state search a file may ask for (run at every predict)
+from ._parametric import MAX_GRID_POINTS as MAX_GRID  # grid points a strategy's initial-state search may ask for
 
 __all__ = ["hidden_sindy_from_dict", "hidden_sindy_to_dict"]
 
@@ -117,14 +116,14 @@ def hidden_sindy_to_dict(model):
 
 
 def _check_strategy(hidden, field):
-    """The strategy's own checks (``_validate``) and the limits of what it runs at every ``predict``."""
-    try:
-        hidden._validate()
-    except (ValueError, TypeError) as exc:
-        raise ValueError(f"{field}: {type(hidden).__name__} refused its parameters: {exc}") from exc
+    """The limits of what a strategy runs at every ``predict``, then its own checks (``_validate``)."""
     params = hidden.get_params(deep=False)
     check_limit(params.get("n_substeps"), f"{field}.estimator.params.n_substeps")
     check_limit(params.get("grid_size"), f"{field}.estimator.params.grid_size", MAX_GRID)
+    try:
+        hidden._validate()  # with the products of sizes (a grid over all hidden states, latent states)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"{field}: {type(hidden).__name__} refused its parameters: {exc}") from exc
 
 
 def _check_physical(hidden, params):

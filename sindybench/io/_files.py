@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np  # noqa: F401  (used by the doctests)
 from sklearn.utils.validation import check_is_fitted
 
-from .._validation import shown
+from .._limits import shown
 from ._registry import _REGISTRY, _lookup, _registered
 from ._checks import check_plain
 from ._values import Fields, _construct, _encode_params

@@ -4,7 +4,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np  # noqa: F401  (used by the doctest)
 
-from .._validation import shown
+from .._limits import shown
 
 __all__ = ["register_model"]
 

@@ -6,7 +6,7 @@ import types
 
 import numpy as np
 
-from .._validation import shown
+from .._limits import shown
 from ._registry import _REGISTRY, _function_params, _lookup, _registered
 
 __all__ = [

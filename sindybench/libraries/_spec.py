@@ -15,7 +15,7 @@ from ..io import decode_value, encode_value
 from ._base import BaseLibrary
 from ._terms import check_terms, terms_to_json
 
-__all__ = ["fitted_library_from_dict", "fitted_library_to_dict", "library_from_spec", "library_to_spec"]
+__all__ = ["count_terms", "fitted_library_from_dict", "fitted_library_to_dict", "library_from_spec", "library_to_spec"]
 
 MAX_COLUMNS = 100_000  # columns of Z a model file may ask a library to be fitted on
 
@@ -87,7 +87,7 @@ def fitted_library_from_dict(fields, n_columns):
     terms = check_terms(fields.get("terms", "a list of terms"), n_columns, name=fields.where("terms"))
     # the cheap checks first: a file of a few bytes can name a library of billions of terms (degree=100)
     limit = 4 * len(terms) + 1000
-    size = _max_terms(library, n_columns, limit)
+    size = count_terms(library, n_columns, limit)
     if size is not None and size > limit:
         text = _short(library)
         raise ValueError(
@@ -138,7 +138,7 @@ def _count(values, default):
     return len(values) if isinstance(values, (list, tuple)) else default
 
 
-def _max_terms(library, n_columns, limit):
+def count_terms(library, n_columns, limit):
     """At least the number of terms ``library.fit`` builds on ``n_columns`` columns, counted without building them.
 
     Counting stops once it passes ``limit``. None for a class whose size is
@@ -148,9 +148,9 @@ def _max_terms(library, n_columns, limit):
     Examples
     --------
     >>> from sindybench.libraries import PolynomialLibrary, SqrtLibrary
-    >>> _max_terms(PolynomialLibrary(degree=2) + SqrtLibrary(), 3, 1000)
+    >>> count_terms(PolynomialLibrary(degree=2) + SqrtLibrary(), 3, 1000)
     13
-    >>> _max_terms(PolynomialLibrary(degree=100), 2, 1000) > 1000
+    >>> count_terms(PolynomialLibrary(degree=100), 2, 1000) > 1000
     True
     """
     from ._builtin import AbsProductLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary, TermsLibrary
@@ -181,9 +181,9 @@ def _max_terms(library, n_columns, limit):
     if kind is ConcatLibrary:
         if not isinstance(library.libraries, (list, tuple)):
             return 1
-        sizes = [_max_terms(part, n_columns, limit) for part in library.libraries]
+        sizes = [count_terms(part, n_columns, limit) for part in library.libraries]
         return None if None in sizes else sum(sizes)
     if kind is ProductLibrary:
-        left, right = _max_terms(library.left, n_columns, limit), _max_terms(library.right, n_columns, limit)
+        left, right = count_terms(library.left, n_columns, limit), count_terms(library.right, n_columns, limit)
         return None if left is None or right is None else left * right
     return None

@@ -9,6 +9,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from .._divergence import DivergenceWarning
+from .._limits import check_memory
 from .._validation import check_signal
 from ._bootstrap import BootstrapEnsemble, check_alpha, circular_block_indices
 
@@ -188,6 +189,9 @@ def prediction_band(ensemble, X, *, y_init=None, x0=None, alpha=0.05, states=Fal
         raise ValueError("give exactly one of x0 and y_init.")
     if y_init is not None:
         y_init = check_signal(y_init, "y_init")
+    n_columns = ensemble.estimator_.n_states_ if states else len(ensemble.estimator_.output_index_)
+    if X is not None and np.ndim(X) >= 1:
+        check_memory("prediction_band: the members' simulations", (len(ensemble.members_), len(X), n_columns))
     runs = [_run(m, X, y_init, x0, states) for m in ensemble.members_]
     samples = np.array([r[0] for r in runs])
     outputs, names = runs[0][1], runs[0][2]

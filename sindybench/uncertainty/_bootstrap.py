@@ -29,6 +29,7 @@ from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
 from .._base import DynamicsEstimator
+from .._limits import check_memory
 from .._validation import check_integer, is_records
 from ..io import SaveLoadMixin, register_model
 from .._covariance import insignificant_lag
@@ -62,7 +63,8 @@ def circular_block_indices(n, block_length, rng, n_source=None):
     n_source = n if n_source is None else n_source
     n_blocks = -(-n // block_length)
     starts = rng.integers(0, n_source, n_blocks) if hasattr(rng, "integers") else rng.randint(0, n_source, n_blocks)
-    return ((starts[:, None] + np.arange(block_length)[None, :]) % n_source).ravel()[:n]
+    length = min(block_length, n)  # a longer block is cut at n anyway: never allocate past it
+    return ((starts[:, None] + np.arange(length)[None, :]) % n_source).ravel()[:n]
 
 
 def check_alpha(alpha, what):
@@ -160,10 +162,12 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
         self.n_jobs = n_jobs
         self.random_state = random_state
 
-    def _validate(self, n):
-        check_integer(self.n_members, "n_members", low=2)
+    def _validate(self, n, n_outputs):
+        n_members = check_integer(self.n_members, "n_members", low=2)
         if self.block_length is not None and check_integer(self.block_length, "block_length") > n:
             raise ValueError(f"block_length={self.block_length} exceeds the {n} samples of the record.")
+        check_memory(f"BootstrapEnsemble(n_members={n_members}): the members' records", (n_members, n, n_outputs),
+                     advice="Use fewer members (50-200 give stable bands) or a shorter record.")
 
     def fit(self, X, y):
         """Fit the estimator, then ``n_members`` clones to block-bootstrapped records.
@@ -185,10 +189,13 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
         if n is not None:
             raise ValueError(f"BootstrapEnsemble resamples the residuals of one record; got a list of {n} records. "
                              "Expected one array each (fit it on one record).")
-        base = clone(self.estimator).fit(X, y)  # its own checks of X and y first
+        shape = np.shape(y)
+        if len(shape) in (1, 2):  # sizes before any work; the estimator checks X and y themselves
+            self._validate(shape[0], shape[1] if len(shape) == 2 else 1)
+        base = clone(self.estimator).fit(X, y)
         y_1d = np.asarray(y).ndim == 1
         y2 = np.asarray(y, dtype=float).reshape(len(y), -1)
-        self._validate(y2.shape[0])
+        self._validate(*y2.shape)
         rng = check_random_state(self.random_state)
         y_hat = fitted_output(base, X)
         if not np.all(np.isfinite(y_hat)):
@@ -196,7 +203,7 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
                                   "bootstrap expects a model that simulates the record.", step=-1)
         e = y2 - y_hat
         block = self.block_length if self.block_length is not None else _auto_block_length(e)
-        records = [y_hat + e[circular_block_indices(e.shape[0], block, rng)] for _ in range(self.n_members)]
+        records = (y_hat + e[circular_block_indices(e.shape[0], block, rng)] for _ in range(self.n_members))
         if self.n_jobs in (None, 1):
             fits = [_fit_member(self.estimator, X, r, y_1d) for r in records]
         else:

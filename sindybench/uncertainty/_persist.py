@@ -28,6 +28,6 @@ def ensemble_from_dict(model, fitted):
         raise ValueError(f"{fitted.where('members')}: expected a list of at least 2 fitted members.")
     model.members_ = [fitted_from_dict(f) for f in fitted.items("members", len(members))]
     model.n_failed_ = fitted.int("n_failed")
-    model.block_length_ = fitted.int("block_length", low=1)
     model.residuals_ = fitted.array("residuals")
+    model.block_length_ = fitted.int("block_length", low=1, high=max(1, len(model.residuals_)))  # as fit checks
     model._summarize()

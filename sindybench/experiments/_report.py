@@ -312,11 +312,17 @@ def results_markdown(results, *, heading_level=1):
         record = m.get("refinement")
         if record and record.get("status", -1) >= 0:
             physical = ", ".join(f"{k}={_short(v)}" for k, v in record["physical"].items())
-            out.append(f"  - refinement ({record['jacobian']} Jacobian): cost {record['initial_cost']:.3g} -> "
-                       f"{record['cost']:.3g} in {record['nfev']} simulations"
+            criterion = record.get("criterion")
+            what = f"{criterion['horizon']}-step prediction cost" if criterion else "cost"
+            out.append(f"  - refinement ({record['jacobian']} Jacobian): {what} {record['initial_cost']:.3g} -> "
+                       f"{record['cost']:.3g} in {record['nfev']} {'predictor runs' if criterion else 'simulations'}"
                        + (f"; refined {physical}" if physical else ""))
         elif record:
             out.append(f"  - refinement: {record['message']}")
+        for name, rows in (m.get("k_step") or {}).get("k_step", {}).items():
+            ks = ", ".join(f"k={k}: {_short(v['rmse']) if v['rmse'] is not None else v['status']}"
+                           for k, v in rows.items())
+            out.append(f"  - k-step RMSE on `{name}` (the designated row's protocol): {ks}")
         for eq in m["equations"]:
             out.append(f"  - `{eq}`")
     return "\n".join(out) + "\n"

@@ -96,12 +96,21 @@ class ParameterCovariance(NamedTuple):
     @classmethod
     def from_dict(cls, data):
         """Rebuild from :meth:`to_dict`'s output."""
+        if not isinstance(data, dict) or not isinstance(data.get("parameters"), list) \
+                or not all(isinstance(p, (list, tuple)) for p in data["parameters"]):
+            raise ValueError("expected a dict with a list of parameters (each a list).")
         n = len(data["parameters"])
-        return cls(parameters=tuple(tuple(p) for p in data["parameters"]),
-                   values=np.asarray(data["values"], dtype=float).reshape(n),
-                   matrix=np.asarray(data["matrix"], dtype=float).reshape(n, n), kind=str(data["kind"]),
-                   dof=int(data["dof"]), rank=int(data["rank"]), sigma=np.asarray(data["sigma"], dtype=float),
-                   at_bound=np.asarray(data["at_bound"], dtype=bool).reshape(n))
+        for name in ("dof", "rank"):
+            if isinstance(data.get(name), bool) or not isinstance(data.get(name), int):
+                raise ValueError(f"{name} must be an integer; got {data.get(name)!r}.")
+        try:
+            return cls(parameters=tuple(tuple(p) for p in data["parameters"]),
+                       values=np.asarray(data["values"], dtype=float).reshape(n),
+                       matrix=np.asarray(data["matrix"], dtype=float).reshape(n, n), kind=str(data["kind"]),
+                       dof=int(data["dof"]), rank=int(data["rank"]), sigma=np.asarray(data["sigma"], dtype=float),
+                       at_bound=np.asarray(data["at_bound"], dtype=bool).reshape(n))
+        except (TypeError, ValueError, KeyError) as exc:
+            raise ValueError(f"values, matrix, sigma or at_bound do not fit {n} parameters ({exc}).") from exc
 
 
 def insignificant_lag(R):

@@ -17,7 +17,8 @@ import numpy as np
 
 from ._covariance import ParameterCovariance
 
-__all__ = ["UncertaintyMixin", "coef_errors", "confidence_intervals", "model_covariance", "standard_errors"]
+__all__ = ["UncertaintyMixin", "check_refinement_record", "coef_errors", "confidence_intervals", "model_covariance",
+           "standard_errors"]
 
 
 def model_covariance(model, kind="white"):
@@ -44,20 +45,81 @@ def model_covariance(model, kind="white"):
     return ParameterCovariance.from_dict(record["covariance"][kind])
 
 
+def _index(value, high, what):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value < high:
+        raise ValueError(f"{what} must be an integer in [0, {high - 1}]; got {value!r}.")
+    return int(value)
+
+
 def parameter_names(parameters, rows):
-    """Readable names of covariance parameters, given the estimator's equation rows."""
+    """Readable names of covariance parameters, given the estimator's equation rows.
+
+    Raises
+    ------
+    ValueError
+        For an entry that names no parameter of these rows (a tampered record).
+    """
     out = []
-    for q in parameters:
-        if q[0] == "physical":
-            out.append(str(q[1]))
-        elif q[0] == "coef":
-            row = rows[int(q[2])]
-            out.append(f"{row.name}': {row.features[int(q[1])]}")
-        elif len(q) > 2:  # several records: ("x0", state, record)
-            out.append(f"{rows[int(q[1])].name}(0) [record {int(q[2])}]")
+    for j, q in enumerate(parameters):
+        where = f"parameters[{j}] = {list(q)!r}"
+        kind = q[0] if len(q) else None
+        if kind == "physical" and len(q) == 2 and isinstance(q[1], str):
+            out.append(q[1])
+        elif kind == "coef" and len(q) == 3:
+            row = rows[_index(q[2], len(rows), f"{where}: the row")]
+            if row.coef is None:
+                raise ValueError(f"{where}: row {row.name!r} is fixed by a function; it has no coefficients.")
+            out.append(f"{row.name}': {row.features[_index(q[1], len(row.features), f'{where}: the term')]}")
+        elif kind == "x0" and len(q) in (2, 3):
+            name = rows[_index(q[1], len(rows), f"{where}: the state")].name
+            out.append(f"{name}(0)" if len(q) == 2 else f"{name}(0) [record {_index(q[2], 2**31, where)}]")
         else:
-            out.append(f"{rows[int(q[1])].name}(0)")
+            raise ValueError(f"{where}: expected ('physical', name), ('coef', term, row) or ('x0', state[, record]).")
     return out
+
+
+def check_refinement_record(model, where="fitted.refinement"):
+    """Check a loaded estimator's refinement record against the estimator (a model file's ``refinement``).
+
+    Each covariance must name parameters this model has (by its equation
+    rows), each once, with finite values, a symmetric finite matrix with a
+    nonnegative diagonal (variances), ``1 <= dof`` and ``0 <= rank <= n``.
+    (Its values are not compared with the model's: a refined model whose
+    coefficients were edited after the fit saves and loads.)
+
+    Raises
+    ------
+    ValueError
+        Naming the field and what was wrong.
+    """
+    record = getattr(model, "refinement_", None)
+    if not record or "covariance" not in record:
+        return
+    covariances = record["covariance"]
+    if not isinstance(covariances, dict):
+        raise ValueError(f"{where}.covariance: expected a dict kind -> covariance; got {type(covariances).__name__}.")
+    rows = model._equation_rows()
+    for kind, data in covariances.items():
+        field = f"{where}.covariance.{kind}"
+        try:
+            cov = ParameterCovariance.from_dict(data)
+            names = parameter_names(cov.parameters, rows)
+        except (ValueError, TypeError, KeyError, IndexError) as exc:
+            raise ValueError(f"{field}: {exc}") from exc
+        n = len(names)
+        problem = None
+        if cov.kind != kind:
+            problem = f"kind is {cov.kind!r} under the key {kind!r}"
+        elif not (np.all(np.isfinite(cov.values)) and np.all(np.isfinite(cov.matrix)) and np.all(np.isfinite(cov.sigma))):
+            problem = "values, matrix and sigma must be finite"
+        elif np.any(np.diag(cov.matrix) < 0) or not np.allclose(cov.matrix, cov.matrix.T, rtol=1e-9, atol=0.0):
+            problem = "the matrix must be symmetric with a nonnegative diagonal (variances)"
+        elif cov.dof < 1 or not 0 <= cov.rank <= n or np.any(cov.sigma < 0):
+            problem = f"dof = {cov.dof} (expected >= 1), rank = {cov.rank} (expected in [0, {n}]), sigma >= 0"
+        elif len(set(names)) != n:
+            problem = "a parameter is listed twice"
+        if problem:
+            raise ValueError(f"{field}: {problem}; expected the record of this model's refinement.")
 
 
 def standard_errors(model, kind="white"):

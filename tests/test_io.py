@@ -152,7 +152,8 @@ def test_refitted_values_survive_the_round_trip(fitted_models, tmp_path):
     model.fit(X, y)
     model.coef_ = model.coef_ * 0.99
     model.x0_ = model.x0_ + 1e-4
-    model.params_ = {**model.params_, "k": model.params_["k"] * 1.01}  # as a refinement moves k, and with it:
+    model.hidden_ = clone(model.hidden_).set_params(k=model.params_["k"] * 1.01)  # another fixed k, and with it:
+    model.params_ = {**model.params_, "k": model.hidden_.k}
     model.structure_ = model.hidden_.structure(model.params_, n_outputs=1, n_inputs=1)
     model._rebuild_model()
     model.to_json(tmp_path / "m.json")

@@ -143,6 +143,20 @@ def _check_states(states):
                              "NaN from a divergence to the end).")
 
 
+def _check_fixed_params(hidden, params, refined):
+    """A physical parameter the strategy fixes (its constructor value, or the gauge) is that value in ``params_``,
+    unless a refinement moved it."""
+    try:
+        moved = set(hidden.refinable(params)) if refined else set()
+        expected = hidden.resolve_params(params)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ValueError(f"fitted.params: {type(hidden).__name__} cannot resolve them: {exc}") from exc
+    for name, value in params.items():  # resolve_params keeps a searched value and puts back a fixed one
+        if name not in moved and name in expected and not np.isclose(value, expected[name], rtol=1e-12, atol=0.0):
+            raise ValueError(f"fitted.params[{name!r}] = {value!r}, but {type(hidden).__name__} fixes it at "
+                             f"{expected[name]!r} and no refinement moved it; expected the fitted value.")
+
+
 def hidden_sindy_to_dict(model):
     """The ``fitted`` dict of a fitted HiddenStateSINDy model."""
     return {
@@ -243,5 +257,6 @@ def hidden_sindy_from_dict(model, fitted):
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
     _check_states(model.states_)
+    _check_fixed_params(hidden, model.params_, model.refinement_ is not None)
     model._rebuild_model()
     check_refinement_record(model)

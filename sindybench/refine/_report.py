@@ -118,6 +118,8 @@ def check_refinement_record(model, where="fitted.refinement"):
             problem = f"dof = {cov.dof} (expected >= 1), rank = {cov.rank} (expected in [0, {n}]), sigma >= 0"
         elif len(set(names)) != n:
             problem = "a parameter is listed twice"
+        elif any(q[0] == "physical" and q[1] not in (getattr(model, "params_", None) or {}) for q in cov.parameters):
+            problem = f"a physical parameter is not one of the model's {sorted(getattr(model, 'params_', None) or {})}"
         if problem:
             raise ValueError(f"{field}: {problem}; expected the record of this model's refinement.")
 

@@ -144,17 +144,20 @@ def _check_states(states):
 
 
 def _check_fixed_params(hidden, params, refined):
-    """A physical parameter the strategy fixes (its constructor value, or the gauge) is that value in ``params_``,
-    unless a refinement moved it."""
-    try:
-        moved = set(hidden.refinable(params)) if refined else set()
-        expected = hidden.resolve_params(params)
-    except (ValueError, TypeError, KeyError) as exc:
-        raise ValueError(f"fitted.params: {type(hidden).__name__} cannot resolve them: {exc}") from exc
-    for name, value in params.items():  # resolve_params keeps a searched value and puts back a fixed one
-        if name not in moved and name in expected and not np.isclose(value, expected[name], rtol=1e-12, atol=0.0):
-            raise ValueError(f"fitted.params[{name!r}] = {value!r}, but {type(hidden).__name__} fixes it at "
-                             f"{expected[name]!r} and no refinement moved it; expected the fitted value.")
+    """A physical parameter the strategy fixes (its constructor value, or the latent gauge) is that value in
+    ``params_``, unless a refinement moved it."""
+    moved = set(hidden.refinable(params)) if refined else set()
+    own = hidden.get_params(deep=False)
+    expected = {k: own[k] for k in params
+                if isinstance(own.get(k), (int, float)) and not isinstance(own.get(k), bool)}
+    try:  # what resolve_params puts back (a gauge: LatentHiddenState's gain with scale="driver")
+        expected.update({k: v for k, v in hidden.resolve_params(params).items() if k in params and v != params[k]})
+    except (ValueError, TypeError, KeyError):
+        pass  # parameters searched under other names (TanksHiddenState's ratio): the constructor values only
+    for name, value in expected.items():
+        if name not in moved and not np.isclose(params[name], value, rtol=1e-12, atol=0.0):
+            raise ValueError(f"fitted.params[{name!r}] = {params[name]!r}, but {type(hidden).__name__} fixes it at "
+                             f"{value!r} and no refinement moved it; expected the fitted value.")
 
 
 def hidden_sindy_to_dict(model):

@@ -39,7 +39,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import stats
 
-__all__ = ["ParameterCovariance", "parameter_covariance"]
+__all__ = ["ParameterCovariance", "check_refinement_record", "parameter_covariance", "parameter_names"]
 
 
 class ParameterCovariance(NamedTuple):
@@ -102,12 +102,21 @@ class ParameterCovariance(NamedTuple):
     @classmethod
     def from_dict(cls, data):
         """Rebuild from :meth:`to_dict`'s output."""
+        if not isinstance(data, dict) or not isinstance(data.get("parameters"), list) \
+                or not all(isinstance(p, (list, tuple)) for p in data["parameters"]):
+            raise ValueError("expected a dict with a list of parameters (each a list).")
         n = len(data["parameters"])
-        return cls(parameters=tuple(tuple(p) for p in data["parameters"]),
-                   values=np.asarray(data["values"], dtype=float).reshape(n),
-                   matrix=np.asarray(data["matrix"], dtype=float).reshape(n, n), kind=str(data["kind"]),
-                   dof=int(data["dof"]), rank=int(data["rank"]), sigma=np.asarray(data["sigma"], dtype=float),
-                   at_bound=np.asarray(data["at_bound"], dtype=bool).reshape(n))
+        for name in ("dof", "rank"):
+            if isinstance(data.get(name), bool) or not isinstance(data.get(name), int):
+                raise ValueError(f"{name} must be an integer; got {data.get(name)!r}.")
+        try:
+            return cls(parameters=tuple(tuple(p) for p in data["parameters"]),
+                       values=np.asarray(data["values"], dtype=float).reshape(n),
+                       matrix=np.asarray(data["matrix"], dtype=float).reshape(n, n), kind=str(data["kind"]),
+                       dof=int(data["dof"]), rank=int(data["rank"]), sigma=np.asarray(data["sigma"], dtype=float),
+                       at_bound=np.asarray(data["at_bound"], dtype=bool).reshape(n))
+        except (TypeError, ValueError, KeyError) as exc:
+            raise ValueError(f"values, matrix, sigma or at_bound do not fit {n} parameters ({exc}).") from exc
 
 
 def insignificant_lag(R):
@@ -229,3 +238,86 @@ def parameter_covariance(jac, residuals, parameters, values, *, n_outputs=1, kin
     at_bound = np.zeros(p, dtype=bool) if at_bound is None else np.asarray(at_bound, dtype=bool).reshape(p)
     return ParameterCovariance(parameters=tuple(tuple(q) for q in parameters), values=values, matrix=matrix,
                                kind=kind, dof=int(dof), rank=rank, sigma=np.sqrt(sigma2), at_bound=at_bound)
+
+
+def _index(value, high, what):
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or not 0 <= value < high:
+        raise ValueError(f"{what} must be an integer in [0, {high - 1}]; got {value!r}.")
+    return int(value)
+
+
+def parameter_names(parameters, rows):
+    """Readable names of covariance parameters, given the estimator's equation rows.
+
+    Raises
+    ------
+    ValueError
+        For an entry that names no parameter of these rows (a tampered record).
+    """
+    out = []
+    for j, q in enumerate(parameters):
+        where = f"parameters[{j}] = {list(q)!r}"
+        kind = q[0] if len(q) else None
+        if kind == "physical" and len(q) == 2 and isinstance(q[1], str):
+            out.append(q[1])
+        elif kind == "coef" and len(q) == 3:
+            row = rows[_index(q[2], len(rows), f"{where}: the row")]
+            if row.coef is None:
+                raise ValueError(f"{where}: row {row.name!r} is fixed by a function; it has no coefficients.")
+            out.append(f"{row.name}': {row.features[_index(q[1], len(row.features), f'{where}: the term')]}")
+        elif kind == "x0" and len(q) in (2, 3):
+            name = rows[_index(q[1], len(rows), f"{where}: the state")].name
+            out.append(f"{name}(0)" if len(q) == 2 else f"{name}(0) [record {_index(q[2], 2**31, where)}]")
+        elif kind == "gain" and len(q) == 3:  # prediction error: ("gain", state, output) of the observer gain K
+            name = rows[_index(q[1], len(rows), f"{where}: the state")].name
+            out.append(f"K[{name}, {_index(q[2], 2**31, where)}]")
+        else:
+            raise ValueError(f"{where}: expected ('physical', name), ('coef', term, row), ('x0', state[, record]) "
+                             "or ('gain', state, output).")
+    return out
+
+
+def check_refinement_record(model, where="fitted.refinement"):
+    """Check a loaded estimator's refinement record against the estimator (a model file's ``refinement``).
+
+    Each covariance must name parameters this model has (by its equation
+    rows), each once, with finite values, a symmetric finite matrix with a
+    nonnegative diagonal (variances), ``1 <= dof`` and ``0 <= rank <= n``.
+    (Its values are not compared with the model's: a refined model whose
+    coefficients were edited after the fit saves and loads.)
+
+    Raises
+    ------
+    ValueError
+        Naming the field and what was wrong.
+    """
+    record = getattr(model, "refinement_", None)
+    if not record or "covariance" not in record:
+        return
+    covariances = record["covariance"]
+    if not isinstance(covariances, dict):
+        raise ValueError(f"{where}.covariance: expected a dict kind -> covariance; got {type(covariances).__name__}.")
+    rows = model._equation_rows()
+    for kind, data in covariances.items():
+        field = f"{where}.covariance.{kind}"
+        try:
+            cov = ParameterCovariance.from_dict(data)
+            names = parameter_names(cov.parameters, rows)
+        except (ValueError, TypeError, KeyError, IndexError) as exc:
+            raise ValueError(f"{field}: {exc}") from exc
+        n = len(names)
+        problem = None
+        if cov.kind != kind:
+            problem = f"kind is {cov.kind!r} under the key {kind!r}"
+        elif not (np.all(np.isfinite(cov.values)) and np.all(np.isfinite(cov.matrix)) and np.all(np.isfinite(cov.sigma))):
+            problem = "values, matrix and sigma must be finite"
+        elif np.any(np.diag(cov.matrix) < 0) or not np.allclose(cov.matrix, cov.matrix.T, rtol=1e-9, atol=0.0):
+            problem = "the matrix must be symmetric with a nonnegative diagonal (variances)"
+        elif cov.dof < 1 or not 0 <= cov.rank <= n or np.any(cov.sigma < 0):
+            problem = f"dof = {cov.dof} (expected >= 1), rank = {cov.rank} (expected in [0, {n}]), sigma >= 0"
+        elif len(set(names)) != n:
+            problem = "a parameter is listed twice"
+        elif any(q[0] == "physical" and q[1] not in (getattr(model, "params_", None) or {}) for q in cov.parameters):
+            problem = f"a physical parameter is not one of the model's {sorted(getattr(model, 'params_', None) or {})}"
+        if problem:
+            raise ValueError(f"{field}: {problem}; expected the record of this model's refinement.")

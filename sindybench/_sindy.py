@@ -59,7 +59,7 @@ def check_distinct_names(out_names, in_names):
     >>> check_distinct_names(["u0"], ["u0"])
     Traceback (most recent call last):
     ...
-    ValueError: output_names and input_names share 'u0' (output 0 and input 0); expected distinct names (the equations and the library's features name the columns by them).
+    ValueError: output_names and input_names share 'u0' (output 0 and input 0); expected distinct names ...
     """
     seen = {}
     for kind, names in (("output", out_names), ("input", in_names)):

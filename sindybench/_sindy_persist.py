@@ -45,6 +45,7 @@ from .io import (
     fitted_to_dict,
 )
 from .libraries import fitted_library_from_dict, fitted_library_to_dict
+from ._covariance import check_refinement_record
 from ._stls import STLS
 
 __all__ = ["fitted_parts", "load_scaling", "sindy_from_dict", "sindy_to_dict"]
@@ -116,4 +117,23 @@ def sindy_from_dict(model, fitted):
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
     load_scaling(model, fitted)
+    _check_derived(model, n_states, n_inputs)
     model._rebuild_model()
+    check_refinement_record(model)
+
+
+def _check_derived(model, n_states, n_inputs):
+    """Names, feature names and dt follow from the parameters and the library: a file that says otherwise is refused."""
+    from ._sindy import _check_names, check_distinct_names
+
+    expected = {"output_names": _check_names(model.output_names, n_states, "y", "output_names"),
+                "input_names": _check_names(model.input_names, n_inputs, "u", "input_names")}
+    for name, value in expected.items():
+        if getattr(model, name + "_") != value:
+            raise ValueError(f"fitted.{name} = {getattr(model, name + '_')!r}, but params.{name} gives {value!r}; "
+                             "expected the names it was fitted with.")
+    check_distinct_names(model.output_names_, model.input_names_)
+    features = list(model.library_.get_feature_names_out(model.output_names_ + model.input_names_))
+    if model.feature_names_ != features:
+        raise ValueError(f"fitted.feature_names differ from the library's names of its terms ({features[:6]}...); "
+                         "expected the fitted library's feature names.")

@@ -253,6 +253,10 @@ def test_estimate_noise_checks_the_record_as_the_filter_does(rng):
         estimate_noise(duffing(), u[:39], y)
     with pytest.raises(ValueError, match=r"y has 2 columns; expected 1"):
         estimate_noise(duffing(), u, np.zeros((40, 2)))
+    # before: R = 1.27e-14 from 3 samples
+    with pytest.raises(ValueError, match=r"estimate_noise needs at least 30 samples \(10 per estimated variance: 2 "
+                                         r"of Q, 1 of R\); got 3"):
+        estimate_noise(duffing(), u[:3], y[:3])
 
 
 def test_a_bad_horizon_is_refused_before_filtering(rng):
@@ -530,3 +534,19 @@ def test_a_covariance_that_is_no_number_says_so(Q, match):
         extended_kalman_filter(model, u, y, Q=Q, R=1e-4)
     with pytest.raises(ValueError, match=match.replace("Q", "R", 1) if Q is not None else r"R is None"):
         extended_kalman_filter(model, u, y, Q=1e-6, R=Q)
+
+
+def test_the_filter_and_k_step_tools_say_they_take_sindy_family_models_only(rng):
+    from sindybench.baselines import ARX, NNARX
+
+    u = drive(80, rng)
+    y = simulate(DUFFING, [0.2, 0.0], u, DT)[:, :1]
+    for model in (ARX().fit(u, y), NNARX(hidden_layer_sizes=(2,), max_iter=5, random_state=0).fit(u, y)):
+        for call in (lambda: extended_kalman_filter(model, u, y, Q=1e-6, R=1e-4),
+                     lambda: k_step_rmse(model, u, y, 3, Q=1e-6, R=1e-4)):
+            # before: "ARX is not fitted (or not a sindybench model)" of a fitted ARX
+            with pytest.raises(ValueError, match=f"{type(model).__name__} has no state-space dynamics: .* take "
+                                                 "SINDy-family models only .* ARX and NN-ARX predict from past"):
+                call()
+    with pytest.raises(ValueError, match="SINDy is not fitted; expected a fitted SINDy"):
+        extended_kalman_filter(SINDy(), u, y, Q=1e-6, R=1e-4)

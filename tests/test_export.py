@@ -76,6 +76,13 @@ def test_simulate_casadi_checks_shapes():
     cm = to_casadi(ModelStep.from_rhs(MIXED, DT, n_inputs=1))
     with pytest.raises(ValueError, match=r"expected \(3,\) and \(n_samples, 1\)"):
         simulate_casadi(cm, [0.0, 0.0], np.zeros((5, 1)))
+    # before: NaN rows from a NaN input, silently
+    u = np.zeros((5, 1))
+    u[2] = np.nan
+    with pytest.raises(ValueError, match=r"u contains NaN or inf \(first at sample 2\)"):
+        simulate_casadi(cm, [0.0, 0.0, 0.1], u)
+    with pytest.raises(ValueError, match="x0 = .* contains NaN or inf"):
+        simulate_casadi(cm, [np.nan, 0.0, 0.1], np.zeros((5, 1)))
 
 
 def test_a_user_operation_is_named_when_it_has_no_casadi_form():

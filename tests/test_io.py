@@ -146,17 +146,20 @@ def test_refined_models_keep_their_refinement(fitted_models, saved, name):
 
 
 def test_refitted_values_survive_the_round_trip(fitted_models, tmp_path):
-    """Fitted arrays changed after fit (as a refinement does) are stored, not recomputed from the strategy."""
+    """Fitted arrays changed after fit are stored, not recomputed; the fixed rows follow the physical parameters."""
     model = clone(fitted_models["BoucWenHiddenState"][0])
     _, X, y, X_test, y_test = fitted_models["BoucWenHiddenState"]
     model.fit(X, y)
-    model.structure_.fixed_coef[:, 1] *= 1.01
     model.coef_ = model.coef_ * 0.99
     model.x0_ = model.x0_ + 1e-4
+    model.hidden_ = clone(model.hidden_).set_params(k=model.params_["k"] * 1.01)  # another fixed k, and with it:
+    model.params_ = {**model.params_, "k": model.hidden_.k}
+    model.structure_ = model.hidden_.structure(model.params_, n_outputs=1, n_inputs=1)
     model._rebuild_model()
     model.to_json(tmp_path / "m.json")
     loaded = load_model(tmp_path / "m.json")
     np.testing.assert_array_equal(loaded.structure_.fixed_coef, model.structure_.fixed_coef)
+    np.testing.assert_array_equal(loaded.coef_, model.coef_)
     assert np.array_equal(loaded.predict(X_test, y_init=y_test[:50]), model.predict(X_test, y_init=y_test[:50]))
     with pytest.warns(UserWarning, match="predict without y_init"):
         assert np.array_equal(loaded.predict(X_test), model.predict(X_test))

@@ -252,7 +252,7 @@ def test_a_function_is_saved_only_where_loading_accepts_one(tmp_path):
     ("TanksHiddenState", ["fitted", "library", "library", "estimator", "params", "libraries", 1, "estimator", "params",
                           "lower"], "", "fitted.library.library: ConcatLibrary.* refused its parameters on 3 columns"),
     ("TanksHiddenState", ["fitted", "structure", "bounds"], {"tuple": [0.0, 2.0]},
-     r"fitted.x0: x0\[0\] = .* is outside fitted.structure.bounds \[0.0, 2.0\]"),
+     r"fitted.structure.bounds differs from what TanksHiddenState derives from fitted.params"),
     ("TanksHiddenState", ["fitted", "structure", "bounds"], {"tuple": [0.0, "high"]},
      "fitted.structure.bounds: expected .lower, upper. of 2 states"),
     ("SINDy", ["params", "bounds"], {"tuple": [0.0, {"dict": {}}]}, "params: float.. argument must be"),

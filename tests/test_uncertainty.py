@@ -302,11 +302,18 @@ def test_ensemble_is_a_scikit_learn_estimator(estimator, check):
 
 
 # ------------------------------------------------------------------ diverging members, bands of other ensembles
+_FITTED = {}
+
+
 def _ensemble_with_diverging_members(n_diverging, n_members=5):
     """A fitted 5-member ensemble of ``y' = -y + 2 u`` whose first ``n_diverging`` members are made to blow up."""
+    import copy
+
     u, x = first_order_record()
     y = x + noise(np.random.default_rng(3), len(x), 0.02)
-    ens = BootstrapEnsemble(sindy(refine=False), n_members=n_members, random_state=0).fit(u, y)
+    if n_members not in _FITTED:  # fitted once per size; each caller edits its own copy
+        _FITTED[n_members] = BootstrapEnsemble(sindy(refine=False), n_members=n_members, random_state=0).fit(u, y)
+    ens = copy.deepcopy(_FITTED[n_members])
     for member in ens.members_[:n_diverging]:
         member.coef_ = member.coef_.copy()
         member.coef_[0, 1] = 50.0  # y' = +50 y + ...: e^1000 over the record

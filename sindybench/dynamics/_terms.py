@@ -45,7 +45,10 @@ def check_terms(terms, n_variables=None, *, name="terms"):
                 if op < USER:
                     raise ValueError(f"{name}[{j}] has unknown operation {op}; expected one of {BUILTIN_OPS} "
                                      f"or a registered user operation (>= {USER}).")
-                user_op(op)
+                try:
+                    user_op(op)
+                except ValueError as exc:
+                    raise ValueError(f"{name}[{j}]: {exc}") from exc
             if col < 0 or (n_variables is not None and col >= n_variables):
                 hi = "" if n_variables is None else f" in [0, {n_variables - 1}]"
                 raise ValueError(f"{name}[{j}] uses column {col} of Z; expected columns{hi}.")

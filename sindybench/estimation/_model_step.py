@@ -15,6 +15,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._base import DynamicsEstimator
 from .._validation import check_bounds, check_dt, check_integer, check_option, check_positive
 from ..dynamics import TermsRHS, check_output_index, step_model
 
@@ -203,10 +204,14 @@ def model_step(model):
     if isinstance(model, ModelStep):
         return model.checked()
     name = type(model).__name__
+    if not isinstance(model, DynamicsEstimator):
+        raise ValueError(f"{name} has no state-space dynamics: the Kalman filter, the smoother, the k-step "
+                         "prediction, the noise estimate, the linearization and the CasADi export take SINDy-family "
+                         "models only (a fitted SINDy or HiddenStateSINDy, or a ModelStep); ARX and NN-ARX predict "
+                         "from past outputs and have no state to filter.")
     dyn = getattr(model, "dynamics_", None)  # the fitted-dynamics contract of every sindybench estimator
     if dyn is None:
-        raise ValueError(f"{name} is not fitted (or not a sindybench model); expected a fitted SINDy or "
-                         "HiddenStateSINDy.")
+        raise ValueError(f"{name} is not fitted; expected a fitted SINDy or HiddenStateSINDy.")
     if not isinstance(dyn.rhs, TermsRHS):
         raise ValueError(f"{name} has a Python right-hand side (a custom library or Python fixed rows); the "
                          "estimators need the compiled one (libraries with terms_).")

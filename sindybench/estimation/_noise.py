@@ -10,6 +10,9 @@ from ._model_step import model_step, state_spread
 
 __all__ = ["estimate_noise"]
 
+_SAMPLES_PER_VARIANCE = 10
+"""The fewest samples per estimated variance that :func:`estimate_noise` takes."""
+
 
 def _difference_noise(y):
     """Noise variance of each column from third differences (white noise: ``var(diff3) = 20 sigma^2``)."""
@@ -75,9 +78,13 @@ def estimate_noise(model, X, y, *, max_samples=20000, max_iter=None):
     X, y = check_record(m, X, y)
     max_samples = check_integer(max_samples, "max_samples", low=10)
     X, y = X[:max_samples], y[:max_samples]
+    n, n_out = m.n_states, y.shape[1]
+    need = _SAMPLES_PER_VARIANCE * (n + n_out)
+    if y.shape[0] < need:  # 3 samples gave R = 1.27e-14: no third difference, a likelihood of nothing
+        raise ValueError(f"estimate_noise needs at least {need} samples ({_SAMPLES_PER_VARIANCE} per estimated "
+                         f"variance: {n} of Q, {n_out} of R); got {y.shape[0]}.")
     scale2 = _state_scale(m, X, y) ** 2
     r0 = _difference_noise(y)
-    n, n_out = m.n_states, y.shape[1]
 
     def covariances(theta):
         return np.diag(np.exp(theta[:n]) * scale2), np.diag(np.exp(theta[n:]) * r0)

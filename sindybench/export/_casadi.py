@@ -8,6 +8,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from .._validation import check_signal
 from ..dynamics import ABS_POW, POW, SIGN, SQRT, STEP, USER
 from ..dynamics._user import user_op
 from ..estimation import model_step
@@ -191,11 +192,13 @@ def simulate_casadi(cm, x0, u):
     >>> np.round(simulate_casadi(cm, [1.0], np.zeros((3, 0)))[:, 0], 4).tolist()
     [1.0, 0.9048, 0.8187]
     """
-    u = np.asarray(u, dtype=float).reshape(len(u), -1)
+    u = check_signal(np.asarray(u, dtype=float).reshape(len(u), -1), "u")  # NaN or inf: an error, not NaN rows
     x0 = np.asarray(x0, dtype=float).reshape(-1)
     if x0.shape != (cm.n_states,) or u.shape[1] != cm.n_inputs:
         raise ValueError(f"x0 has shape {x0.shape} and u {u.shape}; expected ({cm.n_states},) and "
                          f"(n_samples, {cm.n_inputs}).")
+    if not np.all(np.isfinite(x0)):
+        raise ValueError(f"x0 = {x0} contains NaN or inf; expected finite values.")
     if len(u) < 2:
         return x0[None, :].copy()
     run = cm.step.mapaccum("run", len(u) - 1)

@@ -344,14 +344,12 @@ def _mixing_is_free(strategy, model, j, i, n_points=None, rtol=1e-8):
     n, m = s.n_states, int(model.n_features_in_)
     p = len(s.output_index)
     cz = p * int(strategy.order) + j
-    rng = np.random.default_rng(0)
-    states = np.asarray(model.states_ if not isinstance(model.states_, list) else model.states_[0], dtype=float)
-    states = states[np.all(np.isfinite(states), axis=1)]
+    rng = np.random.default_rng(0)  # generic points around the first state: the check is algebraic
+    x0 = np.asarray(model.x0_, dtype=float)
     n_points = n_points or 4 * len(terms) + 10
-    x = states[rng.integers(0, len(states), n_points)] if len(states) else np.zeros((n_points, n))
-    x = x + rng.standard_normal(x.shape) * (np.std(states, axis=0) + 1.0) * 0.1 if len(states) else x
+    x = x0 + rng.standard_normal((n_points, n)) * (1.0 + np.abs(x0))
     u = rng.standard_normal((n_points, m))
-    k = 0.1 * (np.std(x[:, cz]) + 1.0) / (np.std(x[:, i]) + 1.0)
+    k = 0.1 * (1.0 + abs(x0[cz])) / (1.0 + abs(x0[i]))
     back = x.copy()
     back[:, cz] -= k * x[:, i]  # T^-1 x: the original coordinates
     with np.errstate(all="ignore"):

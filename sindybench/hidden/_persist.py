@@ -46,6 +46,7 @@ from .._validation import check_bounds
 from ..io import check_limit, check_params, encode_array, encode_value, fitted_to_dict
 from ..libraries import check_terms, fitted_library_from_dict, fitted_library_to_dict, terms_to_json
 from ..libraries._spec import MAX_COLUMNS
+from .._covariance import check_refinement_record
 from ._base import HiddenStrategy, Structure
 from ._parametric import MAX_GRID_POINTS as MAX_GRID  # grid points a strategy's initial-state search may ask for
 
@@ -90,6 +91,75 @@ def _structure_from_dict(f, hidden, params, n_outputs, n_inputs):
         bounds=f.value("bounds", allow_none=True),
         fixed_rhs=fixed_rhs,
     )
+
+
+def _check_derived_structure(s, hidden, params, n_outputs, n_inputs):
+    """The stored structure is what the strategy derives from ``params``: every field the same.
+
+    Fixed rows, which states are measured, names and bounds all follow from the
+    strategy and its parameters; a file that says otherwise (a fixed
+    coefficient of 0.5 beside k1 = 0.04, an output index on the hidden state,
+    swapped names, another bound) is refused.
+    """
+    try:
+        derived = hidden.structure(params, n_outputs=n_outputs, n_inputs=n_inputs)
+    except (ValueError, TypeError, KeyError) as exc:
+        raise ValueError(f"fitted.structure: {type(hidden).__name__} cannot derive it from fitted.params: {exc}") \
+            from exc
+    try:
+        lo, hi = check_bounds(s.bounds, s.n_states, name="fitted.structure.bounds")
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"fitted.structure.bounds: expected (lower, upper) of {s.n_states} states; {exc}") from exc
+    dlo, dhi = check_bounds(derived.bounds, derived.n_states)
+    checks = {
+        "n_states": s.n_states == derived.n_states,
+        "learned": tuple(s.learned) == tuple(derived.learned),
+        "output_index": tuple(s.output_index) == tuple(derived.output_index),
+        "state_names": list(s.state_names) == list(derived.state_names),
+        "fixed_terms": [tuple(t) for t in s.fixed_terms] == [tuple(t) for t in check_terms(derived.fixed_terms)],
+        "fixed_coef": np.shape(s.fixed_coef) == np.shape(derived.fixed_coef)
+        and np.allclose(s.fixed_coef, derived.fixed_coef, rtol=1e-12, atol=0.0),
+        "bounds": lo.shape == dlo.shape and np.array_equal(lo, dlo) and np.array_equal(hi, dhi),
+        "fixed_rhs": (s.fixed_rhs is None) == (derived.fixed_rhs is None),
+    }
+    wrong = [name for name, ok in checks.items() if not ok]
+    if wrong:
+        name = wrong[0]
+        value = getattr(derived, name)
+        raise ValueError(f"fitted.structure.{name} differs from what {type(hidden).__name__} derives from "
+                         f"fitted.params ({_short(value)}); expected the structure of the fitted strategy.")
+
+
+def _short(value, limit=120):
+    text = repr(value.tolist() if isinstance(value, np.ndarray) else value)
+    return text if len(text) <= limit else text[:limit] + "..."
+
+
+def _check_states(states):
+    """The training trajectory: finite (or NaN from a divergence to the end, as the simulator writes it)."""
+    finite = np.all(np.isfinite(states), axis=1)
+    if not finite.all():
+        k = int(np.argmax(~finite))
+        if finite[k:].any() or not np.all(np.isnan(states[k:])):
+            raise ValueError(f"fitted.states: row {k} is not finite; expected the training trajectory (finite, or "
+                             "NaN from a divergence to the end).")
+
+
+def _check_fixed_params(hidden, params, refined):
+    """A physical parameter the strategy fixes (its constructor value, or the latent gauge) is that value in
+    ``params_``, unless a refinement moved it."""
+    moved = set(hidden.refinable(params)) if refined else set()
+    own = hidden.get_params(deep=False)
+    expected = {k: own[k] for k in params
+                if isinstance(own.get(k), (int, float)) and not isinstance(own.get(k), bool)}
+    try:  # what resolve_params puts back (a gauge: LatentHiddenState's gain with scale="driver")
+        expected.update({k: v for k, v in hidden.resolve_params(params).items() if k in params and v != params[k]})
+    except (ValueError, TypeError, KeyError):
+        pass  # parameters searched under other names (TanksHiddenState's ratio): the constructor values only
+    for name, value in expected.items():
+        if name not in moved and not np.isclose(params[name], value, rtol=1e-12, atol=0.0):
+            raise ValueError(f"fitted.params[{name!r}] = {params[name]!r}, but {type(hidden).__name__} fixes it at "
+                             f"{value!r} and no refinement moved it; expected the fitted value.")
 
 
 def hidden_sindy_to_dict(model):
@@ -170,6 +240,7 @@ def hidden_sindy_from_dict(model, fitted):
         raise ValueError(f"fitted.search_results: expected a list of (values, score); got {type(results).__name__}.")
     model.search_results_ = results
     s = _structure_from_dict(fitted.fields("structure"), hidden, model.params_, n_outputs, n_inputs)
+    _check_derived_structure(s, hidden, model.params_, n_outputs, n_inputs)
     model.structure_ = s
     model.library_ = fitted_library_from_dict(fitted.fields("library"), s.n_states + n_inputs)
     model.coef_ = fitted.array("coef", (len(s.learned), len(model.library_.terms_)), finite=True)
@@ -192,4 +263,7 @@ def hidden_sindy_from_dict(model, fitted):
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
     load_scaling(model, fitted)
+    _check_states(model.states_)
+    _check_fixed_params(hidden, model.params_, model.refinement_ is not None)
     model._rebuild_model()
+    check_refinement_record(model)

@@ -19,7 +19,7 @@ import warnings
 
 import numpy as np
 
-from .._covariance import ParameterCovariance
+from .._covariance import ParameterCovariance, parameter_names
 from .._residual_tests import ModelErrorWarning, ResidualTest
 
 __all__ = ["coef_errors", "confidence_intervals", "model_covariance", "standard_errors", "warn_model_error"]
@@ -73,24 +73,6 @@ def model_covariance(model, kind="white"):
         raise ValueError(f"kind must be one of {sorted(record['covariance'])}; got {kind!r}.")
     warn_model_error(record, kind, stacklevel=5)  # the caller of the estimator's method
     return ParameterCovariance.from_dict(record["covariance"][kind])
-
-
-def parameter_names(parameters, rows):
-    """Readable names of covariance parameters, given the estimator's equation rows."""
-    out = []
-    for q in parameters:
-        if q[0] == "physical":
-            out.append(str(q[1]))
-        elif q[0] == "coef":
-            row = rows[int(q[2])]
-            out.append(f"{row.name}': {row.features[int(q[1])]}")
-        elif q[0] == "gain":  # prediction error: ("gain", state, output) of the observer gain K
-            out.append(f"K[{rows[int(q[1])].name}, {int(q[2])}]")
-        elif len(q) > 2:  # several records: ("x0", state, record)
-            out.append(f"{rows[int(q[1])].name}(0) [record {int(q[2])}]")
-        else:
-            out.append(f"{rows[int(q[1])].name}(0)")
-    return out
 
 
 def standard_errors(model, kind="white"):

@@ -421,7 +421,8 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
             warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=4)
             return None, {"status": -1, "message": f"skipped: {exc}"}
         if result.residuals is not None:  # recorded for standard_errors to warn on (see uncertainty)
-            result = result._replace(residual_test=refinement_residual_test(result.residuals, result.n_outputs, u))
+            used = [self.refine._head(u_r) for u_r in u] if isinstance(u, list) else self.refine._head(u)  # max_samples
+            result = result._replace(residual_test=refinement_residual_test(result.residuals, result.n_outputs, used))
         return result, None
 
     def __sklearn_tags__(self):

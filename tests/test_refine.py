@@ -514,3 +514,20 @@ def test_first_residuals_reuse_the_start_simulation(duffing, monkeypatch):
     np.testing.assert_array_equal(r, ((fresh[:, :1] - y) / np.std(y, axis=0)).ravel() / np.sqrt(y.size))
     problem.residuals(p0 + 1e-3)  # another point simulates
     assert calls == [1]
+
+
+def test_a_refinement_on_the_first_samples_records_the_residual_test_of_those_samples():
+    # the residual test paired the residuals of max_samples with the whole record's inputs (a reshape error
+    # that ended every fit with max_samples shorter than the record)
+    from sindybench import SINDy
+    from sindybench.libraries import PolynomialLibrary
+    from sindybench.refine import OutputErrorRefinement
+
+    rng = np.random.default_rng(0)
+    u = np.repeat(rng.uniform(-1, 1, 40), 10)[:, None]
+    y = np.zeros((400, 1))
+    for t in range(399):
+        y[t + 1] = y[t] + 0.05 * (-y[t] + u[t])
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=0.05,
+                  refine=OutputErrorRefinement(max_samples=120)).fit(u, y + 0.01 * rng.normal(size=y.shape))
+    assert model.refinement_["residual_test"]["n_samples"] == 120

@@ -19,6 +19,7 @@ MODULES = (
     ("sindybench.plotting", "Plotting"),
     ("sindybench.search", "Search spaces and the Optuna driver"),
     ("sindybench.model_selection", "Model selection"),
+    ("sindybench.identify", "Identification from data: the data advice"),
     ("sindybench.baselines", "Baselines"),
     ("sindybench.io", "Saving and loading models"),
     ("sindybench.datasets", "Datasets"),

@@ -175,3 +175,18 @@ def test_hidden_bounds_replace_the_strategys(rng):
     model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=1), library=PolynomialLibrary(degree=1), dt=DT,
                              bounds=(-0.05, 0.05)).fit(u, y)
     assert np.all(np.abs(model.simulate(u, x0=[0.0])) <= 0.05)
+
+
+def test_hidden_searches_normalize_and_refuses_to_search_the_delay(rng):
+    from sindybench.search import Categorical
+
+    u = _input(800, rng)
+    y = _delayed_system(u, 0, offset=20.0)
+    kw = dict(hidden=DerivativeHiddenState(order=1), library=PolynomialLibrary(degree=2), dt=DT,
+              optimizer=STLS(threshold=0.05), n_trials=4, random_state=0, show_progress_bar=False)
+    model = HiddenStateSINDy(search_params={"normalize": Categorical([False, True])}, **kw).fit(u, y)
+    assert {values["normalize"] for values, _ in model.search_results_} == {False, True}
+    scores = {values["normalize"]: score for values, score in model.search_results_}
+    assert scores[True] != scores[False]  # the trial's value reached the regression
+    with pytest.raises(ValueError, match="search_params names input_delay, which shifts the data"):
+        HiddenStateSINDy(search_params={"input_delay": Categorical([0, 1])}, **kw).fit(u, y)

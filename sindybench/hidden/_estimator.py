@@ -296,6 +296,10 @@ class HiddenStateSINDy(DynamicsEstimator):
                 f"search_params {bad} name strategy parameters; leave them None in the strategy "
                 "(with their bounds) to search them."
             )
+        if "input_delay" in space:
+            raise ValueError("search_params names input_delay, which shifts the data before the inner search; search "
+                             "it from outside (sindybench.model_selection.tune, GridSearchCV) or estimate it with "
+                             "sindybench.identify.estimate_delay.")
         valid = self.get_params(deep=True)
         unknown = [k for k in space if k not in valid]
         if unknown:
@@ -447,7 +451,7 @@ class HiddenStateSINDy(DynamicsEstimator):
             derivative = Derivative(differentiation, dt)
         fit = fit_candidate_records if isinstance(y, list) else fit_candidate
         return fit(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
-                   self._simulation(dt), normalize=self.normalize)
+                   self._simulation(dt), normalize=est_values.get("normalize", self.normalize))
 
     def _refine(self, hidden, cand, X, y):
         """The candidate refined by simulation error, its refined first state and the refinement record.

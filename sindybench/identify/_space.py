@@ -1,0 +1,208 @@
+"""The candidate structures of ``identify``: model families, graded libraries, settings the data decides.
+
+A *structure* is a plain dict of named settings (``family``, ``library``,
+``derivative``, ``input_hold``); :func:`make_estimator` turns a structure and a
+threshold into an ordinary, unfitted :class:`~sindybench.SINDy` or
+:class:`~sindybench.HiddenStateSINDy`. Everything here reads the estimation
+record only (never a benchmark's physics): the derivative's bandwidth from
+the output's spectrum, the input hold from the input's shape, the hard terms
+from what the signals do (a velocity that changes sign proposes Coulomb
+friction, a positive output proposes square roots, an output that sits at its
+maximum proposes a regime indicator at that level).
+"""
+
+import numpy as np
+
+__all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
+
+#: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3
+FAMILIES = ("first_order", "order2", "order3")
+_ORDER = {"first_order": 1, "order2": 2, "order3": 3}
+#: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
+LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
+_DEGREE = {"linear": 1, "poly2": 2, "poly3": 3}
+# an output counts as saturated when this fraction of its samples sit at its maximum (within 1e-9 of the range)
+_SATURATION_FRACTION = 0.01
+# a velocity "changes sign" when each sign holds at least this fraction of the samples
+_SIGN_FRACTION = 0.05
+
+
+def _bandwidth(y, dt):
+    """The frequency below which 99.99 % of the power of the detrended outputs lies (clamped to the band)."""
+    fs = 1.0 / dt
+    n = y.shape[0]
+    t = np.arange(n)
+    power = np.zeros(n // 2 + 1)
+    for col in y.T:
+        resid = col - np.polyval(np.polyfit(t, col, 1), t)
+        power += np.abs(np.fft.rfft(resid * np.hanning(n))) ** 2
+    freqs = np.fft.rfftfreq(n, dt)
+    cum = np.cumsum(power)
+    if cum[-1] <= 0:
+        return fs / 4
+    f_c = float(freqs[np.searchsorted(cum, (1.0 - 1e-4) * cum[-1])])
+    return float(np.clip(f_c, fs / 400, fs / 4))
+
+
+def _savgol_window(f_c, dt, polyorder=3):
+    """Odd Savitzky-Golay window whose -3 dB cutoff is near ``f_c`` (Schafer's rule), at least 5 samples."""
+    w = ((polyorder + 1) / (f_c * dt) + 4.6) / 3.2
+    w = int(np.clip(round(w), polyorder + 2, 201))
+    return w if w % 2 else w + 1
+
+
+def _input_hold(X):
+    """``"zoh"`` when the input is piecewise constant (most consecutive samples equal), else ``"linear"``."""
+    if X.shape[1] == 0 or X.shape[0] < 3:
+        return "zoh"
+    same = np.mean(np.all(np.diff(X, axis=0) == 0.0, axis=1))
+    return "zoh" if same > 0.5 else "linear"
+
+
+def data_settings(X, y, dt):
+    """What the estimation record decides before any fit: bandwidth, derivative methods, input hold, hard terms.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_inputs)
+    y : ndarray of shape (n_samples, n_outputs)
+    dt : float
+
+    Returns
+    -------
+    dict
+        ``bandwidth`` (Hz for seconds), ``derivatives`` (name -> method
+        parameters), ``input_hold`` (the hold the input's shape suggests),
+        ``positive`` (every output > 0), ``saturation`` (the level at which an
+        output sits at its maximum, per output, or None).
+
+    Examples
+    --------
+    >>> t = np.arange(2000) * 0.01
+    >>> s = data_settings(np.sin(t)[:, None], np.cos(t)[:, None] + 2.0, 0.01)
+    >>> s["input_hold"], s["positive"], s["saturation"]
+    ('linear', True, [None])
+    """
+    f_c = _bandwidth(y, dt)
+    window = _savgol_window(f_c, dt)
+    derivatives = {"finite_difference": {}, f"savgol_{window}": {"window_length": window},
+                   f"spectral_{f_c:.3g}": {"cutoff": f_c}}
+    saturation = []
+    for col in y.T:
+        top, span = col.max(), np.ptp(col)
+        at_top = np.mean(col >= top - 1e-9 * max(span, 1e-300))
+        saturation.append(float(top) if span > 0 and at_top >= _SATURATION_FRACTION else None)
+    return {"bandwidth": f_c, "derivatives": derivatives, "input_hold": _input_hold(X),
+            "positive": bool(np.all(y > 0)), "saturation": saturation}
+
+
+def _differentiation(name, params):
+    from ..differentiation import FiniteDifference, SavitzkyGolay, Spectral
+
+    if name.startswith("savgol"):
+        return SavitzkyGolay(window_length=params["window_length"], polyorder=3)
+    if name.startswith("spectral"):
+        return Spectral(cutoff=params["cutoff"], taper=0.5)
+    return FiniteDifference()
+
+
+def _hard_terms(family, settings, velocity_sign_changes, n_outputs, n_inputs):
+    """The proposed hard-term libraries of a family over ``Z = [states, inputs]`` (a list, maybe empty)."""
+    from ..libraries import FrictionLibrary, IndicatorLibrary, SqrtLibrary
+
+    order = _ORDER[family]
+    out = list(range(n_outputs))
+    libs = []
+    if order >= 2 and velocity_sign_changes:
+        libs.append(FrictionLibrary(variables=list(range(n_outputs, 2 * n_outputs))))
+    if settings["positive"]:
+        libs.append(SqrtLibrary(variables=out, lower=0.0))
+    n_states = order * n_outputs
+    for i, level in enumerate(settings["saturation"]):
+        if level is not None:
+            libs.append(IndicatorLibrary(variables=[i], lower=level,
+                                         times=list(range(n_states, n_states + n_inputs)) or None))
+    return libs
+
+
+def _library(name, family, settings, velocity_sign_changes, n_outputs, n_inputs):
+    from ..libraries import PolynomialLibrary
+
+    base = name.split("+")[0]
+    lib = PolynomialLibrary(degree=_DEGREE[base])
+    if name.endswith("+hard"):
+        hard = _hard_terms(family, settings, velocity_sign_changes, n_outputs, n_inputs)
+        if not hard:
+            return None
+        for extra in hard:
+            lib = lib + extra
+    return lib
+
+
+def _sign_changes(y, dt):
+    """Whether the outputs' velocity (a central difference) takes both signs often (friction can matter)."""
+    v = np.gradient(y, dt, axis=0)
+    return bool(np.all([min(np.mean(c > 0), np.mean(c < 0)) >= _SIGN_FRACTION for c in v.T]))
+
+
+def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None):
+    """Every candidate structure (family x library x derivative) with its library object.
+
+    Returns
+    -------
+    list of (dict, library)
+        The structure's settings (strings, for the results table) and the library of
+        :func:`make_estimator`; ``"+hard"`` libraries appear only where the data proposes terms.
+    """
+    n_outputs, n_inputs = y.shape[1], X.shape[1]
+    velocity_sign_changes = _sign_changes(y, dt)
+    derivs = settings["derivatives"] if derivatives is None else {
+        k: v for k, v in settings["derivatives"].items() if k in derivatives or k.split("_")[0] in derivatives}
+    hold = settings["input_hold"] if input_hold is None else input_hold
+    out = []
+    for family in families:
+        for lib_name in libraries:
+            lib = _library(lib_name, family, settings, velocity_sign_changes, n_outputs, n_inputs)
+            if lib is None:
+                continue
+            for d_name in derivs:
+                if family == "first_order" and lib_name.endswith("+hard") and d_name != next(iter(derivs)):
+                    continue
+                out.append(({"family": family, "library": lib_name, "derivative": d_name, "input_hold": hold},
+                            lib))
+    return out
+
+
+def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
+    """An unfitted estimator of ``structure`` with an STLS threshold on normalized columns.
+
+    ``first_order`` is :class:`~sindybench.SINDy`; ``order2`` and ``order3``
+    are :class:`~sindybench.HiddenStateSINDy` with
+    :class:`~sindybench.hidden.DerivativeHiddenState`. ``refine`` (an
+    :class:`~sindybench.refine.OutputErrorRefinement`) refines the fit by its
+    simulation error, and a refined hidden-state model starts new data by
+    least squares on its first samples (``initial_state="fit"``).
+    """
+    from sklearn.base import clone
+
+    from .. import STLS, HiddenStateSINDy, SINDy
+    from ..hidden import DerivativeHiddenState
+
+    optimizer = STLS(threshold=float(threshold), alpha=1e-9, normalize_columns=True)
+    d_name = structure["derivative"]
+    differentiation = _differentiation(d_name, settings["derivatives"].get(d_name, {}))
+    hold = structure["input_hold"]
+    if structure["family"] == "first_order":
+        return SINDy(library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
+                     input_hold=hold, refine=refine)
+    order = _ORDER[structure["family"]]
+    return HiddenStateSINDy(hidden=DerivativeHiddenState(order=order), library=clone(library), optimizer=optimizer,
+                            differentiation=differentiation, dt=dt, input_hold=hold, refine=refine,
+                            initial_state="fit" if refine is not None else "strategy", show_progress_bar=False)
+
+
+def n_terms(estimator):
+    """Nonzero learned coefficients of a fitted estimator (the model's complexity), the most and the fewest in one row."""
+    nonzero = np.asarray(estimator.coef_) != 0
+    per_row = nonzero.sum(axis=1) if nonzero.size else np.zeros(1, dtype=int)
+    return int(nonzero.sum()), int(per_row.max()), int(per_row.min())

@@ -85,7 +85,7 @@ returned by :func:`sindybench.model_selection.tune` is drawn the same way):
 from ._band import plot_prediction_band
 from ._coefficients import coefficient_table, plot_coefficients
 from ._common import MAX_POINTS
-from ._search import plot_search_history
+from ._search import plot_pareto_front, plot_search_history
 from ._simulation import plot_hidden_states, plot_hysteresis, plot_simulation
 
 __all__ = [
@@ -94,6 +94,7 @@ __all__ = [
     "plot_coefficients",
     "plot_hidden_states",
     "plot_hysteresis",
+    "plot_pareto_front",
     "plot_prediction_band",
     "plot_search_history",
     "plot_simulation",

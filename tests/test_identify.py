@@ -165,7 +165,7 @@ def test_bad_parameters(oscillator, kwargs, match):
 def test_bad_data(oscillator):
     u, y = oscillator
     with pytest.raises(ValueError, match="too few for 3 validation blocks"):
-        IdentifyCV(dt=DT).fit(u[:80], y[:80])
+        IdentifyCV(dt=DT).fit(u[:60], y[:60])
     with pytest.raises(ValueError, match="input column 0 is constant"):
         IdentifyCV(dt=DT).fit(np.ones_like(u), y)
     with pytest.raises(ValueError, match="NaN"):
@@ -174,8 +174,8 @@ def test_bad_data(oscillator):
         IdentifyCV(dt=DT).fit(u, y_nan)
     with pytest.raises(ValueError, match="dt is None"):
         IdentifyCV().fit(u, y)
-    with pytest.raises(ValueError, match="n_init=450 leaves no validation block"):
-        IdentifyCV(dt=DT, n_init=450).fit(u, y)
+    with pytest.raises(ValueError, match="too few for 3 validation blocks of 1002 samples"):
+        IdentifyCV(dt=DT, n_init=1000).fit(u, y)
 
 
 def test_helpers():

@@ -9,7 +9,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from .._progress import progress_bar
-from .._validation import check_bool, check_dt, check_inputs_outputs, check_integer, check_option, check_positive
+from .._validation import check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option, check_positive
 from ._search import evaluate, pareto_front, parsimonious_index, path_thresholds, validation_blocks
 from ._space import FAMILIES, LIBRARIES, data_settings, make_estimator, structures
 
@@ -17,7 +17,7 @@ __all__ = ["IdentifyCV", "identify"]
 
 _HOLDS = ("zoh", "linear")
 # fewest samples a fold may train on
-_MIN_TRAIN = 50
+_MIN_TRAIN = 5
 # first samples that start a simulation of new data, unless n_init says
 _N_INIT = 20
 # the most a screening stage keeps, whatever the fraction
@@ -198,8 +198,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     ...                     derivatives=["finite_difference"], n_refine=0, show_progress_bar=False).fit(u, y)
     >>> search.best_estimator_.equations(precision=2)
     ["y0' = -2.00 y0 + 1.00 u0"]
-    >>> search.best_params_["library"], search.best_params_["input_hold"]
-    ('linear', 'linear')
+    >>> search.best_params_["family"], search.best_params_["input_hold"]
+    ('first_order', 'linear')
     """
 
     def __init__(self, *, dt=None, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None,
@@ -271,7 +271,12 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             raise ValueError("IdentifyCV requires y to be passed, but the target y is None; expected the outputs.")
         if isinstance(y, list) and y and hasattr(y[0], "shape"):
             raise ValueError("IdentifyCV takes one record (arrays X and y); several records are not supported yet.")
+        check_array_like(X, "X")
+        check_array_like(y, "y")
         X, y = check_inputs_outputs(X, y)
+        if y.shape[0] < 2 * _MIN_TRAIN:
+            raise ValueError(f"y has {y.shape[0]} sample(s) (n_samples = {y.shape[0]}); identify needs at least "
+                             f"{2 * _MIN_TRAIN} to train and validate a candidate.")
         for j, col in enumerate(X.T):
             if np.ptp(col) == 0:
                 raise ValueError(f"input column {j} is constant ({col[0]!r}); a constant input cannot be told apart "
@@ -299,17 +304,15 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self
         """
         dt = self._check_params(dt)
+        y_1d = y is not None and np.asarray(y).ndim == 1
         X, y = self._check_data(X, y)
         n = y.shape[0]
-        blocks = validation_blocks(n, self.n_blocks, self.block_size, _MIN_TRAIN)
+        n_init = self.n_init if self.n_init is not None else _N_INIT
+        blocks = validation_blocks(n, self.n_blocks, self.block_size, _MIN_TRAIN, min_block=n_init + 2)
         settings = data_settings(X[: blocks[-1][0]], y[: blocks[-1][0]], dt)
         structs = structures(X, y, dt, settings, families=self.families, libraries=self.libraries,
                              derivatives=self.derivatives, input_hold=self.input_hold)
         budget = _Budget(self.time_budget, self.max_candidates)
-        n_init = self.n_init if self.n_init is not None else _N_INIT
-        if n_init >= blocks[0][1] - blocks[0][0]:
-            raise ValueError(f"n_init={n_init} leaves no validation block to score: the blocks have "
-                             f"{blocks[0][1] - blocks[0][0]} samples; expected a smaller n_init or a longer record.")
         scale = np.std(y[: blocks[-1][0]], axis=0)
         ctx = {"X": X, "y": y, "dt": dt, "settings": settings, "blocks": blocks, "n_init": n_init,
                "scale": np.where(scale > 0, scale, 1.0), "window": self.screen_window, "deadline": budget.deadline,
@@ -366,7 +369,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                  for i in pareto_front(list(mean), terms)]
         chosen = {k: rows[best][k] for k in ("family", "library", "derivative", "input_hold", "threshold", "refine")}
         final = make_estimator(chosen, libraries[best], chosen["threshold"], dt, settings,
-                               refine=refinement if chosen["refine"] else None).fit(X, y)
+                               refine=refinement if chosen["refine"] else None).fit(X, y[:, 0] if y_1d else y)
         self.settings_ = settings
         self.blocks_ = blocks
         self.cv_results_ = table
@@ -387,6 +390,14 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         from ..refine import OutputErrorRefinement
 
         return OutputErrorRefinement(max_nfev=20, max_samples=min(n_samples, 5000))
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        tags.regressor_tags.poor_score = True  # an open-loop simulation of the checks' random data
+        tags.input_tags.allow_nan = False
+        return tags
 
     # -------------------------------------------------------------- delegation
     def predict(self, X, *, y_init=None, x0=None):

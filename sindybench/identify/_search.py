@@ -19,7 +19,7 @@ from ..metrics import rmse
 __all__ = ["evaluate", "pareto_front", "parsimonious_index", "path_thresholds", "validation_blocks"]
 
 
-def validation_blocks(n_samples, n_blocks, block_size, min_train):
+def validation_blocks(n_samples, n_blocks, block_size, min_train, min_block=10):
     """Forward-chaining folds: ``n_blocks`` consecutive blocks at the end of the record, each trained on all before it.
 
     Parameters
@@ -30,6 +30,8 @@ def validation_blocks(n_samples, n_blocks, block_size, min_train):
         Each block's length as a fraction of the record.
     min_train : int
         Fewest training samples the first fold may have.
+    min_block : int, default=10
+        Fewest samples of a block.
 
     Returns
     -------
@@ -46,7 +48,7 @@ def validation_blocks(n_samples, n_blocks, block_size, min_train):
     ...
     ValueError: 100 samples are too few for 3 validation blocks of 15 samples after at least 80 training samples; expected at least 125 samples (or fewer blocks).
     """
-    size = max(int(round(block_size * n_samples)), 10)
+    size = max(int(round(block_size * n_samples)), min_block)
     first = n_samples - n_blocks * size
     if first < min_train:
         raise ValueError(

@@ -302,6 +302,9 @@ def results_markdown(results, *, heading_level=1):
                        + (f"; refined {physical}" if physical else ""))
         elif record:
             out.append(f"  - refinement: {record['message']}")
+        if m.get("pareto_front"):
+            front = ", ".join(f"{p['n_terms']}: {p['validation_error']:.3g}" for p in m["pareto_front"])
+            out.append(f"  - Pareto front (terms: validation error): {front}")
         for eq in m["equations"]:
             out.append(f"  - `{eq}`")
     return "\n".join(out) + "\n"

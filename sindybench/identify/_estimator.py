@@ -10,7 +10,8 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._progress import progress_bar
 from .._validation import check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option, check_positive
-from ._search import evaluate, pareto_front, parsimonious_index, path_thresholds, validation_blocks
+from ._search import evaluate, pareto_front, parsimonious_index, path_thresholds, stls_threshold, validation_blocks
+from ._space import n_terms
 from ._space import FAMILIES, LIBRARIES, data_settings, make_estimator, structures
 
 __all__ = ["IdentifyCV", "identify"]
@@ -46,10 +47,10 @@ def _screen(struct, library, ctx):
     X, y, blocks = ctx["X"], ctx["y"], ctx["blocks"]
     begin = blocks[-1][0]
     lo = max(0, begin - ctx["window"])
-    make = lambda t: make_estimator(struct, library, t, ctx["dt"], ctx["settings"])  # noqa: E731
+    make = lambda t, n: make_estimator(struct, library, stls_threshold(t, n), ctx["dt"], ctx["settings"])  # noqa: E731
     rows = []
     try:
-        dense = make(0.0).fit(X[lo:begin], y[lo:begin])
+        dense = make(0.0, begin - lo).fit(X[lo:begin], y[lo:begin])
         thresholds = path_thresholds(dense, X[lo:begin], y[lo:begin], ctx["levels"])
     except Exception as exc:  # the structure cannot be fitted at all: one failed row
         return [dict(struct, threshold=0.0, refine=False, stage="screen", errors=[np.inf], n_terms=None,
@@ -57,7 +58,7 @@ def _screen(struct, library, ctx):
     for t in thresholds:
         if ctx["deadline"] is not None and time.time() >= ctx["deadline"]:
             break
-        result = evaluate(lambda t=t: make(t), X, y, blocks[-1:], n_init=ctx["n_init"], scale=ctx["scale"],
+        result = evaluate(lambda n, t=t: make(t, n), X, y, blocks[-1:], n_init=ctx["n_init"], scale=ctx["scale"],
                           train_window=ctx["window"])
         result.pop("model")
         rows.append(dict(struct, threshold=t, refine=False, stage="screen", **result))
@@ -67,8 +68,8 @@ def _screen(struct, library, ctx):
 def _full(row, library, ctx, refinement):
     """Stages 2 and 3: one candidate on every block (refined when ``refinement`` is given)."""
     struct = {k: row[k] for k in ("family", "library", "derivative", "input_hold")}
-    make = lambda: make_estimator(struct, library, row["threshold"], ctx["dt"], ctx["settings"],  # noqa: E731
-                                  refine=refinement)
+    make = lambda n: make_estimator(struct, library, stls_threshold(row["threshold"], n), ctx["dt"],  # noqa: E731
+                                    ctx["settings"], refine=refinement)
     result = evaluate(make, ctx["X"], ctx["y"], ctx["blocks"], n_init=ctx["n_init"], scale=ctx["scale"])
     result.pop("model")
     return dict(struct, threshold=row["threshold"], refine=refinement is not None,
@@ -166,7 +167,10 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     best_index_ : int
         Row of ``cv_results_`` that was chosen.
     best_params_ : dict
-        The chosen settings (family, library, derivative, input hold, threshold, refine).
+        The chosen settings (family, library, derivative, input hold,
+        threshold, refine) and the refitted model's ``n_terms`` and
+        ``max_row_terms``. The threshold is a level of RMS contribution
+        (coefficient times the RMS of its term, in the target's units).
     cv_results_ : dict of lists
         One entry per candidate: ``family``, ``library``, ``derivative``,
         ``input_hold``, ``threshold``, ``refine``, ``stage``, ``n_terms``,
@@ -368,8 +372,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}
                  for i in pareto_front(list(mean), terms)]
         chosen = {k: rows[best][k] for k in ("family", "library", "derivative", "input_hold", "threshold", "refine")}
-        final = make_estimator(chosen, libraries[best], chosen["threshold"], dt, settings,
+        final = make_estimator(chosen, libraries[best], stls_threshold(chosen["threshold"], n), dt, settings,
                                refine=refinement if chosen["refine"] else None).fit(X, y[:, 0] if y_1d else y)
+        chosen["n_terms"], chosen["max_row_terms"], _ = n_terms(final)
         self.settings_ = settings
         self.blocks_ = blocks
         self.cv_results_ = table
@@ -414,6 +419,11 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         """R^2 of the chosen model's simulation (see its ``score``)."""
         check_is_fitted(self)
         return self.best_estimator_.score(X, y, sample_weight=sample_weight)
+
+    def to_json(self, path):
+        """Save the chosen model as a model file (see its ``to_json``; :func:`sindybench.load_model` reads it)."""
+        check_is_fitted(self)
+        return self.best_estimator_.to_json(path)
 
     def equations(self, **kwargs):
         """The chosen model's equations (see its ``equations``)."""

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..metrics import rmse
 
-__all__ = ["evaluate", "pareto_front", "parsimonious_index", "path_thresholds", "validation_blocks"]
+__all__ = ["evaluate", "pareto_front", "parsimonious_index", "path_thresholds", "stls_threshold", "validation_blocks"]
 
 
 def validation_blocks(n_samples, n_blocks, block_size, min_train, min_block=10):
@@ -59,25 +59,25 @@ def validation_blocks(n_samples, n_blocks, block_size, min_train, min_block=10):
 
 
 def path_thresholds(estimator, X, y, max_levels):
-    """The pruning path of a dense fit: thresholds between its sorted normalized coefficients.
+    """The pruning path of a dense fit: levels between its terms' sorted RMS contributions.
 
-    The candidates' STLS thresholds act on columns of unit norm
-    (``normalize_columns=True``), so a coefficient's size there is its term's
-    contribution in the units of its target. Each threshold lies halfway (on
-    a log scale) between two consecutive contributions of the dense fit, so
-    each level drops about one more term; at most ``max_levels`` levels,
-    spread evenly along the path.
+    A term's contribution is its coefficient times the RMS of its column,
+    in the units of its target. Each level lies halfway (on a log scale)
+    between two consecutive contributions of the dense fit, so each level
+    drops about one more term; at most ``max_levels`` levels, spread evenly
+    along the path. A level is a threshold on RMS contributions, the same
+    for any number of samples (see :func:`stls_threshold`).
 
     Returns
     -------
     list of float
-        Increasing thresholds, starting with 0 (the dense fit).
+        Increasing levels, starting with 0 (the dense fit).
     """
     states = getattr(estimator, "states_", None)
     Z = np.hstack([y if states is None else states, X])
     theta = np.asarray(estimator.library_.transform(Z), dtype=float)
-    norms = np.linalg.norm(theta, axis=0)
-    w = np.abs(np.asarray(estimator.coef_)) * norms[None, :]
+    rms = np.sqrt(np.mean(theta**2, axis=0))
+    w = np.abs(np.asarray(estimator.coef_)) * rms[None, :]
     w = np.unique(w[np.isfinite(w) & (w > 0)])
     if w.size < 2:
         return [0.0]
@@ -95,13 +95,27 @@ def block_error(estimator, X, y, n_init, scale):
     return float(np.mean(rmse(y, y_pred, multioutput="raw_values") / scale))
 
 
+def stls_threshold(level, n_samples):
+    """The STLS threshold on unit-norm columns (``normalize_columns=True``) of an RMS-contribution ``level``.
+
+    A column of ``n`` samples with RMS ``r`` has norm ``r sqrt(n)``, so the
+    threshold is ``level * sqrt(n)``.
+
+    Examples
+    --------
+    >>> stls_threshold(0.5, 400)
+    10.0
+    """
+    return float(level) * float(np.sqrt(n_samples))
+
+
 def evaluate(make, X, y, blocks, *, n_init, scale, train_window=None):
     """Fit ``make()`` before each block and score its simulation of the block.
 
     Parameters
     ----------
     make : callable
-        ``make() -> unfitted estimator``.
+        ``make(n_samples) -> unfitted estimator`` for ``n_samples`` training samples.
     X, y : ndarray
     blocks : list of (int, int)
     n_init : int
@@ -126,7 +140,7 @@ def evaluate(make, X, y, blocks, *, n_init, scale, train_window=None):
         try:
             with warnings.catch_warnings(), np.errstate(all="ignore"):
                 warnings.simplefilter("ignore")
-                est = make().fit(X[lo:begin], y[lo:begin])
+                est = make(begin - lo).fit(X[lo:begin], y[lo:begin])
                 from ._space import n_terms
 
                 terms = n_terms(est)

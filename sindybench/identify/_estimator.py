@@ -98,8 +98,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     2. *blocks*: the best ``screen_keep`` fraction (at most 16) on all
        ``n_blocks`` forward-chaining blocks, plus the best two with the other
        input hold (unless ``input_hold`` is given);
-    3. *refine*: the ``n_refine`` best of stage 2, refined by their simulation
-       error (``refinement``) and scored on all blocks again.
+    3. *refine*: the parsimonious pick of stage 2 and the best ones
+       (``n_refine`` in all), refined by their simulation error
+       (``refinement``) and scored on all blocks again.
 
     Halving by blocks rather than by training length because a candidate's
     cost is one equation-error fit and one simulation per block: the cheap
@@ -135,8 +136,12 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         Fraction of the screened candidates that go on to every block.
     screen_window : int, default=8000
         Most training samples of a screening fit.
-    n_refine : int, default=2
-        Candidates refined by their simulation error (0: none).
+    n_refine : int, default=3
+        Candidates refined by their simulation error (0: none): the
+        parsimonious pick of stage 2, then the best ones.
+    max_terms : int, default=15
+        Most terms in one learned row of the chosen model (readability);
+        richer candidates are evaluated and recorded, never chosen.
     refinement : refinement or None, default=None
         The refinement of stage 3; None = ``OutputErrorRefinement(max_nfev=20,
         max_samples=5000)``. Any object the estimators' ``refine`` takes (the
@@ -207,7 +212,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     """
 
     def __init__(self, *, dt=None, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None,
-                 n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000, n_refine=2,
+                 n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000, n_refine=3,
+                 max_terms=15,
                  refinement=None, n_init=None, time_budget=None, max_candidates=None, random_state=None,
                  n_jobs=None, show_progress_bar=True):
         self.dt = dt
@@ -221,6 +227,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self.screen_keep = screen_keep
         self.screen_window = screen_window
         self.n_refine = n_refine
+        self.max_terms = max_terms
         self.refinement = refinement
         self.n_init = n_init
         self.time_budget = time_budget
@@ -255,6 +262,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             raise ValueError(f"screen_keep must be a fraction in (0, 1]; got {self.screen_keep!r}.")
         check_integer(self.screen_window, "screen_window", low=_MIN_TRAIN)
         check_integer(self.n_refine, "n_refine", low=0)
+        check_integer(self.max_terms, "max_terms")
         if self.refinement is not None and not hasattr(self.refinement, "run"):
             raise ValueError(f"refinement must be an OutputErrorRefinement or None; got "
                              f"{type(self.refinement).__name__}.")
@@ -348,9 +356,15 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 rows.append(result)
                 libraries.append(library)
                 bar.update()
-            # stage 3: the best of stage 2 refined by simulation error
-            scored = [i for i, r in enumerate(rows) if r["stage"] == "blocks" and np.all(np.isfinite(r["errors"]))]
+            # stage 3: the parsimonious pick of stage 2 and the best ones, refined by simulation error
+            scored = [i for i, r in enumerate(rows) if r["stage"] == "blocks" and np.all(np.isfinite(r["errors"]))
+                      and r["max_row_terms"] <= self.max_terms]
             scored.sort(key=lambda i: np.mean(rows[i]["errors"]))
+            if scored:
+                pick = scored[parsimonious_index([np.mean(rows[i]["errors"]) for i in scored],
+                                                 [np.std(rows[i]["errors"]) for i in scored],
+                                                 [rows[i]["n_terms"] for i in scored], self.n_blocks)]
+                scored = [pick] + [i for i in scored if i != pick]
             third = scored[: budget.take(min(self.n_refine, len(scored)))]
             refinement = self._refinement(n)
             bar.total += len(third)
@@ -360,13 +374,14 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 libraries.append(libraries[i])
                 bar.update()
         table = _table(rows, self.n_blocks)
-        full = np.array([r["stage"] != "screen" for r in rows])
+        full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms for r in rows])
         mean = np.where(full, table["mean_validation_error"], np.inf)
         if not np.any(np.isfinite(mean)):
             reasons = sorted({r["status"] for r in rows if r["status"] != "ok"})[:3]
-            raise ValueError(f"identify: none of the {len(rows)} candidates simulated every validation block without "
-                             f"failing (first reasons: {reasons}); expected a record long and rich enough for "
-                             "at least one candidate, or a larger time_budget / max_candidates.")
+            raise ValueError(f"identify: none of the {len(rows)} candidates with at most max_terms={self.max_terms} "
+                             f"terms per row simulated every validation block without failing (first reasons: "
+                             f"{reasons}); expected a record long and rich enough for at least one candidate, or a "
+                             "larger time_budget / max_candidates / max_terms.")
         terms = [t if t is not None else 10**9 for t in table["n_terms"]]
         best = parsimonious_index(mean, table["std_validation_error"], terms, self.n_blocks)
         front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}

@@ -11,6 +11,7 @@ MODULES = (
     ("sindybench.differentiation", "Derivative estimation"),
     ("sindybench.dynamics", "Fitted dynamics: Dynamics, term operations, the one-step map and its Jacobians"),
     ("sindybench.simulate", "Simulation"),
+    ("sindybench.identify", "Identify a system from data: the structure search"),
     ("sindybench.refine", "Fitting by simulation error"),
     ("sindybench.estimation", "State estimation, prediction, linearization"),
     ("sindybench.export", "Export (CasADi)"),

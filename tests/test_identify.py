@@ -1,5 +1,7 @@
 """``sindybench.identify`` and ``IdentifyCV`` on synthetic systems of known truth, and on bad input."""
 
+import json
+
 import numpy as np
 import pytest
 from sklearn.base import clone
@@ -193,3 +195,28 @@ def test_pareto_front_plot(search):
     assert front.get_xdata().tolist() == [p["n_terms"] for p in search.pareto_front_]
     with pytest.raises(ValueError, match="cannot read a Pareto front"):
         plot_pareto_front(SINDy())
+
+
+def test_run_all_row_reports_the_choice_and_the_front(tmp_path):
+    from sklearn.utils import Bunch
+
+    from sindybench.experiments import Benchmark, run_benchmarks
+    from sindybench.experiments._common import IDENTIFIED, identified
+
+    def load(*, data_home=None, download_if_missing=True):  # y' = -0.5 y + u, the input held between samples
+        u = np.repeat(np.random.default_rng(0).uniform(-1.0, 1.0, 60), 20)[:, None]
+        y = simulate(lambda x, u: np.array([-0.5 * x[0] + u[0]]), [0.0], u, dt=0.1)
+        parts = [slice(0, 600), slice(600, 800), slice(800, 1200)]
+        return Bunch(**{k: Bunch(u=u[p], y=y[p], dt=0.1) for k, p in zip(("train", "validation", "test"), parts)})
+
+    bench = Benchmark(name="toy", title="Toy", load=load, n_init=2, models=(identified(2),))
+    report = run_benchmarks([bench], tmp_path / "out", quick=True)
+
+    results = json.loads((tmp_path / "out" / "toy" / "results.json").read_text())
+    (row,) = results["models"]
+    assert row["key"] == IDENTIFIED and row["status"] == "ok"
+    assert row["best_params"]["family"] == "first_order" and row["best_params"]["input_hold"] in ("zoh", "linear")
+    assert row["scores"]["test"]["r2"] > 0.99
+    assert row["pareto_front"][0]["n_terms"] <= 2 and row["inner_trials"] > 10
+    assert "Pareto front (terms: validation error)" in report.read_text()
+    assert (tmp_path / "out" / "toy" / "models" / f"{IDENTIFIED}.json").is_file()

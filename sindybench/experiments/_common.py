@@ -144,14 +144,15 @@ def identified(n_init):
     Nothing of the benchmark's physics goes in (no family, library, bounds or
     strategy): only the number of first samples a test lets a model use to
     start (``n_init``, the protocol's), so that its validation blocks start
-    the way the tests do.
+    the way the tests do. With ``--quick``: finite differences only.
     """
     from ._spec import ModelSpec
 
     def make(*, random_state, quick, dt, n_val, n_samples):
         from ..identify import IdentifyCV
 
-        return IdentifyCV(dt=dt, n_init=n_init, random_state=random_state, show_progress_bar=False)
+        quick_settings = {"derivatives": ["finite_difference"]} if quick else {}
+        return IdentifyCV(dt=dt, n_init=n_init, random_state=random_state, show_progress_bar=False, **quick_settings)
 
     return ModelSpec(IDENTIFIED, "identified automatically", make,
                      description="sindybench.identify on the estimation record's inputs, outputs and sample time: "

@@ -95,11 +95,13 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     1. *screen*: every structure's pruning path (thresholds between the
        sorted coefficients of its dense fit) on the last block only, trained
        on at most ``screen_window`` samples before it;
-    2. *blocks*: the best ``screen_keep`` fraction (at most 16) on all
-       ``n_blocks`` forward-chaining blocks, plus the best two with the other
-       input hold (unless ``input_hold`` is given);
-    3. *refine*: the parsimonious pick of stage 2 and the best ones
-       (``n_refine`` in all), refined by their simulation error
+    2. *blocks*: the best ``screen_keep`` fraction (at most 16) and the best
+       candidate of every family and library, on all ``n_blocks``
+       forward-chaining blocks, plus the best two with the other input hold
+       (unless ``input_hold`` is given);
+    3. *refine*: the parsimonious pick of stage 2, then its Pareto front
+       (sparsest first), then the best ones (``n_refine`` in all), refined
+       by their simulation error
        (``refinement``) and scored on all blocks again.
 
     Halving by blocks rather than by training length because a candidate's
@@ -136,9 +138,10 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         Fraction of the screened candidates that go on to every block.
     screen_window : int, default=8000
         Most training samples of a screening fit.
-    n_refine : int, default=3
+    n_refine : int, default=4
         Candidates refined by their simulation error (0: none): the
-        parsimonious pick of stage 2, then the best ones.
+        parsimonious pick of stage 2, then its Pareto front (sparsest
+        first), then the best ones.
     max_terms : int, default=15
         Most terms in one learned row of the chosen model (readability);
         richer candidates are evaluated and recorded, never chosen.
@@ -212,7 +215,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     """
 
     def __init__(self, *, dt=None, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None,
-                 n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000, n_refine=3,
+                 n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000, n_refine=4,
                  max_terms=15,
                  refinement=None, n_init=None, time_budget=None, max_candidates=None, random_state=None,
                  n_jobs=None, show_progress_bar=True):
@@ -345,6 +348,12 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             ok = [i for i, r in enumerate(rows) if np.isfinite(r["errors"][0])]
             ok.sort(key=lambda i: rows[i]["errors"][0])
             keep = ok[: min(_MAX_SURVIVORS, max(4, math.ceil(self.screen_keep * len(ok))))]
+            # ... and the best of every family and library, so that a sparse structure is refined and compared too
+            seen = {(rows[i]["family"], rows[i]["library"]) for i in keep}
+            for i in ok:
+                if (rows[i]["family"], rows[i]["library"]) not in seen:
+                    seen.add((rows[i]["family"], rows[i]["library"]))
+                    keep.append(i)
             second = [(rows[i], libraries[i]) for i in keep]
             if self.input_hold is None and X.shape[1] > 0:
                 other = {"zoh": "linear", "linear": "zoh"}
@@ -364,7 +373,10 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 pick = scored[parsimonious_index([np.mean(rows[i]["errors"]) for i in scored],
                                                  [np.std(rows[i]["errors"]) for i in scored],
                                                  [rows[i]["n_terms"] for i in scored], self.n_blocks)]
-                scored = [pick] + [i for i in scored if i != pick]
+                front = [scored[k] for k in pareto_front([np.mean(rows[i]["errors"]) for i in scored],
+                                                         [rows[i]["n_terms"] for i in scored])]
+                order = [pick] + front + scored  # the pick, then the front sparsest first, then the best
+                scored = [i for k, i in enumerate(order) if i not in order[:k]]
             third = scored[: budget.take(min(self.n_refine, len(scored)))]
             refinement = self._refinement(n)
             bar.total += len(third)

@@ -12,6 +12,13 @@ maximum proposes a regime indicator at that level).
 """
 
 import numpy as np
+from sklearn.base import clone
+
+from .._sindy import SINDy
+from ..differentiation import FiniteDifference, SavitzkyGolay, Spectral
+from ..hidden import DerivativeHiddenState, HiddenStateSINDy
+from ..libraries import FrictionLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary
+from ..optimizers import STLS
 
 __all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
 
@@ -97,8 +104,6 @@ def data_settings(X, y, dt):
 
 
 def _differentiation(name, params):
-    from ..differentiation import FiniteDifference, SavitzkyGolay, Spectral
-
     if name.startswith("savgol"):
         return SavitzkyGolay(window_length=params["window_length"], polyorder=3)
     if name.startswith("spectral"):
@@ -108,8 +113,6 @@ def _differentiation(name, params):
 
 def _hard_terms(family, settings, velocity_sign_changes, n_outputs, n_inputs):
     """The proposed hard-term libraries of a family over ``Z = [states, inputs]`` (a list, maybe empty)."""
-    from ..libraries import FrictionLibrary, IndicatorLibrary, SqrtLibrary
-
     order = _ORDER[family]
     out = list(range(n_outputs))
     libs = []
@@ -126,8 +129,6 @@ def _hard_terms(family, settings, velocity_sign_changes, n_outputs, n_inputs):
 
 
 def _library(name, family, settings, velocity_sign_changes, n_outputs, n_inputs):
-    from ..libraries import PolynomialLibrary
-
     base = name.split("+")[0]
     lib = PolynomialLibrary(degree=_DEGREE[base])
     if name.endswith("+hard"):
@@ -183,11 +184,6 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
     simulation error, and a refined hidden-state model starts new data by
     least squares on its first samples (``initial_state="fit"``).
     """
-    from sklearn.base import clone
-
-    from .. import STLS, HiddenStateSINDy, SINDy
-    from ..hidden import DerivativeHiddenState
-
     optimizer = STLS(threshold=float(threshold), alpha=1e-9, normalize_columns=True)
     d_name = structure["derivative"]
     differentiation = _differentiation(d_name, settings["derivatives"].get(d_name, {}))

@@ -72,7 +72,8 @@ def _full(row, library, ctx, refinement):
                                     ctx["settings"], refine=refinement)
     result = evaluate(make, ctx["X"], ctx["y"], ctx["blocks"], n_init=ctx["n_init"], scale=ctx["scale"])
     result.pop("model")
-    return dict(struct, threshold=row["threshold"], refine=refinement is not None,
+    refined = refinement is not None or struct["family"] == "order2+latent"  # the latent family refines in its fit
+    return dict(struct, threshold=row["threshold"], refine=refined,
                 stage="refine" if refinement is not None else "blocks", **result)
 
 
@@ -117,9 +118,14 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     ----------
     dt : float or None, default=None
         Sampling interval (required, here or in ``fit``).
-    families : sequence of str, default=("first_order", "order2", "order3")
+    families : sequence of str, default=("first_order", "order2", "order3", "order2+latent")
         Model families: first-order SINDy ``y' = f(y, u)``; derivative
-        coordinates of order 2 and 3 (``HiddenStateSINDy(DerivativeHiddenState(n))``).
+        coordinates of order 2 and 3 (``HiddenStateSINDy(DerivativeHiddenState(n))``);
+        order 2 with one latent state ``z`` driven by the velocity
+        (:class:`~sindybench.hidden.LatentHiddenState`, one output only), with
+        the library ``linear+abs`` (linear terms, ``v|z|``, ``|v|z``,
+        ``|v||z|``), which skips the screening: its lag start is searched
+        inside its ``fit`` and it is refined by simulation error.
     libraries : sequence of str, default=("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
         Libraries of graded richness; ``"+hard"`` adds the terms the data
         proposes (skipped when it proposes none).
@@ -336,7 +342,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         parallel = Parallel(n_jobs=self.n_jobs)
         rows, libraries = [], []
         with progress_bar(len(structs), desc="identify", show=self.show_progress_bar) as bar:
-            # stage 1: every structure's pruning path on the last block
+            # stage 1: every structure's pruning path on the last block (the latent family has its own search)
+            latent = [(s, lib) for s, lib in structs if s["family"] == "order2+latent"]
+            structs = [(s, lib) for s, lib in structs if s["family"] != "order2+latent"]
             todo = structs[: budget.take(len(structs))]
             for (struct, library), screened in zip(todo, parallel(delayed(_screen)(s, lib, ctx) for s, lib in todo)):
                 rows.extend(screened)
@@ -358,6 +366,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             if self.input_hold is None and X.shape[1] > 0:
                 other = {"zoh": "linear", "linear": "zoh"}
                 second += [(dict(rows[i], input_hold=other[rows[i]["input_hold"]]), libraries[i]) for i in keep[:2]]
+            second += [(dict(s, threshold=0.0), lib) for s, lib in latent]
             second = second[: budget.take(len(second))]
             bar.total += len(second)
             for (row, library), result in zip(second, parallel(
@@ -367,7 +376,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 bar.update()
             # stage 3: the parsimonious pick of stage 2 and the best ones, refined by simulation error
             scored = [i for i, r in enumerate(rows) if r["stage"] == "blocks" and np.all(np.isfinite(r["errors"]))
-                      and r["max_row_terms"] <= self.max_terms]
+                      and r["max_row_terms"] <= self.max_terms and r["family"] != "order2+latent"]
             scored.sort(key=lambda i: np.mean(rows[i]["errors"]))
             if scored:
                 pick = scored[parsimonious_index([np.mean(rows[i]["errors"]) for i in scored],

@@ -16,15 +16,23 @@ from sklearn.base import clone
 
 from .._sindy import SINDy
 from ..differentiation import FiniteDifference, SavitzkyGolay, Spectral
-from ..hidden import DerivativeHiddenState, HiddenStateSINDy
-from ..libraries import FrictionLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary
+from ..hidden import DerivativeHiddenState, HiddenStateSINDy, LatentHiddenState
+from ..libraries import AbsProductLibrary, FrictionLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary
 from ..optimizers import STLS
+from ..refine import OutputErrorRefinement
+from ..search import LogUniform
 
 __all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
 
-#: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3
-FAMILIES = ("first_order", "order2", "order3")
-_ORDER = {"first_order": 1, "order2": 2, "order3": 3}
+#: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3,
+#: and order 2 with one latent state (one output only)
+FAMILIES = ("first_order", "order2", "order3", "order2+latent")
+_ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order2+latent": 2}
+#: the latent family's one library: linear, plus the absolute products of the velocity and the latent state
+LATENT_LIBRARY = "linear+abs"
+# the latent family's own search (the lag's time constant, in samples) and refinement
+_LATENT_TRIALS, _LATENT_TAU = 12, (1.0, 1000.0)
+_LATENT_REFINEMENT = {"max_nfev": 30, "max_samples": 5000}
 #: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
 LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
 _DEGREE = {"linear": 1, "poly2": 2, "poly3": 3}
@@ -162,6 +170,12 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
     hold = settings["input_hold"] if input_hold is None else input_hold
     out = []
     for family in families:
+        if family == "order2+latent":
+            if n_outputs == 1:  # states (y, v, z): the latent state's products with the velocity
+                lib = PolynomialLibrary(degree=1) + AbsProductLibrary(pairs=[(1, 2)])
+                out += [({"family": family, "library": LATENT_LIBRARY, "derivative": d, "input_hold": hold}, lib)
+                        for d in derivs]
+            continue
         for lib_name in libraries:
             lib = _library(lib_name, family, settings, velocity_sign_changes, n_outputs, n_inputs)
             if lib is None:
@@ -179,7 +193,10 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
 
     ``first_order`` is :class:`~sindybench.SINDy`; ``order2`` and ``order3``
     are :class:`~sindybench.HiddenStateSINDy` with
-    :class:`~sindybench.hidden.DerivativeHiddenState`. ``refine`` (an
+    :class:`~sindybench.hidden.DerivativeHiddenState`; ``order2+latent`` is
+    :class:`~sindybench.hidden.LatentHiddenState` (order 2, driven by the
+    velocity), its lag start searched inside ``fit`` (12 trials, time
+    constant 1 to 1000 samples) and refined by simulation error. ``refine`` (an
     :class:`~sindybench.refine.OutputErrorRefinement`) refines the fit by its
     simulation error, and a refined hidden-state model starts new data by
     least squares on its first samples (``initial_state="fit"``).
@@ -192,6 +209,13 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
         return SINDy(library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
                      input_hold=hold, refine=refine)
     order = _ORDER[structure["family"]]
+    if structure["family"] == "order2+latent":  # its own search of the lag start, then refined by simulation
+        tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
+        return HiddenStateSINDy(hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": tau}),
+                                library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
+                                input_hold=hold, validation_size=0.15, n_trials=_LATENT_TRIALS, random_state=0,
+                                refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
+                                show_progress_bar=False)
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=order), library=clone(library), optimizer=optimizer,
                             differentiation=differentiation, dt=dt, input_hold=hold, refine=refine,
                             initial_state="fit" if refine is not None else "strategy", show_progress_bar=False)

@@ -12,7 +12,7 @@ from .._progress import progress_bar
 from .._validation import check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option, check_positive
 from ._search import evaluate, pareto_front, parsimonious_index, path_thresholds, stls_threshold, validation_blocks
 from ._space import n_terms
-from ._space import FAMILIES, LIBRARIES, data_settings, make_estimator, structures
+from ._space import FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
 
 __all__ = ["IdentifyCV", "identify"]
 
@@ -72,7 +72,7 @@ def _full(row, library, ctx, refinement):
                                     ctx["settings"], refine=refinement)
     result = evaluate(make, ctx["X"], ctx["y"], ctx["blocks"], n_init=ctx["n_init"], scale=ctx["scale"])
     result.pop("model")
-    refined = refinement is not None or struct["family"] == "order2+latent"  # the latent family refines in its fit
+    refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
     return dict(struct, threshold=row["threshold"], refine=refined,
                 stage="refine" if refinement is not None else "blocks", **result)
 
@@ -118,14 +118,16 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     ----------
     dt : float or None, default=None
         Sampling interval (required, here or in ``fit``).
-    families : sequence of str, default=("first_order", "order2", "order3", "order2+latent")
+    families : sequence of str, default=("first_order", "order2", "order3", "order1+latent", "order2+latent")
         Model families: first-order SINDy ``y' = f(y, u)``; derivative
         coordinates of order 2 and 3 (``HiddenStateSINDy(DerivativeHiddenState(n))``);
-        order 2 with one latent state ``z`` driven by the velocity
-        (:class:`~sindybench.hidden.LatentHiddenState`, one output only), with
-        the library ``linear+abs`` (linear terms, ``v|z|``, ``|v|z``,
-        ``|v||z|``), which skips the screening: its lag start is searched
-        inside its ``fit`` and it is refined by simulation error.
+        one latent state ``z`` (:class:`~sindybench.hidden.LatentHiddenState`,
+        one output only): at order 1 driven by the input, with the libraries
+        ``linear`` and ``linear+hard`` (square roots of ``y`` and ``z``, the
+        output's saturation indicator), and at order 2 driven by the velocity,
+        with the library ``linear+abs`` (linear terms, ``v|z|``, ``|v|z``,
+        ``|v||z|``). The latent families skip the screening: the lag start is
+        searched inside their ``fit`` and they are refined by simulation error.
     libraries : sequence of str, default=("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
         Libraries of graded richness; ``"+hard"`` adds the terms the data
         proposes (skipped when it proposes none).
@@ -343,8 +345,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         rows, libraries = [], []
         with progress_bar(len(structs), desc="identify", show=self.show_progress_bar) as bar:
             # stage 1: every structure's pruning path on the last block (the latent family has its own search)
-            latent = [(s, lib) for s, lib in structs if s["family"] == "order2+latent"]
-            structs = [(s, lib) for s, lib in structs if s["family"] != "order2+latent"]
+            latent = [(s, lib) for s, lib in structs if s["family"] in LATENT_FAMILIES]
+            structs = [(s, lib) for s, lib in structs if s["family"] not in LATENT_FAMILIES]
             todo = structs[: budget.take(len(structs))]
             for (struct, library), screened in zip(todo, parallel(delayed(_screen)(s, lib, ctx) for s, lib in todo)):
                 rows.extend(screened)
@@ -376,7 +378,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 bar.update()
             # stage 3: the parsimonious pick of stage 2 and the best ones, refined by simulation error
             scored = [i for i, r in enumerate(rows) if r["stage"] == "blocks" and np.all(np.isfinite(r["errors"]))
-                      and r["max_row_terms"] <= self.max_terms and r["family"] != "order2+latent"]
+                      and r["max_row_terms"] <= self.max_terms and r["family"] not in LATENT_FAMILIES]
             scored.sort(key=lambda i: np.mean(rows[i]["errors"]))
             if scored:
                 pick = scored[parsimonious_index([np.mean(rows[i]["errors"]) for i in scored],

@@ -25,13 +25,14 @@ from ..search import LogUniform
 __all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
 
 #: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3,
-#: and order 2 with one latent state (one output only)
-FAMILIES = ("first_order", "order2", "order3", "order2+latent")
-_ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order2+latent": 2}
-#: the latent family's one library: linear, plus the absolute products of the velocity and the latent state
+#: and one latent state (one output only) at order 1 (driven by the input) and 2 (driven by the velocity)
+FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent")
+LATENT_FAMILIES = ("order1+latent", "order2+latent")
+_ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order1+latent": 1, "order2+latent": 2}
+#: the order-2 latent family's library: linear, plus the absolute products of the velocity and the latent state
 LATENT_LIBRARY = "linear+abs"
 # the latent family's own search (the lag's time constant, in samples) and refinement
-_LATENT_TRIALS, _LATENT_TAU = 12, (1.0, 1000.0)
+_LATENT_TRIALS, _LATENT_TRIALS_1, _LATENT_TAU = 12, 20, (1.0, 1000.0)
 _LATENT_REFINEMENT = {"max_nfev": 30, "max_samples": 5000}
 #: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
 LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
@@ -136,6 +137,21 @@ def _hard_terms(family, settings, velocity_sign_changes, n_outputs, n_inputs):
     return libs
 
 
+def _latent_hard_terms(settings, n_inputs):
+    """Linear terms plus the proposed hard terms over ``Z = [y, z, u]`` of the order-1 latent family (or None)."""
+    libs = []
+    if settings["positive"]:  # a positive output proposes roots of it and of the latent state (held >= 0)
+        libs.append(SqrtLibrary(variables=[0, 1], lower=0.0))
+    if settings["saturation"][0] is not None:
+        libs.append(IndicatorLibrary(variables=[0], lower=settings["saturation"][0], times=list(range(2, 2 + n_inputs))))
+    if not libs:
+        return None
+    lib = PolynomialLibrary(degree=1)
+    for extra in libs:
+        lib = lib + extra
+    return lib
+
+
 def _library(name, family, settings, velocity_sign_changes, n_outputs, n_inputs):
     base = name.split("+")[0]
     lib = PolynomialLibrary(degree=_DEGREE[base])
@@ -176,6 +192,14 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
                 out += [({"family": family, "library": LATENT_LIBRARY, "derivative": d, "input_hold": hold}, lib)
                         for d in derivs]
             continue
+        if family == "order1+latent":
+            if n_outputs == 1 and n_inputs >= 1:  # states (y, z), driven by u0; refined, so one derivative
+                for lib_name, lib in (("linear", PolynomialLibrary(degree=1)),
+                                      ("linear+hard", _latent_hard_terms(settings, n_inputs))):
+                    if lib is not None:
+                        out.append(({"family": family, "library": lib_name, "derivative": "finite_difference",
+                                     "input_hold": hold}, lib))
+            continue
         for lib_name in libraries:
             lib = _library(lib_name, family, settings, velocity_sign_changes, n_outputs, n_inputs)
             if lib is None:
@@ -193,10 +217,13 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
 
     ``first_order`` is :class:`~sindybench.SINDy`; ``order2`` and ``order3``
     are :class:`~sindybench.HiddenStateSINDy` with
-    :class:`~sindybench.hidden.DerivativeHiddenState`; ``order2+latent`` is
-    :class:`~sindybench.hidden.LatentHiddenState` (order 2, driven by the
-    velocity), its lag start searched inside ``fit`` (12 trials, time
-    constant 1 to 1000 samples) and refined by simulation error. ``refine`` (an
+    :class:`~sindybench.hidden.DerivativeHiddenState`; ``order1+latent`` and
+    ``order2+latent`` are :class:`~sindybench.hidden.LatentHiddenState`
+    (order 1 driven by the input, the latent state and the output held
+    non-negative when the output is positive and the output below its
+    saturation level; order 2 driven by the velocity), the lag start searched
+    inside ``fit`` (20 and 12 trials, time constant 1 to 1000 samples) and
+    refined by simulation error. ``refine`` (an
     :class:`~sindybench.refine.OutputErrorRefinement`) refines the fit by its
     simulation error, and a refined hidden-state model starts new data by
     least squares on its first samples (``initial_state="fit"``).
@@ -209,6 +236,17 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
         return SINDy(library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
                      input_hold=hold, refine=refine)
     order = _ORDER[structure["family"]]
+    if structure["family"] == "order1+latent":  # a lag of the input as the start, searched, then refined
+        positive, top = settings["positive"], settings["saturation"][0]
+        hidden = LatentHiddenState(order=1, driver="input", bounds={"tau": LogUniform(_LATENT_TAU[0] * dt,
+                                                                                      _LATENT_TAU[1] * dt)},
+                                   latent_bounds=(0.0, np.inf) if positive else None,
+                                   output_bounds=(0.0, np.inf if top is None else top) if positive else None)
+        return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,
+                                differentiation=differentiation, dt=dt, input_hold=hold, validation_size=0.15,
+                                validation="full", n_trials=_LATENT_TRIALS_1, random_state=0,
+                                refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
+                                show_progress_bar=False)
     if structure["family"] == "order2+latent":  # its own search of the lag start, then refined by simulation
         tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
         return HiddenStateSINDy(hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": tau}),

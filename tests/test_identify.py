@@ -220,3 +220,31 @@ def test_run_all_row_reports_the_choice_and_the_front(tmp_path):
     assert row["pareto_front"][0]["n_terms"] <= 2 and row["inner_trials"] > 10
     assert "Pareto front (terms: validation error)" in report.read_text()
     assert (tmp_path / "out" / "toy" / "models" / f"{IDENTIFIED}.json").is_file()
+
+
+def _tank(x, u):  # a tank with a square-root outflow: its level stays positive
+    return np.array([-0.8 * np.sqrt(max(x[0], 0.0)) + 0.5 + 0.3 * u[0]])
+
+
+def test_square_root_outflow_proposed_and_found():
+    u, y = _record(_tank, [0.4], 4000, np.random.default_rng(4), noise=1e-5)
+    search = IdentifyCV(dt=DT, families=["first_order"], libraries=["linear", "linear+hard"], **QUICK).fit(u, y)
+    assert search.settings_["positive"]
+    model = search.best_estimator_
+    assert _support(model) == {"1", "sqrt(y0)", "u0"}
+    np.testing.assert_allclose(model.coef_[0][model.coef_[0] != 0], [0.5, 0.3, -0.8], rtol=0.05)
+
+
+@pytest.mark.slow
+def test_default_search_puts_the_oscillator_on_its_front(oscillator):
+    """Every family, library, derivative and the refinement: the true 3-term model is on the front.
+
+    The parsimony rule may prefer the order-1 latent model (two states as well, 8 terms: an
+    equivalent linear realization) when its validation error is lower by more than a standard error.
+    """
+    u, y = oscillator
+    search = IdentifyCV(dt=DT, show_progress_bar=False).fit(u, y)
+    table = search.cv_results_
+    on_front = [p["index"] for p in search.pareto_front_ if p["n_terms"] == 3]
+    assert on_front and table["family"][on_front[0]] == "order2"
+    assert search.best_estimator_.score(u, y) > 0.999 and search.best_estimator_.n_states_ == 2

@@ -23,6 +23,7 @@ import sys
 from pathlib import Path
 
 import sindybench
+from sindybench.experiments import BENCHMARKS
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE))
@@ -58,7 +59,7 @@ html_theme = "alabaster"
 html_static_path = ["_static"]
 html_theme_options = {"description": "SINDy with control for hidden states and hard nonlinearities"}
 
-write_case_study_snippets(HERE / "_generated", ("pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps"))
+write_case_study_snippets(HERE / "_generated", tuple(BENCHMARKS))  # the registry's benchmarks
 write_api_reference(HERE / "api.rst")  # generated: lists every public name
 write_notebooks(HERE / "notebooks", HERE / "_generated" / "notebooks", HERE.parent / "examples")
 

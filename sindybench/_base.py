@@ -19,11 +19,17 @@ from sklearn.utils.validation import check_is_fitted
 
 from ._divergence import warn_divergence
 from ._equations import EquationsDisplayMixin, format_equations
-from ._params import SharedDefaultsMixin
+from ._params import Constraint, ParameterChecksMixin, SharedDefaultsMixin
+from ._preprocessing import delay_inputs
 from ._validation import (
+    check_bool,
+    check_estimator_param,
     check_inputs_outputs,
+    check_integer,
     check_model_inputs,
     check_one_record,
+    check_option,
+    check_positive,
     check_record_lists,
     check_signal,
     count_records,
@@ -32,7 +38,7 @@ from ._validation import (
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer
 from .refine._report import UncertaintyMixin
-from .simulate import SimulationError
+from .simulate import _HOLDS, _METHODS, SimulationError
 
 __all__ = ["DynamicsEstimator"]
 
@@ -48,6 +54,27 @@ def _per_record(value, n_records, name):
         raise ValueError(f"with {n_records} records, {name} must be a list of {n_records} entries (one per record) "
                          f"or None; got {got}{shape}.")
     return value
+
+
+def check_refinement(value, name):
+    """``refine``: an :class:`~sindybench.refine.OutputErrorRefinement` (anything with ``run``) or None."""
+    if value is not None and not hasattr(value, "run"):
+        raise ValueError(f"{name} must be an OutputErrorRefinement or None; got {type(value).__name__}.")
+    return value
+
+
+SHARED_CONSTRAINTS = {
+    "n_substeps": Constraint(check_integer),
+    "integrator": Constraint(check_option, options=_METHODS),
+    "input_hold": Constraint(check_option, options=_HOLDS),
+    "max_abs": Constraint(check_positive, allow_inf=True),
+    "input_delay": Constraint(check_integer, low=0),
+    "normalize": Constraint(check_bool),
+    "optimizer": Constraint(check_estimator_param, expected="a regressor with coef_ such as STLS()"),
+    "refine": Constraint(check_refinement),
+}
+"""The parameters both estimators share, with their checks (``bounds`` is checked in ``fit``: it needs the
+number of states)."""
 
 
 def _record_error(i, exc):
@@ -66,8 +93,8 @@ def _check_score_records(X, y):
     return [X_i for X_i, _ in pairs], [y_i for _, y_i in pairs]
 
 
-class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin, RegressorMixin,
-                        BaseEstimator):
+class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, SharedDefaultsMixin,
+                        ParameterChecksMixin, RegressorMixin, BaseEstimator):
     """Base class: ``simulate``, ``predict``, ``score`` and ``equations`` of a fitted ``dynamics_``.
 
     Subclasses set ``dynamics_``, ``x0_``, ``n_features_in_`` and ``_y_1d``
@@ -76,7 +103,17 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
 
     The fitted attributes ``n_states_``, ``state_names_``, ``output_index_``
     and ``n_outputs_`` are read from ``dynamics_``.
+
+    Both subclasses take the parameters of ``SHARED_CONSTRAINTS`` (checked
+    by ``_validate_params`` at the start of ``fit``), among them
+    ``input_delay``: ``fit``, ``simulate``, ``predict`` and
+    ``estimate_initial_state`` feed the model ``X`` delayed by that many
+    samples (:meth:`delayed_inputs`), so ``dynamics_`` itself is driven by
+    the delayed inputs (pass ``model.delayed_inputs(X)`` to code that takes
+    the ``Dynamics``, such as the Kalman filter).
     """
+
+    _parameter_constraints = SHARED_CONSTRAINTS
 
     # ------------------------------------------------------- fitted attributes
     @property
@@ -122,6 +159,20 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
             check_record_lists(X, y)  # says that y must be a list of records too
         return is_records(y)
 
+    def delayed_inputs(self, X):
+        """The inputs the model sees: ``X`` delayed by ``input_delay`` samples (the first row held before it).
+
+        Parameters
+        ----------
+        X : ndarray of shape (n_samples, n_inputs)
+            Checked inputs of one record.
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_inputs)
+        """
+        return delay_inputs(X, getattr(self, "input_delay", 0))
+
     # -------------------------------------------------------------- simulation
     def estimate_initial_state(self, X, y_init):
         """Initial state for simulating ``X``, from the first samples ``y_init`` of its output.
@@ -141,7 +192,7 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         self._check_one_record("estimate_initial_state", X, y_init)
         y_init = self._check_y_init(y_init)
         X = self._check_X(X, y_init.shape[0])
-        return self._initial_state(X, y_init)
+        return self._initial_state(self.delayed_inputs(X), y_init)
 
     def _check_one_record(self, method, *args):
         """Refuse lists of records in a method that takes one record."""
@@ -183,9 +234,9 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
             y_init = self._check_y_init(y_init)
             if n_samples is None and X is None:  # an autonomous model: as many samples as y_init
                 n_samples = y_init.shape[0]
-        X = self._check_X(X, n_samples)
+        X = self.delayed_inputs(self._check_X(X, n_samples))
         if y_init is not None:
-            x0 = self.estimate_initial_state(X, y_init)
+            x0 = self._initial_state(X, y_init)
         dt, t = self._time(X.shape[0], dt, t)
         return self.dynamics_.simulate(X, self._check_x0(x0), dt=dt, t=t, on_divergence=on_divergence)
 
@@ -330,6 +381,9 @@ class DynamicsEstimator(UncertaintyMixin, EquationsDisplayMixin, SaveLoadMixin, 
         lines = format_equations(self._equation_rows(), precision=precision, latex=latex,
                                  errors=self._coef_errors() if errors else None)
         notes = [f"gauge: {note}" for note in self._equation_notes()]
+        delay = getattr(self, "input_delay", 0)
+        if delay:
+            notes.append(f"input delay: {delay} samples; u stands for u(t - {delay} dt)")
         return lines + ([rf"\text{{{note}}}" for note in notes] if latex else notes)
 
     def _equation_notes(self):

@@ -2,12 +2,14 @@
 
 import numpy as np
 
+from ._preprocessing import feature_map, operating_point
 from ._validation import check_n_samples, check_signal
 
 __all__ = ["fit_sparse"]
 
 
-def fit_sparse(library, optimizer, Z, target, *, rows=None, feature_filter=None, what="library output"):
+def fit_sparse(library, optimizer, Z, target, *, rows=None, feature_filter=None, what="library output",
+               normalize=False):
     """Fit ``library`` on ``Z`` and ``optimizer`` on ``(Theta(Z), target)``; return the coefficients.
 
     Parameters
@@ -28,6 +30,12 @@ def fit_sparse(library, optimizer, Z, target, *, rows=None, feature_filter=None,
         rows are taken (see :class:`~sindybench.hidden.Design`).
     what : str
         Name of the features in error messages.
+    normalize : bool, default=False
+        Fit the optimizer on the features of the centred, scaled ``Z`` (mean
+        and standard deviation of the regression rows) and on the targets
+        divided by their root mean square, so that its threshold does not
+        depend on the data's units; the coefficients are mapped back to the
+        user's units exactly (:func:`~sindybench._preprocessing.feature_map`).
 
     Returns
     -------
@@ -46,6 +54,13 @@ def fit_sparse(library, optimizer, Z, target, *, rows=None, feature_filter=None,
     >>> Z = np.linspace(0.0, 1.0, 20)[:, None]
     >>> fit_sparse(PolynomialLibrary(degree=1), STLS(threshold=0.1), Z, 3.0 * Z).round(6).tolist()
     [[0.0], [3.0]]
+
+    In other units the threshold keeps its meaning only with ``normalize``:
+
+    >>> fit_sparse(PolynomialLibrary(degree=1), STLS(threshold=0.1), 1e3 * Z, 3.0 * Z).round(6).tolist()
+    [[0.0], [0.0]]
+    >>> fit_sparse(PolynomialLibrary(degree=1), STLS(threshold=0.1), 1e3 * Z, 3.0 * Z, normalize=True).round(6).tolist()
+    [[0.0], [0.003]]
     """
     Zr = Z if rows is None else Z[rows]
     library.fit(Zr)
@@ -57,8 +72,16 @@ def fit_sparse(library, optimizer, Z, target, *, rows=None, feature_filter=None,
     check_n_samples(Zr.shape[0], theta.shape[1])
     theta = check_signal(theta, what)
     target = target if rows is None else target[rows]
-    optimizer.fit(theta, target)
-    coef = np.asarray(optimizer.coef_, dtype=float).reshape(target.shape[1], theta.shape[1]).T
+    if normalize:
+        A = feature_map(getattr(library, "terms_", None), *operating_point(Zr), theta)
+        target_scale = np.sqrt(np.mean(target ** 2, axis=0))
+        target_scale = np.where(np.isfinite(target_scale) & (target_scale > 0), target_scale, 1.0)
+        optimizer.fit(theta @ A.T, target / target_scale)
+        xi = np.asarray(optimizer.coef_, dtype=float).reshape(target.shape[1], theta.shape[1]).T
+        coef = (A.T @ xi) * target_scale
+    else:
+        optimizer.fit(theta, target)
+        coef = np.asarray(optimizer.coef_, dtype=float).reshape(target.shape[1], theta.shape[1]).T
     if not np.all(np.isfinite(coef)):
         raise ValueError("the optimizer returned NaN or inf coefficients; check the data and its settings.")
     return coef

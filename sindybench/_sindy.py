@@ -8,6 +8,8 @@ from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
 from ._base import DynamicsEstimator
+from ._params import Constraint
+from ._preprocessing import operating_point
 from ._equations import EquationRow
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
 from .optimizers import STLS
@@ -15,10 +17,7 @@ from ._validation import (
     check_array_like,
     check_bounds,
     check_dt,
-    check_estimator_param,
     check_inputs_outputs,
-    check_integer,
-    check_option,
     check_positive,
     check_records,
     check_signal,
@@ -31,7 +30,6 @@ from .dynamics import assemble
 from .io import register_model
 from .libraries import PolynomialLibrary, as_library
 from ._regression import fit_sparse
-from .simulate import _HOLDS, _METHODS
 
 __all__ = ["SINDy"]
 
@@ -45,6 +43,31 @@ def _check_names(names, n, prefix, name):
             isinstance(s, str) for s in names):
         raise ValueError(f"{name} must be a list of {n} strings; got {names!r}.")
     return list(names)
+
+
+def _scaling_record(Z):
+    """``scaling_``: the operating point of the regression's ``Z`` (mean and standard deviation per column)."""
+    mean, scale = operating_point(Z)
+    return {"mean": mean.tolist(), "scale": scale.tolist()}
+
+
+def check_distinct_names(out_names, in_names):
+    """Outputs and inputs name the columns of ``Z = [y, u]``: one name for two columns is a ``ValueError``.
+
+    Examples
+    --------
+    >>> check_distinct_names(["u0"], ["u0"])
+    Traceback (most recent call last):
+    ...
+    ValueError: output_names and input_names share 'u0' (output 0 and input 0); expected distinct names (the equations and the library's features name the columns by them).
+    """
+    seen = {}
+    for kind, names in (("output", out_names), ("input", in_names)):
+        for i, name in enumerate(names):
+            if name in seen:
+                raise ValueError(f"output_names and input_names share {name!r} ({seen[name]} and {kind} {i}); expected "
+                                 "distinct names (the equations and the library's features name the columns by them).")
+            seen[name] = f"{kind} {i}"
 
 
 class SINDy(DynamicsEstimator):
@@ -76,8 +99,24 @@ class SINDy(DynamicsEstimator):
         Input between samples: held, or linearly interpolated.
     bounds : (lower, upper) or None, default=None
         State bounds for simulations (saturation), scalars or one per state.
-    max_abs : float, default=inf
-        A simulated state with ``|x| > max_abs`` counts as diverged.
+    max_abs : float, default=1e6
+        A simulated state with ``|x| > max_abs`` counts as diverged (the
+        default was ``inf`` before version 0.2; model files keep the value
+        they were saved with).
+    input_delay : int, default=0
+        Input delay in samples: the model is driven by ``u(t - input_delay dt)``
+        in ``fit``, ``simulate`` and ``predict`` (the first input is held
+        before the record starts); see :func:`sindybench.identify.estimate_delay`.
+    normalize : bool, default=False
+        Centre and scale inside ``fit``: the library's features are taken of
+        ``(z - mean) / std`` of ``Z = [y, u]`` and each derivative is divided
+        by its root mean square, so the optimizer's threshold is relative
+        (a fraction of the derivative's size per standard deviation of a
+        feature) and no longer depends on the data's units. ``coef_``,
+        :meth:`equations`, ``simulate`` and ``predict`` stay in the user's
+        units: polynomial terms are expanded back exactly (a library with
+        every lower-degree monomial, such as ``PolynomialLibrary``), other
+        terms are scaled only. ``scaling_`` reports the operating point.
     output_names, input_names : list of str or None, default=None
         Names of the columns of ``y`` and ``X`` (default ``y0, y1, ...`` and
         ``u0, u1, ...``), used by :meth:`equations` and the feature names.
@@ -108,7 +147,11 @@ class SINDy(DynamicsEstimator):
         <sindybench.refine.RefinementResult.summary>`); None without ``refine``.
     dynamics_ : Dynamics
         The fitted model (right-hand side, states, outputs, bounds,
-        simulation settings; see :class:`sindybench.dynamics.Dynamics`).
+        simulation settings; see :class:`sindybench.dynamics.Dynamics`),
+        driven by the delayed inputs (see ``input_delay``).
+    scaling_ : dict or None
+        With ``normalize``: ``{"mean": ..., "scale": ...}``, the operating
+        point of the training ``Z = [y, u]`` (lists, states first); None without.
     output_names_, input_names_, state_names_ : list of str
         ``state_names_`` equals ``output_names_`` (every state is measured).
     output_index_ : tuple of int
@@ -154,7 +197,9 @@ class SINDy(DynamicsEstimator):
         integrator="rk4",
         input_hold="zoh",
         bounds=None,
-        max_abs=np.inf,
+        max_abs=1e6,
+        input_delay=0,
+        normalize=False,
         output_names=None,
         input_names=None,
         refine=None,
@@ -168,21 +213,19 @@ class SINDy(DynamicsEstimator):
         self.input_hold = input_hold
         self.bounds = bounds
         self.max_abs = max_abs
+        self.input_delay = input_delay
+        self.normalize = normalize
         self.output_names = output_names
         self.input_names = input_names
         self.refine = refine
 
+    _parameter_constraints = {**DynamicsEstimator._parameter_constraints,
+                              "dt": Constraint(check_positive, allow_none=True)}
+
     # ------------------------------------------------------------------ checks
     def _check_params(self, n_states):
-        check_dt(self.dt, allow_none=True)
-        check_integer(self.n_substeps, "n_substeps")
-        check_option(self.integrator, "integrator", _METHODS)
-        check_option(self.input_hold, "input_hold", _HOLDS)
-        check_positive(self.max_abs, "max_abs", allow_inf=True)
+        self._validate_params()
         check_bounds(self.bounds, n_states)
-        check_estimator_param(self.optimizer, "optimizer", "a regressor with coef_ such as STLS()")
-        if self.refine is not None and not hasattr(self.refine, "run"):
-            raise ValueError(f"refine must be an OutputErrorRefinement or None; got {type(self.refine).__name__}.")
 
     @staticmethod
     def _resolve_time(dt, t, n_samples, fallback):
@@ -244,6 +287,7 @@ class SINDy(DynamicsEstimator):
         X, y = check_inputs_outputs(X, y)
         n_samples, n_states = y.shape
         self._check_params(n_states)
+        X = self.delayed_inputs(X)
         dt, t = self._resolve_time(dt, t, n_samples, self.dt)
         if self.refine is not None and t is not None:
             raise ValueError("refine needs uniformly sampled data (dt); got sample times t.")
@@ -269,10 +313,10 @@ class SINDy(DynamicsEstimator):
             raise ValueError(f"with {n_records} records, x_dot must be a list of {n_records} arrays or None.")
         if t is not None:
             raise ValueError("several records need a uniform step dt; sample times t are not supported with lists.")
-        records = list(zip(Xs, ys))
-        y_1d = all(np.asarray(y_i).ndim == 1 for y_i in y)
         n_states = ys[0].shape[1]
         self._check_params(n_states)
+        records = [(self.delayed_inputs(X_i), y_i) for X_i, y_i in zip(Xs, ys)]
+        y_1d = all(np.asarray(y_i).ndim == 1 for y_i in y)
         dt, _ = self._resolve_time(dt, None, records[0][1].shape[0], self.dt)
         differentiation = clone(as_differentiation(self.differentiation))
         derivatives = []
@@ -301,9 +345,11 @@ class SINDy(DynamicsEstimator):
         n_states = y.shape[1]
         out_names = _check_names(self.output_names, n_states, "y", "output_names")
         in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
+        check_distinct_names(out_names, in_names)
         library = clone(as_library(self.library))
         optimizer = clone(STLS() if self.optimizer is None else self.optimizer)
-        coef = fit_sparse(library, optimizer, np.hstack([y, X]), x_dot, what="library output Theta([y, u])")
+        Z = np.hstack([y, X])
+        coef = fit_sparse(library, optimizer, Z, x_dot, what="library output Theta([y, u])", normalize=self.normalize)
         dynamics = self._assemble(library, coef, out_names, fitted_dt)
         x0, refinement = y[0].copy(), None
         if self.refine is not None:
@@ -323,6 +369,7 @@ class SINDy(DynamicsEstimator):
         self.x0_ = x0
         self._y_1d = y_1d
         self.refinement_ = refinement
+        self.scaling_ = _scaling_record(Z) if self.normalize else None
         self.dynamics_ = dynamics
         return self
 

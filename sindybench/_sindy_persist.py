@@ -24,7 +24,12 @@ then assembles ``dynamics_`` from them):
     whether ``fit`` got a 1-D ``y``;
 ``refinement``
     ``refinement_``, the record of the simulation-error refinement (null without
-    ``refine``; the refined coefficients and first state are ``coef`` and ``x0``).
+    ``refine``; the refined coefficients and first state are ``coef`` and ``x0``);
+``scaling``
+    ``scaling_``, the operating point of ``normalize`` (null without; absent
+    in files written before ``normalize`` existed, which load with
+    ``normalize=False``). ``coef`` is always in the user's units, so nothing
+    else depends on it.
 """
 
 import math
@@ -42,7 +47,7 @@ from .io import (
 from .libraries import fitted_library_from_dict, fitted_library_to_dict
 from ._stls import STLS
 
-__all__ = ["fitted_parts", "sindy_from_dict", "sindy_to_dict"]
+__all__ = ["fitted_parts", "load_scaling", "sindy_from_dict", "sindy_to_dict"]
 
 
 def sindy_to_dict(model):
@@ -61,7 +66,17 @@ def sindy_to_dict(model):
         "x0": encode_array(model.x0_),
         "output_1d": bool(getattr(model, "_y_1d", False)),
         "refinement": encode_value(model.refinement_, "fitted.refinement"),
+        "scaling": encode_value(model.scaling_, "fitted.scaling"),
     }
+
+
+def load_scaling(model, fitted):
+    """``scaling_`` from the file; a file written before ``normalize`` existed loads with ``normalize=False``."""
+    if "scaling" not in fitted.data:
+        model.normalize = False  # the estimator it was saved from had no such parameter: it did not normalize
+        model.scaling_ = None
+    else:
+        model.scaling_ = fitted.mapping("scaling", allow_none=True)
 
 
 def fitted_parts(model, fitted, default_optimizer):
@@ -100,4 +115,5 @@ def sindy_from_dict(model, fitted):
     model.x0_ = fitted.array("x0", (n_states,), finite=True)
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
+    load_scaling(model, fitted)
     model._rebuild_model()

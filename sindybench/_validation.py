@@ -28,13 +28,40 @@ __all__ = [
     "check_time",
     "count_records",
     "is_records",
+    "real_scalar",
     "records_hint",
+    "shown",
     "uniform_step",
     "validate_named",
 ]
 
 # Relative spread of the sampling steps below which sample times count as uniform.
 UNIFORM_RTOL = 1e-6
+
+# The longest quotation of a given value in a message (characters of its repr).
+MAX_SHOWN = 120
+
+
+def shown(value, limit=MAX_SHOWN):
+    """``repr(value)`` for a message, cut to ``limit`` characters.
+
+    Every message that quotes what it was given goes through here, so that a
+    value of megabytes (a class name, a list) is not echoed whole.
+
+    Examples
+    --------
+    >>> shown("tanks")
+    "'tanks'"
+    >>> shown("x" * 10**7, limit=20)
+    "'xxxxxxxxxxxxxxxxxxx... (10,000,002 characters)"
+    """
+    if isinstance(value, str) and len(value) > limit:  # repr of the start only: a 1 GB string stays cheap
+        text = repr(value[:limit])
+        total = len(text) + len(value) - limit
+    else:
+        text = repr(value)
+        total = len(text)
+    return text if total <= limit else f"{text[:limit]}... ({total:,} characters)"
 
 
 def is_records(y):
@@ -344,16 +371,34 @@ def check_positive(value, name, *, allow_none=False, strict=True, allow_inf=Fals
     ValueError: dt must be a finite number > 0; got 0.0.
     >>> check_positive(float("inf"), "max_abs", allow_inf=True)
     inf
+    >>> check_positive(np.array(0.1), "dt")  # a 0-d array, as np.load gives a number
+    0.1
     """
     if value is None and allow_none:
         return None
+    value = real_scalar(value)
     op = ">" if strict else ">="
     expected = f"a number {op} 0 (inf allowed)" if allow_inf else f"a finite number {op} 0"
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
-        raise ValueError(f"{name} must be {expected}; got {value!r}.")
+        raise ValueError(f"{name} must be {expected}; got {shown(value)}.")
     value = float(value)
     if np.isnan(value) or (np.isinf(value) and not allow_inf) or value < 0 or (strict and value == 0):
-        raise ValueError(f"{name} must be {expected}; got {value!r}.")
+        raise ValueError(f"{name} must be {expected}; got {shown(value)}.")
+    return value
+
+
+def real_scalar(value):
+    """``value``, with a 0-d real NumPy array (what ``np.load`` gives for a number) as its NumPy scalar.
+
+    Any other value is returned as it is, for the caller's check.
+
+    Examples
+    --------
+    >>> real_scalar(np.array(0.1)), real_scalar(0.1), real_scalar(np.array([0.1]))
+    (np.float64(0.1), 0.1, array([0.1]))
+    """
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        return value[()]
     return value
 
 
@@ -384,9 +429,9 @@ def check_integer(value, name, *, low=1, high=None):
             expected = "" if low is None else f" >= {low}"
         else:
             expected = f" <= {high}" if low is None else f" in [{low}, {high}]"
-        raise ValueError(f"{name} must be an integer{expected}; got {value!r}.")
+        raise ValueError(f"{name} must be an integer{expected}; got {shown(value)}.")
     if abs(int(value)) >= 2**63:  # would overflow the compiled code's 64-bit integers
-        raise ValueError(f"{name} = {value!r} does not fit in a 64-bit integer; expected a smaller count.")
+        raise ValueError(f"{name} = {shown(value)} does not fit in a 64-bit integer; expected a smaller count.")
     return int(value)
 
 
@@ -401,7 +446,7 @@ def check_bool(value, name):
     ValueError: unbias must be True or False; got 1.
     """
     if not isinstance(value, (bool, np.bool_)):
-        raise ValueError(f"{name} must be True or False; got {value!r}.")
+        raise ValueError(f"{name} must be True or False; got {shown(value)}.")
     return bool(value)
 
 
@@ -422,7 +467,7 @@ def check_option(value, name, options):
     except TypeError:  # unhashable value, dict options
         known = False
     if not known:
-        raise ValueError(f"{name} must be one of {options}; got {value!r}.")
+        raise ValueError(f"{name} must be one of {shown(options)}; got {shown(value)}.")
     return value
 
 
@@ -507,7 +552,7 @@ def check_bounds(bounds, n_states, *, name="bounds"):
     try:
         lo, hi = bounds
     except (TypeError, ValueError) as exc:
-        raise ValueError(f"{name} must be a pair (lower, upper); got {bounds!r}.") from exc
+        raise ValueError(f"{name} must be a pair (lower, upper); got {shown(bounds)}.") from exc
 
     def side(v, default):
         if v is None:
@@ -557,7 +602,7 @@ def validate_named(estimator, X, y="no_validation", **kwargs):
         except ValueError as exc:  # ragged nested lists
             raise ValueError(f"{name} could not be converted to an array: {exc}") from exc
         if ndim == 0:
-            raise ValueError(f"{name} is a scalar ({a!r}); expected an array with one row per sample.")
+            raise ValueError(f"{name} is a scalar ({shown(a)}); expected an array with one row per sample.")
     try:
         return validate_data(estimator, X, y, **kwargs)
     except ValueError as exc:
@@ -583,5 +628,5 @@ def check_estimator_param(value, name, expected):
     ValueError: optimizer must be a regressor such as STLS() or None; got 'stls'.
     """
     if value is not None and not all(callable(getattr(value, m, None)) for m in ("fit", "get_params")):
-        raise ValueError(f"{name} must be {expected} or None; got {value!r}.")
+        raise ValueError(f"{name} must be {expected} or None; got {shown(value)}.")
     return value

@@ -32,10 +32,11 @@ from pathlib import Path
 import numpy as np
 
 from . import __version__
+from .experiments import BENCHMARKS  # the one list of benchmark names
+from ._validation import shown
 
 __all__ = ["build_parser", "main"]
 
-BENCHMARK_NAMES = ("pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps")
 logger = logging.getLogger("sindybench.cli")
 
 
@@ -91,7 +92,7 @@ def build_parser():
         "simulation on every test set, and write results.json, results.md, models/*.json and PNG "
         "figures into OUT/<benchmark>/ ('all' also writes OUT/report.md).",
     )
-    run.add_argument("benchmark", choices=(*BENCHMARK_NAMES, "all"), help="benchmark to run")
+    run.add_argument("benchmark", choices=(*BENCHMARKS, "all"), help="benchmark to run")
     run.add_argument("--trials", type=_non_negative_int, default=None, metavar="N",
                      help="search trials per model (default: each model's own budget)")
     run.add_argument("--seed", type=_seed, default=0, metavar="S", help="random seed, 0 to 2**32 - 1 (default: 0)")
@@ -140,12 +141,19 @@ def _configure_logging(quiet):
     import optuna  # a dependency of sindybench; imported here so that --help stays fast
 
     optuna.logging.set_verbosity(optuna.logging.WARNING)
+    for optuna_handler in logging.getLogger("optuna").handlers:
+        optuna_handler.addFilter(_not_an_interrupt)
+
+
+def _not_an_interrupt(record):
+    """Drop Optuna's "Trial n failed" record of a Ctrl-C (with its traceback): the command says it once."""
+    return not (record.exc_info and isinstance(record.exc_info[1], KeyboardInterrupt))
 
 
 def _run(args):
     from .experiments import get_benchmark, run_benchmarks
 
-    names = BENCHMARK_NAMES if args.benchmark == "all" else (args.benchmark,)
+    names = tuple(BENCHMARKS) if args.benchmark == "all" else (args.benchmark,)
     benchmarks = [get_benchmark(name) for name in names]
     start = time.perf_counter()
     report = run_benchmarks(
@@ -173,12 +181,35 @@ def _failed_models(out, names):
     return failed
 
 
+#: The largest CSV file ``simulate`` reads (its rows are held as text first: about 10 bytes of memory per byte),
+#: and the longest line in it.
+MAX_CSV_BYTES = 64 * 2**20
+MAX_CSV_LINE = 2**20
+
+
+def _bounded_lines(f, path, what):
+    """The lines of the text file ``f``, refusing a line or a file longer than a CSV record can need."""
+    total = 0
+    while True:
+        line = f.readline(MAX_CSV_LINE + 1)
+        if not line:
+            return
+        total += len(line)
+        if len(line) > MAX_CSV_LINE:
+            raise ValueError(f"{what} {path} has a line longer than {MAX_CSV_LINE // 2**20} MiB (it does not end "
+                             "within that length); expected a CSV file of one row per sample.")
+        if total > MAX_CSV_BYTES:
+            raise ValueError(f"{what} {path} is longer than {MAX_CSV_BYTES // 2**20} MiB; expected a CSV file of "
+                             "at most that size (split a longer record).")
+        yield line
+
+
 def _csv_rows(path, what):
     """``[(line number, cells)]`` of a CSV file, blank lines at its end dropped; ``ValueError`` naming the line."""
     rows = []
     try:
         with open(path, newline="", encoding="utf-8-sig") as f:
-            reader = csv.reader(f)
+            reader = csv.reader(_bounded_lines(f, path, what))
             start = 1
             try:
                 for row in reader:
@@ -195,6 +226,13 @@ def _csv_rows(path, what):
 
 
 def _number(text):
+    """``float(text)`` for a number written plainly in ASCII, else None.
+
+    Python's ``float`` also reads ``1_000`` (1000.0), Arabic-Indic and full-width digits
+    (``'\u0663'``, ``'\uff13'``: 3.0): a cell that is not what it looks like in another program.
+    """
+    if not text.isascii() or "_" in text:
+        return None
     try:
         return float(text)
     except ValueError:
@@ -238,8 +276,8 @@ def _read_csv(path, what):
             value = _number(text)
             if value is None or not math.isfinite(value):
                 column = f"column {names[j]!r}" if header is not None else names[j]
-                raise ValueError(f"{what} {path}, line {line}, {column}: {text.strip()!r}; "
-                                 "expected a finite number (no NaN, no empty cell).")
+                raise ValueError(f"{what} {path}, line {line}, {column}: {shown(text.strip())}; expected a finite "
+                                 "number in ASCII digits (no NaN, no empty cell, no digit separator).")
             data[i, j] = value
     return header, data
 
@@ -321,9 +359,25 @@ def _predict(model, X, y_init, args):
         raise ValueError(f"simulating {args.model} on {source}: {exc}") from exc
 
 
+def _same_file(a, b):
+    with contextlib.suppress(OSError):  # a file that does not exist yet
+        if os.path.samefile(a, b):  # a hard link or a symbolic link to it too
+            return True
+    return Path(a).resolve() == Path(b).resolve()
+
+
+def _check_output(args):
+    """Refuse an ``--output`` that is one of the files ``simulate`` reads (it would be replaced by the outputs)."""
+    for option, path in (("MODEL.json", args.model), ("--input", args.input), ("--y-init", args.y_init)):
+        if path is not None and _same_file(args.output, path):
+            raise ValueError(f"--output {args.output} is the file of {option} ({path}); expected another file "
+                             "(simulate never writes over what it reads).")
+
+
 def _simulate(args):
     from .io import write_text_atomic
 
+    _check_output(args)
     model = _load(args.model, args.allow_import)
     header, data = _read_csv(args.input, "input")
     X = _model_inputs(model, header, data, args.input)
@@ -359,6 +413,14 @@ def main(argv=None):
         bad, or (``simulate``) a file cannot be read or does not fit the model.
     """
     args = build_parser().parse_args(argv)
+    try:  # from the first import on: a Ctrl-C at any time exits with 130, without a traceback
+        return _command(args)
+    except KeyboardInterrupt:
+        print("sindybench: interrupted; no output written.", file=sys.stderr)
+        return 130
+
+
+def _command(args):
     _configure_logging(args.quiet)
     if args.command == "simulate":
         try:
@@ -376,9 +438,6 @@ def main(argv=None):
     except (DataNotFoundError, OSError, ValueError, ImportError) as exc:  # data, output folder, storage
         print(f"sindybench: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("sindybench: interrupted; no output written.", file=sys.stderr)
-        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -52,13 +52,40 @@ def _reduce(values, multioutput):
     return values if multioutput == "raw_values" else float(np.mean(values))
 
 
+def _column_scale(y_true, y_pred):
+    """Per-output powers of two near the largest magnitude: squares of the scaled values cannot overflow."""
+    big = np.maximum(np.max(np.abs(y_true), axis=0, initial=0.0), np.max(np.abs(y_pred), axis=0, initial=0.0))
+    return np.exp2(np.floor(np.log2(np.where(big > 0, big, 1.0))))
+
+
+def _unscaled_or_scaled(compute, y_true, y_pred):
+    """``compute(y_true, y_pred, scale)`` on the data as given, or, where a square overflowed, on the data
+    divided by :func:`_column_scale` (values near the float limit: +-1e300). Ordinary data takes the first
+    path, bit for bit."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = compute(y_true, y_pred, np.ones(y_true.shape[1]))
+    if np.all(np.isfinite(out)):
+        return out
+    scale = _column_scale(y_true, y_pred)
+    with np.errstate(over="ignore", invalid="ignore"):
+        return compute(y_true / scale, y_pred / scale, scale)
+
+
 def _relative_sse(y_true, y_pred, skip, multioutput):
     """``SSE / SST`` per output: nrmse is its root, r2 is 1 minus it, fit_index 100 (1 - root)."""
     y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
-    sst = np.sum((y_true - y_true.mean(axis=0)) ** 2, axis=0)
-    if np.any(sst == 0):
+    if np.any(np.all(y_true == y_true[:1], axis=0)):
         raise ValueError("y_true is constant over the scored samples; R^2 and fit index are undefined.")
-    return np.sum((y_true - y_pred) ** 2, axis=0) / sst
+
+    def ratio(t, p, scale):  # SSE / SST: the same in any scale
+        sst = np.sum((t - t.mean(axis=0)) ** 2, axis=0)
+        return np.where(sst > 0, np.sum((t - p) ** 2, axis=0) / np.where(sst > 0, sst, 1.0), np.inf)
+
+    out = _unscaled_or_scaled(ratio, y_true, y_pred)
+    if np.any(np.isinf(out)):  # a spread that rounds to zero beside its magnitude
+        raise ValueError("y_true varies less than floating point resolves over the scored samples; R^2 and fit "
+                         "index are undefined.")
+    return out
 
 
 def rmse(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
@@ -81,7 +108,11 @@ def rmse(y_true, y_pred, *, skip=0, multioutput="uniform_average"):
     0.577...
     """
     y_true, y_pred = _prepare(y_true, y_pred, skip, multioutput)
-    return _reduce(np.sqrt(np.mean((y_true - y_pred) ** 2, axis=0)), multioutput)
+    out = _unscaled_or_scaled(lambda t, p, scale: scale * np.sqrt(np.mean((t - p) ** 2, axis=0)), y_true, y_pred)
+    if not np.all(np.isfinite(out)):
+        raise ValueError(f"the RMSE overflows a float (y_true and y_pred differ by more than {np.finfo(float).max:.3g} "
+                         "on average); expected values whose differences fit in a float.")
+    return _reduce(out, multioutput)
 
 
 def nrmse(y_true, y_pred, *, skip=0, multioutput="uniform_average"):

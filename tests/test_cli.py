@@ -232,6 +232,38 @@ def test_bad_arguments_exit_2(argv, message, capsys):
     assert message in capsys.readouterr().err
 
 
+def test_cli_lists_the_registrys_benchmarks(capsys):
+    """The command's benchmark names are the registry's (one list), and ``all`` runs each of them."""
+    import sindybench.cli
+    from sindybench.experiments import BENCHMARKS
+
+    assert "silverbox" in BENCHMARKS and not hasattr(sindybench.cli, "BENCHMARK_NAMES")
+    for name in (*BENCHMARKS, "all"):
+        assert build_parser().parse_args(["run", name]).benchmark == name
+    with pytest.raises(SystemExit):
+        main(["run", "--help"])
+    assert "silverbox" in capsys.readouterr().out
+
+
+def test_cli_runs_all_the_registrys_benchmarks(monkeypatch, tmp_path):
+    from sindybench import experiments
+    from sindybench.experiments import BENCHMARKS
+
+    asked = []
+
+    def run_benchmarks(benchmarks, out, **kwargs):  # writes what a run writes, trains nothing
+        for name in asked:
+            (out / name).mkdir(parents=True)
+            (out / name / "results.json").write_text(json.dumps({"models": []}))
+        (out / "report.md").write_text("report")
+        return out / "report.md"
+
+    monkeypatch.setattr(experiments, "get_benchmark", lambda name: asked.append(name) or name)
+    monkeypatch.setattr(experiments, "run_benchmarks", run_benchmarks)
+    assert main(["run", "all", "--no-progress", "-q", "--out", str(tmp_path / "out")]) == 0
+    assert asked == list(BENCHMARKS)
+
+
 def test_parser_defaults():
     args = build_parser().parse_args(["run", "bouc-wen"])
     assert (args.trials, args.seed, args.n_jobs, args.quick, args.storage) == (None, 0, 1, False, None)
@@ -491,6 +523,98 @@ def test_simulate_y_init_errors_name_the_file(saved_models, tmp_path, capsys):
     assert status == 2 and f"--y-init {y0} (1 row(s) of 2 value(s)): y_init has 2 " in err
 
 
+@pytest.mark.parametrize("cell", ["1_000", "\u0663", "\uff13", "1\u0660", " \uff11.5 ", "\u0661e3"])
+def test_simulate_reads_only_ascii_numbers(saved_models, tmp_path, capsys, cell):
+    # issue 30, item 10: '1_000', Arabic-Indic and full-width digits were read as 1000.0, 3.0 and 3.0
+    status, rows = _simulate_text(saved_models[0], "arx1.json", f"u\n0.1\n{cell}\n", tmp_path)
+    err = capsys.readouterr().err
+    assert status == 2 and rows is None
+    assert f"line 3, column 'u': {cell.strip()!r}; expected a finite number in ASCII digits" in err, err
+
+
+@pytest.mark.parametrize("source", ["/dev/zero", "long line", "big file"])
+def test_simulate_refuses_an_endless_or_huge_input_within_a_second(saved_models, tmp_path, capsys, monkeypatch,
+                                                                     source):
+    # issue 30, item 16: --input /dev/zero ended in a MemoryError traceback
+    from sindybench import cli
+
+    if source == "/dev/zero" and not os.path.exists("/dev/zero"):
+        pytest.skip("no /dev/zero")
+    path = tmp_path / "u.csv"
+    if source == "long line":
+        path.write_text("u\n" + "1" * (cli.MAX_CSV_LINE + 5) + "\n")
+    elif source == "big file":
+        monkeypatch.setattr(cli, "MAX_CSV_BYTES", 4000)  # the same check as at 64 MiB, on a small file
+        path.write_text("u\n" + "0.125\n" * 1000)
+    start = time.perf_counter()
+    status = main(["simulate", str(saved_models[0] / "arx1.json"), "--input",
+                   source if source == "/dev/zero" else str(path), "--output", str(tmp_path / "y.csv")])
+    err = capsys.readouterr().err
+    assert time.perf_counter() - start < 1.0
+    expected = "is longer than 0 MiB" if source == "big file" else "has a line longer than 1 MiB"
+    assert status == 2 and expected in err and "Traceback" not in err, err
+    assert not (tmp_path / "y.csv").exists()
+
+
+@pytest.mark.parametrize("delay", [0.0, 0.3, 1.0])
+def test_ctrl_c_while_the_command_starts_exits_130_without_a_traceback(tmp_path, delay):
+    # issue 30, item 17: a Ctrl-C in the first seconds of `sindybench run` (importing the package) printed a
+    # KeyboardInterrupt traceback and the process died of the signal (-2); the console script now starts in
+    # sindybench_launcher, outside the package, and guards that import too
+    import sindybench
+
+    root = os.path.dirname(os.path.dirname(sindybench.__file__))
+    env = {**os.environ, "PYTHONPATH": root}
+    # Python's own start-up and the console script's first line (finding the launcher: milliseconds) are no place
+    # for this test: start the clock once the launcher is imported, as the package import begins
+    code = "import sys, sindybench_launcher; print('started', flush=True); sys.exit(sindybench_launcher.main())"
+    proc = subprocess.Popen([sys.executable, "-c", code, "run", "cascaded-tanks", "--quick", "--out",
+                             str(tmp_path / "out")], cwd=tmp_path, env=env, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as on a terminal
+    assert proc.stdout.readline().strip() == "started"
+    time.sleep(delay)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and err.strip().endswith("sindybench: interrupted; no output written."), err
+    assert not (tmp_path / "out").exists()
+
+
+def _aliases(tmp_path, folder):
+    """``{name: (argv, the file --output must not replace)}``: outputs that are one of simulate's inputs."""
+    model, inputs, y0 = tmp_path / "model.json", tmp_path / "u.csv", tmp_path / "y0.csv"
+    shutil.copy(folder / "arx1.json", model)
+    inputs.write_text("u\n0.1\n0.2\n0.3\n")
+    y0.write_text("y\n0.0\n")
+    os.link(inputs, tmp_path / "hard.csv")
+    os.symlink(inputs, tmp_path / "soft.csv")
+    base = ["simulate", str(model), "--input", str(inputs), "--y-init", str(y0), "--output"]
+    return {
+        "input": (base + [str(inputs)], inputs),
+        "model": (base + [str(model)], model),
+        "y-init": (base + [str(y0)], y0),
+        "relative": (base + [os.path.relpath(inputs)], inputs),
+        "dot-dot": (base + [str(tmp_path / "sub" / ".." / "u.csv")], inputs),
+        "hard link": (base + [str(tmp_path / "hard.csv")], inputs),
+        "symbolic link": (base + [str(tmp_path / "soft.csv")], inputs),
+    }
+
+
+@pytest.mark.parametrize("case", ["input", "model", "y-init", "relative", "dot-dot", "hard link", "symbolic link"])
+def test_simulate_never_writes_over_its_inputs(saved_models, tmp_path, capsys, monkeypatch, case):
+    # issue 30, item 2: --input u.csv --output u.csv replaced the input with the outputs (exit 0)
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "sub").mkdir()
+    argv, target = _aliases(tmp_path, saved_models[0])[case]
+    before = target.read_bytes()
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    option = {"model": "MODEL.json", "y-init": "--y-init"}.get(case, "--input")
+    assert f"is the file of {option} (" in err and "simulate never writes over what it reads" in err, err
+    assert target.read_bytes() == before
+
+
 RHS_MODULE = """
 import numpy as np
 
@@ -647,7 +771,8 @@ def _numbers(obj):
         yield obj
 
 
-@pytest.mark.parametrize("name", ["pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps"])
+@pytest.mark.parametrize("name", ["pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps",
+                                  "silverbox"])
 def test_quick_run_outputs(quick_run, name):
     import matplotlib.image
 
@@ -682,7 +807,8 @@ def _estimation_error():
     return None
 
 
-@pytest.mark.parametrize("name", ["pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps"])
+@pytest.mark.parametrize("name", ["pick-and-place", "pick-and-place-nss", "bouc-wen", "cascaded-tanks", "emps",
+                                  "silverbox"])
 def test_quick_run_best_model(quick_run, name):
     from sindybench.experiments._best import HORIZONS
 
@@ -717,10 +843,23 @@ def test_quick_run_best_model(quick_run, name):
         assert smoothed["status"] == "ok" and smoothed["rmse"] > 0
 
 
+def test_quick_run_silverbox(quick_run):
+    """The quick Silverbox run: the refined second-order rows beat the published GRU and every baseline."""
+    results = json.loads((quick_run / "silverbox" / "results.json").read_text())
+    rmse = {m["key"]: {t: s["rmse"] for t, s in m["scores"].items()} for m in results["models"]}
+    assert set(results["test_sets"]) == {"multisine", "arrow_full"}  # the quick run's test sets
+    for test, gru in (("multisine", 1.49), ("arrow_full", 2.80)):  # mV
+        for key in ("sindy_duffing_refined", "sindy_second_order_refined"):
+            assert rmse[key][test] < gru, (key, test)
+            assert rmse[key][test] < min(rmse[k][test] for k in ("arx", "nnarx", "sindy_poly")), (key, test)
+    text = (quick_run / "silverbox" / "results.md").read_text()
+    assert "GRU (Champneys et al., 2024) RMSE 1.49" in text
+
+
 def test_quick_run_report(quick_run):
     text = (quick_run / "report.md").read_text()
     for title in ("Pick-and-place machine", "neural state-space protocol", "Bouc-Wen oscillator", "Cascaded tanks",
-                  "Electro-Mechanical Positioning", "test_nonlinear_benchmarks"):
+                  "Electro-Mechanical Positioning", "test_nonlinear_benchmarks", "Silverbox"):
         assert title in text
     assert "Total wall time" in text
     # the fit time of each model family and its share of the wall time, the NN-ARX baselines among them

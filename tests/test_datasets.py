@@ -18,6 +18,7 @@ from sindybench.datasets import (
     load_cascaded_tanks,
     load_emps,
     load_pick_and_place,
+    load_silverbox,
 )
 
 
@@ -187,6 +188,64 @@ def test_emps_matches_nonlinear_benchmarks_protocol(emps_home):
     assert test.sampling_time == pytest.approx(data.dt, rel=1e-4)
 
 
+# --- Silverbox ----------------------------------------------------------------------------------------
+
+
+def test_silverbox_against_raw_file(data_home):
+    """The official split of SNLS80mV: estimation, the three tests, the 50-sample window, volts and times."""
+    raw = _read_csv_columns(data_home / "silverbox" / "SNLS80mV.csv")
+    u, y = raw["V1"], raw["V2"]
+    assert len(u) == len(y) == 131072
+    data = load_silverbox(data_home=data_home, download_if_missing=False)
+    dt = 2**14 / 1e7
+    assert data.dt == pytest.approx(1.6384e-3, rel=1e-12) and data.n_init == 50
+    _check_split(data.estimation, 65062, dt, 40650 * dt)
+    _check_split(data.train, 52050, dt, 40650 * dt)
+    _check_split(data.validation, 13012, dt, (40650 + 52050) * dt)
+    np.testing.assert_array_equal(data.estimation.u[:, 0], u[40650:40650 + 65062])
+    np.testing.assert_array_equal(np.vstack([data.train.y, data.validation.y]), data.estimation.y)
+    tests = data.test
+    assert list(tests) == ["multisine", "arrow_full", "arrow_no_extrapolation"]
+    for name, start, n in (("multisine", 40650 + 65062, 21688), ("arrow_full", 100, 40475),
+                           ("arrow_no_extrapolation", 100, 32000)):
+        _check_split(tests[name], n, dt, start * dt)
+        np.testing.assert_array_equal(tests[name].u[:, 0], u[start:start + n])
+        np.testing.assert_array_equal(tests[name].y[:, 0], y[start:start + n])
+        assert (tests[name].n_init, tests[name].score_from) == (50, 50) and "50 initial samples" in tests[name].protocol
+    assert tests.multisine.t[-1] == pytest.approx(127399 * dt)  # the multisine block ends at all[127400]
+    # the arrow grows beyond the estimation amplitudes after its first 32000 samples, not before
+    peak = np.abs(data.estimation.y).max()
+    assert np.abs(tests.arrow_no_extrapolation.y).max() < 1.1 * peak < np.abs(tests.arrow_full.y).max()
+    assert data.units.y == "V" and data.source[0].sha256 == (
+        "ae62d5a91230c10f76e6dd02c8a4fac3c9d4d8a95fbf50e87cb0c4885003e0f1")
+
+
+def test_silverbox_matches_nonlinear_benchmarks_split(data_home, tmp_path):
+    """nonlinear_benchmarks.Silverbox() cuts the same record into the same estimation and test sets."""
+    nlb = pytest.importorskip("nonlinear_benchmarks")
+    data = load_silverbox(data_home=data_home)
+    record = {"V1": data.record.u[None, :], "V2": data.record.y[None, :]}
+    with pytest.MonkeyPatch.context() as mp:  # the package reads SNLS80mV.mat: hand it our record, no network
+        mp.setattr(nlb.benchmarks, "cashed_download", lambda url, name, **kwargs: str(tmp_path))
+        mp.setattr(nlb.benchmarks, "loadmat", lambda path: record)
+        train_val, tests = nlb.Silverbox()
+    np.testing.assert_array_equal(train_val.u, data.estimation.u[:, 0])
+    np.testing.assert_array_equal(train_val.y, data.estimation.y[:, 0])
+    for theirs, name in zip(tests, ("multisine", "arrow_full", "arrow_no_extrapolation")):
+        np.testing.assert_array_equal(theirs.y, data.test[name].y[:, 0])
+        assert theirs.state_initialization_window_length == data.test[name].n_init == data.test[name].score_from
+
+
+def test_silverbox_checksum_refuses_another_record(data_home, tmp_path):
+    folder = tmp_path / "silverbox"
+    folder.mkdir()
+    text = (data_home / "silverbox" / "SNLS80mV.csv").read_text()
+    (folder / "SNLS80mV.csv").write_text(text.replace("0.0057756", "0.0057757", 1))  # one digit of one sample
+    with pytest.raises(DownloadError, match="not the published record"):
+        load_silverbox(data_home=tmp_path)
+    assert (folder / "SNLS80mV.csv").is_file()  # the user's file is kept
+
+
 # --- data home and missing files --------------------------------------------------------------------
 
 
@@ -206,6 +265,7 @@ def test_get_data_home_honours_environment(tmp_path, monkeypatch):
         (load_bouc_wen, "bouc_wen/train_data.csv"),
         (load_pick_and_place, "pick_and_place/headdata_1v6.mat"),
         (load_emps, "emps/DATA_EMPS.mat"),
+        (load_silverbox, "silverbox/SNLS80mV.csv"),
     ],
 )
 def test_missing_file_names_file_and_folder(loader, filename, tmp_path):

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from scipy.stats import chi2
 
-from sindybench import HiddenStateSINDy, SINDy
+from sindybench import STLS, HiddenStateSINDy, SINDy
 from sindybench.dynamics import ABS_POW, POW, SIGN, SQRT, step_jacobian_kernel, step_kernel
 from sindybench.estimation import (
     FilterDivergenceError,
@@ -12,13 +12,14 @@ from sindybench.estimation import (
     estimate_noise,
     extended_kalman_filter,
     k_step_rmse,
+    latent_invariants,
     linearize,
     model_step,
     predict_k_step,
     rts_smoother,
     smooth_initial_state,
 )
-from sindybench.hidden import DerivativeHiddenState
+from sindybench.hidden import DerivativeHiddenState, LatentHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.refine import estimate_initial_state, simulate_sensitivity
 from sindybench.simulate import TermsRHS, simulate
@@ -383,3 +384,149 @@ def test_a_diverging_filter_raises(rng):
     with pytest.raises(FilterDivergenceError, match="diverged at sample 1[0-9] of 40: the model's step") as info:
         extended_kalman_filter(m, None, np.full((40, 1), 1.0), Q=0.0, R=1e6, x0=[1.0], P0=1e-6)
     assert 10 <= info.value.step < 20
+
+
+# the compiled paths index states and inputs with these values unchecked: each is refused before
+# (output_index 5 or 10**6 read and wrote out of bounds, n_inputs 0 dropped the input, dt <= 0 ran)
+BAD_MODEL_FIELDS = [
+    (dict(output_index=(5,)), r"output_index\[0\] must be an integer in \[0, 1\]; got 5"),
+    (dict(output_index=(10**6,)), r"output_index\[0\] must be an integer in \[0, 1\]; got 1000000"),
+    (dict(output_index=(-1,)), r"output_index\[0\] must be an integer in \[0, 1\]; got -1"),
+    (dict(output_index=()), "output_index must be a non-empty sequence"),
+    (dict(output_index=(0, 0)), "repeats a state"),
+    (dict(n_inputs=0), "n_inputs = 0, but the model's terms use column 2 .* expected n_inputs >= 1"),
+    (dict(n_inputs=-1), "n_inputs must be an integer >= 0"),
+    (dict(dt=0.0), "dt must be a finite number > 0; got 0.0"),
+    (dict(dt=-1.0), "dt must be a finite number > 0; got -1.0"),
+    (dict(dt=np.nan), "dt must be a finite number > 0"),
+    (dict(n_substeps=0), "n_substeps must be an integer >= 1"),
+    (dict(method="rk2"), "method must be one of"),
+    (dict(x0=[np.nan, 0.0]), "x0 = .*expected 2 finite values"),
+    (dict(state_scale=[1.0]), "state_scale = .*expected 2 finite values > 0"),
+    (dict(lower=np.zeros(3)), "lower .* and upper .* must hold 2 values each"),
+]
+
+
+@pytest.mark.parametrize("kw, match", BAD_MODEL_FIELDS)
+def test_model_step_from_rhs_refuses_bad_indices_and_sizes(kw, match):
+    args = dict(dt=DT, n_inputs=1)
+    if "lower" in kw:
+        with pytest.raises(ValueError, match=match):
+            duffing()._replace(**kw).checked()
+        return
+    args.update(kw)
+    with pytest.raises(ValueError, match=match):
+        ModelStep.from_rhs(DUFFING, **args)
+
+
+@pytest.mark.parametrize("kw, match", BAD_MODEL_FIELDS)
+def test_every_compiled_path_refuses_a_model_edited_out_of_bounds(kw, match, rng):
+    # a ModelStep edited with _replace skips from_rhs: each public path checks it again before its kernel
+    m = duffing()._replace(**kw)
+    u = drive(30, rng)
+    y = simulate(DUFFING, [0.2, 0.0], u, DT)[:, :1]
+    args = dict(Q=1e-6, R=1e-4)
+    calls = [lambda: extended_kalman_filter(m, u, y, **args), lambda: rts_smoother(m, u, y, **args),
+             lambda: predict_k_step(m, u, y, 3, **args), lambda: k_step_rmse(m, u, y, 3, **args),
+             lambda: smooth_initial_state(m, u, y[:10], **args), lambda: estimate_noise(m, u, y, max_iter=2),
+             lambda: linearize(m, [0.0, 0.0], [0.0])]
+    for call in calls:
+        with pytest.raises(ValueError, match=match):
+            call()
+
+
+def test_a_fitted_model_with_a_tampered_output_index_is_refused(rng):
+    u = drive(80, rng)
+    y = simulate(DUFFING, [0.2, 0.0], u, DT)[:, :1]
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=DT).fit(u, y)
+    object.__setattr__(model.dynamics_, "output_index", (5,))  # as a hand-edited value would hold
+    with pytest.raises(ValueError, match=r"output_index\[0\] must be an integer in \[0, 0\]; got 5"):
+        extended_kalman_filter(model, u, y, Q=1e-6, R=1e-4)
+
+
+# ----------------------------------------------------------------------- latent invariants
+@pytest.fixture(scope="module")
+def lag_model():
+    """``y' = -y + z``, ``z' = -0.5 z + u`` fitted with one latent state (no refinement: quick)."""
+    u = np.repeat(np.random.default_rng(0).uniform(0.5, 2.0, 20), 30)[:, None]
+    x = simulate(TermsRHS.from_equations([{lin(0): -1.0, lin(1): 1.0}, {lin(1): -0.5, lin(2): 1.0}]),
+                 2 * u[0, 0] * np.ones(2), u, 0.1, n_substeps=4)
+    model = HiddenStateSINDy(hidden=LatentHiddenState(tau=2.0), library=PolynomialLibrary(degree=1),
+                             optimizer=STLS(threshold=0.05), dt=0.1, n_trials=1).fit(u, x[:, :1])
+    return model, u, x
+
+
+def _with_output_row(model, **coef):
+    """A copy of ``model`` whose y0' row is ``coef`` (term name -> value), the rest as fitted."""
+    model = clone_fitted(model)
+    names = list(model.library_.get_feature_names_out(["y0", "z0", "u0"]))
+    model.coef_[0] = 0.0
+    for name, value in coef.items():
+        model.coef_[0, names.index(name)] = value
+    model._rebuild_model()
+    return model
+
+
+def clone_fitted(model):
+    import copy
+
+    out = copy.deepcopy(model)
+    out.coef_ = out.coef_.copy()
+    return out
+
+
+def test_latent_invariants_reports_an_equilibrium_and_the_linearization_there(lag_model):
+    model, _, _ = lag_model
+    inv = latent_invariants(model, [1.0])
+    np.testing.assert_allclose(np.sort(inv["poles"].real), [-1.0, -0.5], atol=0.01)
+    np.testing.assert_allclose(inv["gain"], [[2.0]], rtol=0.01)
+    assert np.max(np.abs(inv["residual"])) < 1e-9
+    lin = linearize(model, inv["state"], [1.0])
+    np.testing.assert_array_equal(inv["jacobian"], lin.A)
+
+
+def test_latent_invariants_refuses_a_point_that_is_no_equilibrium(lag_model):
+    # y0' = 1: nothing is at rest; before, the least-squares point was returned as the equilibrium, silently
+    model = _with_output_row(lag_model[0], **{"1": 1.0})
+    with pytest.raises(ValueError, match=r"no equilibrium found for u_op = \[1.0\]: .* has the right-hand side"):
+        latent_invariants(model, [1.0])
+
+
+def test_latent_invariants_gives_no_gain_from_a_near_zero_pole(lag_model):
+    # y0' = 5.5e-9 (z0 - y0): a pole of -5.5e-9 beside -0.5 (before: a gain from it, however ill-determined)
+    model = _with_output_row(lag_model[0], y0=-5.5e-9, z0=5.5e-9)
+    inv = latent_invariants(model, [1.0], y_guess=[2.0, 2.0])
+    assert inv["gain"] is None and np.min(np.abs(inv["poles"])) < 1e-8
+
+
+def test_latent_invariants_checks_its_arguments(lag_model):
+    model, u, x = lag_model
+    with pytest.raises(ValueError, match=r"u_op = \[0.5 0.2\]; expected 1 finite values"):  # before: [[0.895, 0.0]]
+        latent_invariants(model, [0.5, 0.2])
+    with pytest.raises(ValueError, match="y_guess = .*expected 2 finite values"):
+        latent_invariants(model, [0.5], y_guess=[1.0])
+    unfitted = HiddenStateSINDy(hidden=LatentHiddenState(tau=2.0), dt=0.1)
+    with pytest.raises(ValueError, match="HiddenStateSINDy is not fitted"):  # before: AttributeError
+        latent_invariants(unfitted, [0.5])
+    sindy = SINDy(library=PolynomialLibrary(degree=1), dt=0.1).fit(u, x)
+    with pytest.raises(ValueError, match="takes a HiddenStateSINDy fitted with a LatentHiddenState; got SINDy"):
+        latent_invariants(sindy, [0.5])
+    other = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=1), dt=0.1,
+                             n_trials=1).fit(u, x[:, :1])
+    with pytest.raises(ValueError, match="got HiddenStateSINDy with DerivativeHiddenState"):
+        latent_invariants(other, [0.5])
+@pytest.mark.parametrize("Q, match", [
+    (None, r"Q is None; expected a covariance: an \(1, 1\) matrix, a diagonal of length 1 or a number"),
+    ("0.1", r"Q is '0.1'; expected a covariance"),
+    (1j, r"Q could not be read as a covariance"),
+])
+def test_a_covariance_that_is_no_number_says_so(Q, match):
+    # issue 30, item 19: Q=None said "Q contains NaN or inf"
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((80, 1))
+    y = np.cumsum(u, axis=0) * 0.01
+    model = SINDy(library=PolynomialLibrary(degree=1), dt=0.1).fit(u, y)
+    with pytest.raises(ValueError, match=match):
+        extended_kalman_filter(model, u, y, Q=Q, R=1e-4)
+    with pytest.raises(ValueError, match=match.replace("Q", "R", 1) if Q is not None else r"R is None"):
+        extended_kalman_filter(model, u, y, Q=1e-6, R=Q)

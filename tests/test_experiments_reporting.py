@@ -41,3 +41,34 @@ def test_smoothed_start_reads_only_n_init_samples():
                                             R=np.eye(1) * 1e-6)
     np.testing.assert_array_equal(x0_later, x0)
     assert moved["rmse"] > 50.0  # scored against the moved samples, from the same start
+
+
+# --------------------------------------------------------------------------- an output folder the run cannot write
+def test_a_read_only_output_folder_is_named_before_any_work(tmp_path, monkeypatch):
+    # issue 30, item 19: a read-only --out failed late, naming its staging folder '.out.tmp-xuoicjhw'
+    import os
+
+    from sindybench.experiments._report import check_output_dir
+
+    real = os.access
+    monkeypatch.setattr(os, "access", lambda p, mode: False if str(p) == str(tmp_path) else real(p, mode))
+    with pytest.raises(PermissionError, match=rf"output folder {tmp_path}/out: cannot write into {tmp_path} "
+                                              r"\(not writable\); .*choose another --out"):
+        check_output_dir(tmp_path / "out")
+
+
+def test_a_staging_folder_that_cannot_be_made_names_the_output_folder(tmp_path, monkeypatch):
+    import errno
+    import tempfile
+
+    from sindybench.experiments import staged_output_dir
+
+    def read_only(**kwargs):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    monkeypatch.setattr(tempfile, "mkdtemp", read_only)
+    with pytest.raises(OSError, match=rf"output folder {tmp_path}/out: cannot write into {tmp_path} \(Read-only "
+                                      r"file system\).*choose another --out") as info:
+        with staged_output_dir(tmp_path / "out"):
+            pass
+    assert ".tmp-" not in str(info.value)

@@ -76,3 +76,14 @@ def test_simulate_casadi_checks_shapes():
     cm = to_casadi(ModelStep.from_rhs(MIXED, DT, n_inputs=1))
     with pytest.raises(ValueError, match=r"expected \(3,\) and \(n_samples, 1\)"):
         simulate_casadi(cm, [0.0, 0.0], np.zeros((5, 1)))
+
+
+def test_a_user_operation_is_named_when_it_has_no_casadi_form():
+    # issue 30, item 19: to_casadi said "unknown factor operation 16."
+    from sindybench.dynamics import register_op
+
+    op = register_op(np.tanh)
+    rhs = TermsRHS.from_equations([{((0, POW, 1, 0),): -1.0, ((1, int(op), 0, 0),): 1.0}])
+    with pytest.raises(ValueError, match=rf"to_casadi: the model uses the user operation tanh\(z\) \(op code {int(op)}, "
+                                         r"registered with register_op or a CustomLibrary\), which has no CasADi form"):
+        to_casadi(ModelStep.from_rhs(rhs, 0.1, n_inputs=1))

@@ -6,7 +6,14 @@ from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
 
 from sindybench import STLS, DivergenceWarning, HiddenStateSINDy, SimulationError
-from sindybench.hidden import DerivativeHiddenState, HiddenStrategy, InitialFit, ParametricHiddenState
+from sindybench.hidden import (
+    BoucWenHiddenState,
+    DerivativeHiddenState,
+    HiddenStrategy,
+    InitialFit,
+    LatentHiddenState,
+    ParametricHiddenState,
+)
 from sindybench.libraries import PolynomialLibrary
 from sindybench.search import LogUniform, Normal, Uniform
 from sindybench.simulate import TermsRHS, simulate
@@ -305,3 +312,16 @@ def test_search_space_reads_bounds_and_names_a_missing_entry():
     assert _TwoParameters(a=1.0, bounds={"b": (1, 5)}).search_space() == {"b": Uniform(1.0, 5.0)}
     with pytest.raises(ValueError, match=r"b=None asks for a search but bounds has no entry 'b'"):
         _TwoParameters(a=1.0, bounds={"a": (0.1, 10.0)}).search_space()
+
+
+@pytest.mark.parametrize("strategy, match", [
+    (_TwoParameters(bounds={"a": (0.1, 1.0), "B": (1, 5)}), "unknown key 'B'; _TwoParameters accepts 'a', 'b'"),
+    (LatentHiddenState(bounds={"Tau": (100, 200)}), "unknown key 'Tau'; LatentHiddenState accepts 'tau', 'gain'"),
+    (BoucWenHiddenState(bounds={"M": (1, 3)}), "unknown key 'M'; BoucWenHiddenState accepts 'm', 'c', 'k'"),
+    (LatentHiddenState(bounds=[(1, 2)]), "bounds must be a dict name -> dimension"),
+    (_TwoParameters(bounds=[(1, 2)]), "bounds must be a dict name -> dimension"),
+])
+def test_an_unknown_bounds_key_is_an_error_naming_the_accepted_ones(strategy, match):
+    # before: the misspelled key was ignored and the default range searched
+    with pytest.raises(ValueError, match=match):
+        strategy.search_space()

@@ -5,8 +5,8 @@ import pytest
 
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
-from sindybench.estimation import linearize
-from sindybench.hidden import LatentHiddenState, latent_invariants
+from sindybench.estimation import latent_invariants, linearize
+from sindybench.hidden import LatentHiddenState
 from sindybench.libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary, term_name
 from sindybench.refine import OutputErrorRefinement
 from sindybench.search import LogNormal, LogUniform, Uniform
@@ -61,7 +61,8 @@ def test_hidden_tank_with_square_root_outflow(rng):
     np.testing.assert_allclose(np.sort(inv["poles"].real), _poles(truth, x_eq, [2.5]), rtol=0.05)
     np.testing.assert_allclose(inv["gain"], [[5.0]], rtol=0.05)  # dy/du = 2 u
     # the gauge: the coefficient of u0 in z0' is pinned at 1, and equations() says so
-    assert model.equations()[-1] == "gauge: z0: the coefficient of u0 in z0' is 1 (scale gauge)"
+    assert model.equations()[-1] == "gauge: z0: the coefficient of u0 in z0' is 1 (scale gauge, held in the refinement)"
+    assert "mixing" not in model.equations()[-2]  # z -> z + k y leaves no square-root model a square-root model
     z_row = model.coef_[1]
     assert z_row[model.library_.terms_.index(((2, 0, 1.0, 0.0),))] == pytest.approx(1.0)
 
@@ -78,6 +79,11 @@ def test_hidden_first_order_actuator_feeding_a_nonlinear_plant(rng):
     y = x[:, :1] + 0.002 * rng.standard_normal((n, 1))
     model = _fit(u, y, dt, PolynomialLibrary(degree=3), (0.05, 20.0, True), 0.05)
     assert _support(model) == [{"y0", "y0^3", "z0"}, {"z0", "u0"}]
+    # y0' has no u0: z0 -> z0 + k y0 keeps the gauge coefficient and stays cubic, and gauge() says so
+    assert model.equations()[-2:] == [
+        "gauge: z0: the coefficient of u0 in z0' is 1 (scale gauge, held in the refinement)",
+        "gauge: z0: z0 -> z0 + k y0 gives the same outputs for any k within this library; the gauge leaves this "
+        "mixing free"]
     inv = latent_invariants(model, [0.5])
     y_eq = np.roots([1.0, 0.0, 1.0, -0.5]).real[np.isclose(np.roots([1.0, 0.0, 1.0, -0.5]).imag, 0)][0]
     np.testing.assert_allclose(np.sort(inv["poles"].real), _poles(truth, np.array([y_eq, 0.5]), [0.5]), rtol=0.05)
@@ -111,8 +117,8 @@ def test_two_latent_states_form_a_chain_with_one_gauge_each():
     s = LatentHiddenState(n_latent=2, tau=3.0)
     st = s.structure({"tau": 3.0}, n_outputs=1, n_inputs=1)
     assert st.state_names == ["y0", "z0", "z1"] and st.learned == (0, 1, 2)
-    assert s.gauge().splitlines() == ["z0: the coefficient of u0 in z0' is 1 (scale gauge)",
-                                                 "z1: the coefficient of z0 in z1' is 1 (scale gauge)"]
+    assert s.gauge().splitlines() == ["z0: the coefficient of u0 in z0' is held at 1 by the refinement (scale gauge)",
+                                      "z1: the coefficient of z0 in z1' is held at 1 by the refinement (scale gauge)"]
     u = np.ones((50, 1))
     design = s.design(u, np.zeros((50, 1)), 0.1, derivative=lambda a, order=1: np.zeros_like(a),
                       params=s.resolve_params())
@@ -164,3 +170,23 @@ def test_bounds_pairs_are_log_scaled_and_dimensions_kept():
     with pytest.raises(ValueError, match=r"bounds\['tau'\] = Uniform\(low=-1.0, high=1.0\) reaches -1.0; expected "
                                          r"positive values only \(tau > 0\)"):
         LatentHiddenState(bounds={"tau": Uniform(-1.0, 1.0)})._validate()
+
+
+def test_gauge_never_states_a_coefficient_the_model_does_not_have(rng):
+    # before: "z0: the coefficient of u0 in z0' is 1" under a z0' row without u0 (no refinement, no u0 term)
+    u = _steps(rng, 300, 1.0, 2.0, 30)
+    y = simulate(lambda x, v: -x + v, [1.0], u, 0.1)
+    model = HiddenStateSINDy(hidden=LatentHiddenState(tau=1.0), library=SqrtLibrary(variables=[0, 1]), dt=0.1,
+                             n_trials=1).fit(u, y)
+    assert "u0" not in model.equations()[1]
+    assert model.equations()[-1] == ("gauge: z0: not fixed: z0' has no u0 term (the library has no linear term u0); "
+                                     "the scale of z0 is free")
+
+
+@pytest.mark.parametrize("params, match", [
+    (dict(n_latent=0), "n_latent must be an integer >= 1; got 0"),  # before: ''
+    (dict(driver="foo"), "driver must be one of .*got 'foo'"),  # before: KeyError: 'foo'
+])
+def test_gauge_of_an_invalid_strategy_is_an_error(params, match):
+    with pytest.raises(ValueError, match=match):
+        LatentHiddenState(**params).gauge()

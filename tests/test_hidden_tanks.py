@@ -129,6 +129,13 @@ def test_bad_parameters(tanks_data, params, match):
         HiddenStateSINDy(hidden=TanksHiddenState(**params), dt=DT, n_trials=2).fit(u, y)
 
 
+def test_negative_levels_are_refused(tanks_data):
+    # before: a fit on levels shifted 5 V down was accepted (square roots of negative levels clipped to 0)
+    _, u, y, _ = tanks_data
+    with pytest.raises(ValueError, match=r"y has levels below the tanks' lower bound 0 \(first at sample \d+: -"):
+        HiddenStateSINDy(hidden=TanksHiddenState(k1=0.04, k2=0.03, x0=3.0), dt=DT).fit(u, y - 5.0)
+
+
 def test_one_input_one_output_only(tanks_data):
     _, u, y, _ = tanks_data
     with pytest.raises(ValueError, match="one input and one output"):

@@ -503,3 +503,27 @@ def test_fuzz_suite_finds_the_old_defects():
         patch.setattr(sys.modules[__name__], "MEBIBYTES", 0)
         _check_case("{}", Path(tempfile.mkdtemp()), "an empty object")
     assert math.isfinite(_max_rss_mib())
+
+
+# ------------------------------------------------------ issue 30, item 19: clear messages
+@pytest.mark.parametrize("path", ["../../etc:passwd", "a/b:leak", "os:path/x", ":leak", "my_tank:", "leak",
+                                  "my tank:leak", "os.:path"])
+def test_a_function_path_of_no_python_names_is_a_value_error(files, tmp_path, path):
+    # '../../etc:passwd' raised a TypeError from importlib instead of the documented ValueError
+    file = _edited(files, "ParametricHiddenState", tmp_path,
+                   (["params", "hidden", "estimator", "params", "rhs"], {"function": path}))
+    _refused(file, rf"expected a function path 'module:name' of dotted Python names \('my_models.laws:leak'\); "
+                   rf"got {re.escape(repr(path))}\.", allow_import=True)
+
+
+@pytest.mark.parametrize("field", [["class"], ["format_version"], ["params", "dt"]])
+def test_a_huge_value_is_quoted_in_part(files, field):
+    # a 10 MB class name was echoed into a 10,000,116-character message
+    data = json.loads(files["SINDy"])
+    where = data
+    for key in field[:-1]:
+        where = where[key]
+    where[field[-1]] = "A" * 10**7
+    with pytest.raises(ValueError) as info:
+        sio.model_from_dict(data)
+    assert len(str(info.value)) < 1000 and "10,000,002 characters" in str(info.value), str(info.value)[:2000]

@@ -191,3 +191,17 @@ def test_simulation_scorer_checks_records_and_refuses_sample_weight():
         scorer(model, [u1, u2[:100]], [y1, y2])
     with pytest.raises(ValueError, match="sample_weight is not supported by the simulation scorers"):  # a TypeError
         scorer(model, u1, y1, sample_weight=np.ones(200))
+
+
+def test_metrics_of_values_near_the_float_limit_are_finite():
+    # before: rmse of +-1e300 was inf (the squares overflowed), r2 and fit_index NaN
+    y_true, y_pred = np.array([1e300, -1e300, 0.5e300]), np.array([-1e300, 1e300, 0.4e300])
+    unit_true, unit_pred = y_true / 1e300, y_pred / 1e300
+    assert rmse(y_true, y_pred) == pytest.approx(rmse(unit_true, unit_pred) * 1e300, rel=1e-12)
+    assert r2(y_true, y_pred) == pytest.approx(r2(unit_true, unit_pred), rel=1e-12)
+    assert fit_index(y_true, y_pred) == pytest.approx(fit_index(unit_true, unit_pred), rel=1e-12)
+    assert nrmse(y_true, y_pred) == pytest.approx(nrmse(unit_true, unit_pred), rel=1e-12)
+    with pytest.raises(ValueError, match="the RMSE overflows a float"):
+        rmse([1.7e308, -1.7e308], [-1.7e308, 1.7e308])
+    with pytest.raises(ValueError, match="y_true is constant over the scored samples"):
+        r2([1e300, 1e300], [1e300, 0.0])

@@ -468,7 +468,7 @@ def test_resume_with_a_callable_scoring(arx_data, tmp_path):
 
 
 @pytest.mark.parametrize("token", [None, "the worker before the container restarted"])
-def test_restarted_worker_with_the_same_pid_reclaims_its_orphan(arx_data, tmp_path, token):
+def test_restarted_worker_with_the_same_pid_reclaims_its_orphan(arx_data, tmp_path, token, caplog):
     # issue 18, case 8: a container restart gives the new worker the host name and PID of the dead one;
     # on a journal file (no heartbeat) its orphaned trial stayed RUNNING and the study ended one trial short
     u, y = arx_data
@@ -479,7 +479,10 @@ def test_restarted_worker_with_the_same_pid_reclaims_its_orphan(arx_data, tmp_pa
     if token is not None:
         orphan.set_user_attr("worker_token", token)
     orphan.set_user_attr("worker", worker_id())  # this host, this very PID
-    _, study = tune(ARX(), ARX_SPACE, u, y, n_trials=5, storage=storage, random_state=0)
+    with caplog.at_level("WARNING", logger="sindybench.model_selection"):
+        _, study = tune(ARX(), ARX_SPACE, u, y, n_trials=5, storage=storage, random_state=0)
+    # issue 30, item 19: the warning named a function (<function owner at 0x...>), not the worker
+    assert f"left RUNNING by worker {worker_id()}, which no longer runs" in caplog.text
     states = [t.state for t in study.trials]
     assert states[orphan.number] == TrialState.FAIL
     assert states.count(TrialState.COMPLETE) == 5 and TrialState.RUNNING not in states

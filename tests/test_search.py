@@ -183,3 +183,91 @@ def test_dimensions_are_stored_by_their_fields(dim):
     data = encode_value({"k": dim}, "params.bounds")
     back = decode_value(data, "params.bounds")["k"]
     assert back == dim and type(back) is type(dim)
+
+
+# --- the dimensions' edges: impossible values are refused, possible ones map finitely -------------------
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda: Normal(1.0, 0.1, n_sigma=10), r"n_sigma=10 gives the quantile range \[0.0, 1.0\]"),  # was (-inf, inf)
+    (lambda: Normal(1.0, 0.1, n_sigma=1e-20), r"n_sigma=1e-20 gives the quantile range \[0.5, 0.5\]"),  # was /0
+    (lambda: Uniform(-1e308, 1e308), "the span high - low overflows a float"),  # to_unit(0.0) was 0.0
+    (lambda: Categorical("abc"), r"choices must be a list or tuple of choices; got 'abc' \(write \['abc'\]"),
+    (lambda: Categorical(3), "choices must be a list or tuple of choices; got 3"),
+    (lambda: Normal(1e300, 1e-300), r"its support at \+-n_sigma is \(1e\+300, 1e\+300\)"),
+    (lambda: Uniform(1.0, 1.0 + 1e-15), "narrower than floating point resolves"),
+    (lambda: LogNormal(750.0, 1.0), r"its support at \+-n_sigma is .*inf"),
+    (lambda: LogNormal(-750.0, 1.0), r"its support .* and low > 0"),
+])
+def test_impossible_dimensions_are_refused(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()
+
+
+hypothesis = pytest.importorskip("hypothesis", reason="the test extra (hypothesis) is missing")
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+EDGE = st.one_of(st.floats(allow_nan=True, allow_infinity=True),
+                 st.sampled_from([0.0, -0.0, 5e-324, 1e-308, 1e-20, 1e-15, 8.0, 8.5, 37.0, 1e300, -1e300, 1e308,
+                                  -1e308, 709.0, -745.0]))
+
+
+@st.composite
+def edge_dimensions(draw):
+    kind = draw(st.sampled_from([Uniform, LogUniform, Normal, LogNormal]))
+    args = [draw(EDGE), draw(EDGE)]
+    if kind in (Normal, LogNormal) and draw(st.booleans()):
+        args.append(draw(EDGE))
+    return kind, args
+
+
+def _check_edge(kind, args):
+    try:
+        dim = kind(*args)
+    except ValueError as exc:
+        assert str(exc)
+        return
+    low, high = dim.support()
+    assert math.isfinite(low) and math.isfinite(high) and low < high, (dim, low, high)
+    if kind in (LogUniform, LogNormal):
+        assert low > 0, dim
+    values = [dim.from_unit(z) for z in (-1.0, 0.0, 0.25, 0.5, 0.75, 1.0, 2.0)]
+    assert all(math.isfinite(v) and low <= v <= high for v in values), (dim, values)
+    assert values == sorted(values), (dim, values)  # monotone in the unit coordinate
+    for v in (low, high, values[3]):
+        z = dim.to_unit(v)  # within [0, 1] up to the rounding of a support a few ulps wide
+        assert math.isfinite(z) and -1e-3 <= z <= 1 + 1e-3, (dim, v, z)
+    if high - low > 1e-6 * max(abs(low), abs(high)):  # a support wider than rounding: the coordinate round-trips
+        assert dim.to_unit(values[3]) == pytest.approx(0.5, abs=1e-6), dim
+
+
+def _run_edges(n, derandomize):
+    @settings(max_examples=n, derandomize=derandomize, deadline=None, database=None)
+    @given(case=edge_dimensions())
+    def check(case):
+        _check_edge(*case)
+
+    check()
+
+
+def test_dimensions_at_their_edges_are_refused_or_map_finitely():
+    _run_edges(300, derandomize=True)
+
+
+@pytest.mark.slow
+def test_dimensions_at_their_edges_are_refused_or_map_finitely_at_length():
+    _run_edges(5000, derandomize=False)
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(n_trials=0), r"n_trials must be an integer >= 1; got 0\."),  # was: min() arg is an empty sequence
+    (dict(n_trials=2.5), r"n_trials must be an integer >= 1; got 2\.5\."),
+    (dict(n_trials=5, n_local=5), r"n_local must be an integer in \[0, 4\]; got 5\."),
+    (dict(n_trials=5, n_local=-1), r"n_local must be an integer in \[0, 4\]; got -1\."),
+    (dict(n_trials=5, n_local=2, n_starts=0), r"n_starts must be an integer >= 1; got 0\."),
+    (dict(n_trials=5, step=0.0), r"step must be a finite number > 0; got 0\.0\."),
+])
+def test_minimize_refuses_budgets_it_cannot_spend(kwargs, match):
+    calls = []
+    with pytest.raises(ValueError, match=match):
+        minimize(lambda v: calls.append(v) or 0.0, {"a": Uniform(0.0, 1.0)}, **kwargs)
+    assert calls == []

@@ -307,6 +307,10 @@ def test_bad_input_fewer_samples_than_terms(data):
         (dict(bounds=(1.0, 0.0)), "lower bound 1 >= upper bound 0"),
         (dict(output_names=["a"]), "output_names must be a list of 2 strings"),
         (dict(input_names="u"), "input_names must be a list of 1 strings"),
+        # before: y1' = ... u0 + ... u0, an input and an output under one name
+        (dict(output_names=["a", "u0"]), r"output_names and input_names share 'u0' \(output 1 and input 0\)"),
+        (dict(output_names=["a", "a"]), r"share 'a' \(output 0 and output 1\)"),
+        (dict(output_names=["a", "b"], input_names=["b"]), r"share 'b' \(output 1 and input 0\)"),
     ],
 )
 def test_bad_params(data, params, match):

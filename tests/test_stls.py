@@ -289,3 +289,23 @@ def test_huge_ridge_on_rescaled_columns_pins_them_to_zero():
         warnings.simplefilter("ignore", ConvergenceWarning)
         coef, _ = stls(theta, target, threshold=0.0, alpha=1e300, max_iter=1, unbias=False)
     assert coef.tolist() == [0.0]
+
+
+@pytest.mark.parametrize("scale", [1e150, 1e300])
+def test_a_threshold_in_other_units_than_the_library_warns(rng, scale):
+    # before: theta * 1e300 with a threshold of 0.1 gave an all-zero model without a word
+    theta, target = _with_constant(rng)
+    with pytest.warns(UserWarning, match=r"threshold=0.1 removed every coefficient of target 0 .* at most "
+                                         r".*e-\d+, far below the threshold .* or normalize_columns=True"):
+        coef, _ = stls(theta * scale, target, threshold=0.1)
+    assert np.all(coef == 0)
+    coef, _ = stls(theta * scale, target, threshold=0.1, normalize_columns=True)  # what the warning advises
+    np.testing.assert_allclose(coef * scale, [0.3, 2.0, -0.5], rtol=1e-10)
+
+
+def test_a_threshold_that_empties_a_model_of_its_own_units_does_not_warn(rng):
+    theta, target = _with_constant(rng)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        coef, _ = stls(theta, target, threshold=10.0)  # coefficients 0.3, 2, -0.5: a deliberate empty model
+    assert np.all(coef == 0)

@@ -15,7 +15,8 @@ import pytest
 from scipy.signal import lfilter
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from sindybench import STLS, HiddenStateSINDy, SINDy, load_model
+from sindybench import STLS, DivergenceWarning, HiddenStateSINDy, SINDy, load_model
+from sindybench.baselines import ARX, NNARX
 from sindybench.hidden import DerivativeHiddenState, TanksHiddenState
 from sindybench.libraries import POW, PolynomialLibrary, SqrtLibrary
 from sindybench.refine import OutputErrorRefinement
@@ -295,3 +296,61 @@ def test_prediction_band_bad_input():
 )
 def test_ensemble_is_a_scikit_learn_estimator(estimator, check):
     check(estimator)
+
+
+# ------------------------------------------------------------------ diverging members, bands of other ensembles
+def _ensemble_with_diverging_members(n_diverging, n_members=5):
+    """A fitted 5-member ensemble of ``y' = -y + 2 u`` whose first ``n_diverging`` members are made to blow up."""
+    u, x = first_order_record()
+    y = x + noise(np.random.default_rng(3), len(x), 0.02)
+    ens = BootstrapEnsemble(sindy(refine=False), n_members=n_members, random_state=0).fit(u, y)
+    for member in ens.members_[:n_diverging]:
+        member.coef_ = member.coef_.copy()
+        member.coef_[0, 1] = 50.0  # y' = +50 y + ...: e^1000 over the record
+        member._rebuild_model()
+    return ens, u, y
+
+
+def test_a_band_with_a_few_diverging_members_warns_and_says_how_many():
+    ens, u, y = _ensemble_with_diverging_members(1)
+    with pytest.warns(DivergenceWarning, match="1 of 5 ensemble members diverged .* the band is over the 4 others"):
+        band = prediction_band(ens, u, y_init=y[:5], alpha=0.5)
+    assert band.n_diverged == 1 and np.all(np.isfinite(band.lower)) and np.all(band.upper[1:] - band.lower[1:] > 0)  # all start at y_init[0]
+
+
+@pytest.mark.parametrize("n_diverging, alpha", [(1, 0.05), (4, 0.05), (4, 0.9), (5, 0.5)])
+def test_a_band_is_refused_when_too_few_members_survive(n_diverging, alpha):
+    # before: 4 of 5 diverged gave the survivor as a band of width 0.0; 5 of 5 NaN at 383 of 400 samples, silently
+    ens, u, y = _ensemble_with_diverging_members(n_diverging)
+    with pytest.raises(ValueError, match=f"{n_diverging} of 5 ensemble members diverged on these inputs .*: a .* band may leave out at most"):
+        prediction_band(ens, u, y_init=y[:5], alpha=alpha)
+
+
+def test_band_coverage_and_with_noise_check_their_arguments():
+    ens, u, y = _ensemble_with_diverging_members(0)
+    band = prediction_band(ens, u, y_init=y[:5])
+    assert 0.0 <= band.coverage(y) <= 1.0
+    y_nan = y.copy()
+    y_nan[3] = np.nan
+    with pytest.raises(ValueError, match=r"y contains NaN or inf"):  # before: 0.0
+        band.coverage(y_nan)
+    with pytest.raises(ValueError, match=r"y has shape \(399, 1\); expected \(400, 1\)"):
+        band.coverage(y[1:])
+    other, _, _ = _ensemble_with_diverging_members(0, n_members=2)
+    other.residuals_ = other.residuals_ * 3.0
+    with pytest.raises(ValueError, match="not the BootstrapEnsemble that made this band"):  # before: its residuals
+        band.with_noise(other)
+
+
+def test_bands_and_ensembles_name_what_they_take():
+    u, x = first_order_record()
+    model = sindy(refine=False).fit(u, x)
+    with pytest.raises(ValueError, match="ensemble must be a fitted BootstrapEnsemble; got SINDy"):
+        prediction_band(model, u, y_init=x[:5])  # before: 'SINDy' object has no attribute 'members_'
+    for est in (ARX(), NNARX()):  # before: AttributeError: 'ARX' object has no attribute 'x0_'
+        with pytest.raises(ValueError, match=f"estimator must be a SINDy or HiddenStateSINDy .*got {type(est).__name__}"):
+            BootstrapEnsemble(est, n_members=2).fit(u, x)
+    ens, _, _ = _ensemble_with_diverging_members(0, n_members=2)
+    for bad in (np.nan, -0.1, 1.5, "0.5", None):  # before: nan gave all zeros
+        with pytest.raises(ValueError, match="min_inclusion must be a number in"):
+            ens.median_coef(min_inclusion=bad)

@@ -103,3 +103,54 @@ def test_check_model_inputs():
         check_model_inputs(None, 1, "M", n_samples=4)
     with pytest.raises(ValueError, match="X is 1-D"):
         check_model_inputs(np.ones(4), 1, "M")
+
+
+# --------------------------------------------------------------------------- issue 30: quotes and scalars
+def test_shown_cuts_a_long_value_and_says_how_long_it_was():
+    from sindybench._validation import shown
+
+    assert shown("tanks") == "'tanks'" and shown([1, 2]) == "[1, 2]"
+    text = shown("x" * 10**7)
+    assert len(text) < 200 and text.endswith("... (10,000,002 characters)")
+    assert shown(list(range(10**5))).endswith(" characters)")
+
+
+@pytest.mark.parametrize("check, args", [
+    (check_option, ("method", ("rk4", "euler"))),
+    (check_integer, ("n_substeps",)),
+    (check_bool, ("unbias",)),
+    (check_positive, ("dt",)),
+])
+def test_messages_quote_at_most_a_readable_part_of_a_huge_value(check, args):
+    # issue 30, item 19: a 10 MB value was echoed into a 10,000,116-character message
+    with pytest.raises(ValueError) as info:
+        check("A" * 10**7, *args)
+    assert len(str(info.value)) < 400 and "10,000,002 characters" in str(info.value)
+
+
+@pytest.mark.parametrize("dt", [np.array(0.1), np.float32(0.25), np.float64(0.1), np.array(2), np.int32(3),
+                                np.array([0.1]).reshape(())])
+def test_any_real_scalar_is_a_dt(dt):
+    # issue 30, item 21: a 0-d array (what np.load gives for a number) was refused
+    from sindybench import SINDy
+    from sindybench._validation import check_dt
+    from sindybench.libraries import PolynomialLibrary
+    from sindybench.simulate import TermsRHS, simulate
+
+    assert check_dt(dt) == float(dt) and type(check_dt(dt)) is float
+    rng = np.random.default_rng(0)
+    u = rng.standard_normal((60, 1))
+    y = np.cumsum(u, axis=0) * 0.01
+    fitted = SINDy(library=PolynomialLibrary(degree=1), dt=dt).fit(u, y)
+    assert fitted.dt_ == float(dt)
+    rhs = TermsRHS.from_equations([{((0, 0, 1, 0),): -1.0}])
+    assert np.array_equal(simulate(rhs, [1.0], np.zeros((3, 0)), dt), simulate(rhs, [1.0], np.zeros((3, 0)), float(dt)))
+
+
+@pytest.mark.parametrize("dt", [np.array([0.1]), np.array(True), np.array(1j), np.array(-0.1), np.array(np.nan),
+                                np.array("0.1")])
+def test_a_dt_that_is_no_positive_real_scalar_is_refused(dt):
+    from sindybench._validation import check_dt
+
+    with pytest.raises(ValueError, match="dt must be a finite number > 0; got"):
+        check_dt(dt)

@@ -6,6 +6,7 @@ from ._cascaded_tanks import load_cascaded_tanks
 from ._emps import load_emps
 from ._interop import as_input_output
 from ._pick_and_place import load_pick_and_place
+from ._silverbox import load_silverbox
 
 __all__ = [
     "DownloadError",
@@ -19,5 +20,6 @@ __all__ = [
     "load_cascaded_tanks",
     "load_emps",
     "load_pick_and_place",
+    "load_silverbox",
     "sha256sum",
 ]

@@ -8,7 +8,7 @@ one integrator (:mod:`sindybench.dynamics._kernels`). A fitted model is one
 compiled or Python right-hand side).
 """
 
-from ._model import Dynamics, assemble, make_rhs
+from ._model import Dynamics, assemble, check_output_index, make_rhs
 from ._ops import ABS_POW, BUILTIN_OPS, POW, SIGN, SQRT, STEP, USER
 from ._simulate import Settings, SimulationError, TermsRHS, simulate, simulation_settings
 from ._step import (
@@ -44,6 +44,7 @@ __all__ = [
     "USER",
     "UserOp",
     "assemble",
+    "check_output_index",
     "check_terms",
     "coefficient_directions",
     "evaluate_terms",

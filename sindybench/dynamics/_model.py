@@ -12,10 +12,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .._validation import check_integer
 from ._simulate import TermsRHS, simulate
 from ._terms import evaluate_terms
 
-__all__ = ["Dynamics", "assemble", "make_rhs"]
+__all__ = ["Dynamics", "assemble", "check_output_index", "make_rhs"]
 
 
 class _PythonRHS:
@@ -235,11 +236,35 @@ def assemble(library, coef, *, n_states=None, learned=None, fixed_terms=(), fixe
         if rhs is None:
             rhs = _PythonRHS(library, coef, learned, n_states, fixed_terms, fixed, fixed_rhs)
     names = tuple(f"x{i}" for i in range(n_states)) if state_names is None else tuple(state_names)
-    outputs = tuple(range(n_states)) if output_index is None else tuple(int(i) for i in output_index)
+    outputs = tuple(range(n_states)) if output_index is None else check_output_index(output_index, n_states)
     return Dynamics(rhs=rhs, terms=terms, coef=full, n_states=n_states, state_names=names, output_index=outputs,
                     learned=learned, bounds=bounds, dt=dt, n_substeps=n_substeps, method=method,
                     input_hold=input_hold, max_abs=max_abs, library=library, fixed_terms=fixed_terms,
                     fixed_rhs=fixed_rhs)
+
+
+def check_output_index(output_index, n_states):
+    """Return ``output_index`` as a tuple of distinct state indices in ``[0, n_states)``, or raise ``ValueError``.
+
+    The compiled filter and k-step kernels index states by these values
+    without bounds checks, so every path into them checks here first.
+
+    Examples
+    --------
+    >>> check_output_index([1, 0], 2)
+    (1, 0)
+    >>> check_output_index((5,), 2)
+    Traceback (most recent call last):
+    ...
+    ValueError: output_index[0] must be an integer in [0, 1]; got 5.
+    """
+    index = output_index
+    if isinstance(index, (str, bytes)) or not hasattr(index, "__len__") or len(index) == 0:
+        raise ValueError(f"output_index must be a non-empty sequence of state indices; got {index!r}.")
+    index = tuple(check_integer(i, f"output_index[{j}]", low=0, high=n_states - 1) for j, i in enumerate(index))
+    if len(set(index)) != len(index):
+        raise ValueError(f"output_index = {index} repeats a state; expected each measured state once.")
+    return index
 
 
 def make_rhs(library, coef, n_states):

@@ -1,5 +1,9 @@
-"""State estimation for fitted models: extended Kalman filter, RTS smoother, k-step prediction, linearization."""
+"""State estimation for fitted models: extended Kalman filter, RTS smoother, k-step prediction, linearization.
 
+:func:`latent_invariants` (the gauge-free poles and gain of a latent-state model) is built on :func:`linearize`.
+"""
+
+from ._invariants import latent_invariants
 from ._kalman import FilterDivergenceError, KalmanResult, extended_kalman_filter, rts_smoother
 from ._linearize import Linearization, linearize
 from ._model_step import ModelStep, model_step
@@ -14,6 +18,7 @@ __all__ = [
     "estimate_noise",
     "extended_kalman_filter",
     "k_step_rmse",
+    "latent_invariants",
     "linearize",
     "model_step",
     "predict_k_step",

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from .._validation import check_one_record, check_signal
+from .._validation import check_one_record, check_signal, shown
 from ..dynamics import jacobian_workspace, step_jacobian_into
 from ._model_step import model_step
 
@@ -238,7 +238,14 @@ def _smooth(xf, Pf, xp, Pp, F, xs, Ps):
 # ----------------------------------------------------------------- input checks
 def check_covariance(C, n, name, *, definite=False):
     """A symmetric positive (semi-)definite ``(n, n)`` matrix from a matrix, a diagonal or a scalar."""
-    C = np.asarray(C, dtype=float)
+    if C is None or isinstance(C, (str, bytes, dict)):  # np.asarray(None, float) is NaN
+        raise ValueError(f"{name} is {shown(C)}; expected a covariance: an ({n}, {n}) matrix, a diagonal of length "
+                         f"{n} or a number (0 for none).")
+    try:
+        C = np.asarray(C, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name} could not be read as a covariance ({exc}); expected an ({n}, {n}) matrix, a "
+                         f"diagonal of length {n} or a number.") from None
     if C.ndim == 0:
         C = np.full(n, float(C))
     if C.ndim == 1:

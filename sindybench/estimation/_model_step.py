@@ -15,8 +15,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._validation import check_bounds
-from ..dynamics import TermsRHS, step_model
+from .._validation import check_bounds, check_dt, check_integer, check_option, check_positive
+from ..dynamics import TermsRHS, check_output_index, step_model
 
 __all__ = ["ModelStep", "model_step"]
 
@@ -80,11 +80,60 @@ class ModelStep(NamedTuple):
             raise ValueError(f"rhs must be a TermsRHS; got {type(rhs).__name__}.")
         n = rhs.n_states
         lo, hi = check_bounds(bounds, n)
-        x0 = np.zeros(n) if x0 is None else np.asarray(x0, dtype=float)
-        scale = np.ones(n) if state_scale is None else np.asarray(state_scale, dtype=float)
-        return cls(rhs=rhs, n_inputs=int(n_inputs), output_index=tuple(int(i) for i in output_index), lower=lo,
-                   upper=hi, dt=float(dt), n_substeps=int(n_substeps), method=method, input_hold=input_hold,
-                   max_abs=float(max_abs), x0=x0, state_scale=scale)
+        x0 = np.zeros(n) if x0 is None else x0
+        scale = np.ones(n) if state_scale is None else state_scale
+        return cls(rhs=rhs, n_inputs=n_inputs, output_index=output_index, lower=lo, upper=hi, dt=dt,
+                   n_substeps=n_substeps, method=method, input_hold=input_hold, max_abs=max_abs, x0=x0,
+                   state_scale=scale).checked()
+
+    def checked(self):
+        """This model with every field checked against the others (what the compiled kernels index with).
+
+        The filter, the smoother, the k-step prediction, the noise estimate,
+        the linearization and the CasADi export index arrays by these values
+        inside compiled code, which does not check bounds: an output index
+        past the states or fewer inputs than the terms use would read and
+        write outside the arrays. So :func:`model_step` calls this on every
+        model it is given, a ``ModelStep`` built or edited by hand included.
+
+        Raises
+        ------
+        ValueError
+            Naming the field, what it holds and what was expected.
+
+        Examples
+        --------
+        >>> from sindybench.libraries import POW
+        >>> m = ModelStep.from_rhs(TermsRHS([[-1.0]], [((0, POW, 1, 0),)], 1), 0.1)
+        >>> m._replace(output_index=(5,)).checked()
+        Traceback (most recent call last):
+        ...
+        ValueError: output_index[0] must be an integer in [0, 0]; got 5.
+        """
+        rhs = self.rhs
+        if not isinstance(rhs, TermsRHS):
+            raise ValueError(f"rhs must be a TermsRHS; got {type(rhs).__name__}.")
+        n = rhs.n_states
+        n_inputs = check_integer(self.n_inputs, "n_inputs", low=0)
+        if rhs.n_variables > n + n_inputs:
+            raise ValueError(f"n_inputs = {n_inputs}, but the model's terms use column {rhs.n_variables - 1} of "
+                             f"Z = [x, u] with {n} states; expected n_inputs >= {rhs.n_variables - n}.")
+        index = check_output_index(self.output_index, n)
+        lo, hi = (np.asarray(v, dtype=float) for v in (self.lower, self.upper))
+        if lo.shape != (n,) or hi.shape != (n,) or np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo >= hi):
+            raise ValueError(f"lower {lo} and upper {hi} must hold {n} values each (one per state), no NaN, with "
+                             "lower < upper.")
+        x0, scale = (np.asarray(v, dtype=float) for v in (self.x0, self.state_scale))
+        if x0.shape != (n,) or not np.all(np.isfinite(x0)):
+            raise ValueError(f"x0 = {x0}; expected {n} finite values (one per state).")
+        if scale.shape != (n,) or not np.all(np.isfinite(scale) & (scale > 0)):
+            raise ValueError(f"state_scale = {scale}; expected {n} finite values > 0 (one per state).")
+        return self._replace(
+            n_inputs=n_inputs, output_index=index, lower=lo, upper=hi, dt=check_dt(self.dt),
+            n_substeps=check_integer(self.n_substeps, "n_substeps"),
+            method=check_option(self.method, "method", ("rk4", "euler")),
+            input_hold=check_option(self.input_hold, "input_hold", ("zoh", "linear")),
+            max_abs=check_positive(self.max_abs, "max_abs", allow_inf=True), x0=x0, state_scale=scale)
 
     def step_model(self, *, with_inputs=False):
         """The :class:`~sindybench.dynamics.StepModel` of the public one-step map (no coefficient directions).
@@ -152,7 +201,7 @@ def model_step(model):
     (1, (0,), 'rk4')
     """
     if isinstance(model, ModelStep):
-        return model
+        return model.checked()
     name = type(model).__name__
     dyn = getattr(model, "dynamics_", None)  # the fitted-dynamics contract of every sindybench estimator
     if dyn is None:
@@ -169,4 +218,4 @@ def model_step(model):
     scale = state_spread(states) if states is not None else np.ones(dyn.n_states)
     return ModelStep(rhs=dyn.rhs, n_inputs=int(model.n_features_in_), output_index=tuple(dyn.output_index),
                      lower=lo, upper=hi, dt=float(dyn.dt), n_substeps=int(dyn.n_substeps), method=dyn.method,
-                     input_hold=dyn.input_hold, max_abs=float(dyn.max_abs), x0=x0, state_scale=scale)
+                     input_hold=dyn.input_hold, max_abs=float(dyn.max_abs), x0=x0, state_scale=scale).checked()

@@ -1,4 +1,4 @@
-"""The benchmarking study's three set-ups, EMPS and the literature's protocols, the runner and the report writers.
+"""The benchmarking study's three set-ups, EMPS, Silverbox and the literature's protocols, the runner and the report writers.
 
 ``sindybench run`` (:mod:`sindybench.cli`) is a thin layer over
 :func:`run_benchmarks`; the same functions serve scripts and notebooks::

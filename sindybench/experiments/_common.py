@@ -72,6 +72,7 @@ def sindy_model(library, *, threshold=0.1, alpha=1e-6, gamma=None, bounds=None, 
             dt=dt,
             bounds=bounds,
             n_substeps=n_substeps,
+            max_abs=float("inf"),  # SINDy's default before 0.2: the rows keep their scores
         )
 
     return make

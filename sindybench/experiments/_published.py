@@ -15,7 +15,7 @@ cross-checked against the values quoted in this project's issues
 tanks RMSE 0.55 / 1.09 / 0.77 / 0.47 V).
 """
 
-__all__ = ["PUBLISHED", "PUBLISHED_REFERENCE", "published"]
+__all__ = ["PUBLISHED", "PUBLISHED_REFERENCE", "published", "reference_figures"]
 
 SOURCE = "Raffa Ugolini et al. (2024), arXiv:2403.00578"
 
@@ -61,11 +61,31 @@ PUBLISHED = {
     },
 }
 
-# Other methods the study quotes from the literature (not trained here).
+# Other methods the study quotes from the literature (not trained here), and the published baselines of the
+# benchmarks the study does not cover, each labelled with its source.
 PUBLISHED_REFERENCE = {
     "pick-and-place": {
         "PWA (Ferrari-Trecate et al., 2003)": {"test": {"rmse": None, "r2": 0.75}},
         "jump model (Bemporad et al., 2018)": {"test": {"rmse": None, "r2": 0.83}},
+    },
+    # Champneys et al. (2024), the nonlinear_benchmarks baselines on the official Silverbox protocol (50 initial
+    # samples set the state, RMSE on the rest), in mV: multisine / arrow full / arrow without extrapolation
+    "silverbox": {
+        "GRU (Champneys et al., 2024)": {
+            "multisine": {"rmse": 1.49, "r2": None},
+            "arrow_full": {"rmse": 2.8, "r2": None},
+            "arrow_no_extrapolation": {"rmse": 0.95, "r2": None},
+        },
+        "LSTM (Champneys et al., 2024)": {
+            "multisine": {"rmse": 1.5, "r2": None},
+            "arrow_full": {"rmse": 2.68, "r2": None},
+            "arrow_no_extrapolation": {"rmse": 0.96, "r2": None},
+        },
+        "MLP-FIR (Champneys et al., 2024)": {
+            "multisine": {"rmse": 18.9, "r2": None},
+            "arrow_full": {"rmse": 20.2, "r2": None},
+            "arrow_no_extrapolation": {"rmse": 15.3, "r2": None},
+        },
     },
 }
 
@@ -96,3 +116,24 @@ def published(benchmark, model, test_set):
     """
     cell = PUBLISHED.get(benchmark, {}).get(model, {}).get(test_set)
     return dict(cell) if cell is not None else {"rmse": None, "r2": None}
+
+
+def reference_figures(benchmark, test_set):
+    """The literature's figures on one test set of a benchmark, as text (empty when none are known).
+
+    Examples
+    --------
+    >>> reference_figures("silverbox", "arrow_full")
+    'GRU (Champneys et al., 2024) RMSE 2.8, LSTM (Champneys et al., 2024) RMSE 2.68, MLP-FIR (Champneys et al., 2024) RMSE 20.2'
+    >>> reference_figures("pick-and-place", "test")
+    'PWA (Ferrari-Trecate et al., 2003) R^2 0.75, jump model (Bemporad et al., 2018) R^2 0.83'
+    >>> reference_figures("emps", "test")
+    ''
+    """
+    parts = []
+    for method, tests in PUBLISHED_REFERENCE.get(benchmark, {}).items():
+        cell = tests.get(test_set, {})
+        figures = [f"{name} {cell[key]:g}" for key, name in (("rmse", "RMSE"), ("r2", "R^2")) if cell.get(key) is not None]
+        if figures:
+            parts.append(f"{method} " + ", ".join(figures))
+    return ", ".join(parts)

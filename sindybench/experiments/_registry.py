@@ -22,6 +22,7 @@ BENCHMARKS = {
     "bouc-wen": "sindybench.experiments.bouc_wen",
     "cascaded-tanks": "sindybench.experiments.cascaded_tanks",
     "emps": "sindybench.experiments.emps",
+    "silverbox": "sindybench.experiments.silverbox",
 }
 
 
@@ -35,7 +36,7 @@ def get_benchmark(name):
     >>> get_benchmark("tanks")
     Traceback (most recent call last):
     ...
-    ValueError: unknown benchmark 'tanks'; expected one of ['bouc-wen', 'cascaded-tanks', 'emps', 'pick-and-place', 'pick-and-place-nss'].
+    ValueError: unknown benchmark 'tanks'; expected one of ['bouc-wen', 'cascaded-tanks', 'emps', 'pick-and-place', 'pick-and-place-nss', 'silverbox'].
     """
     if name not in BENCHMARKS:
         raise ValueError(f"unknown benchmark {name!r}; expected one of {sorted(BENCHMARKS)}.")

@@ -21,6 +21,7 @@ from pathlib import Path
 from .._process import owner, owner_is_gone
 from ..plotting import plot_hysteresis, plot_simulation
 from ._best import best_model_markdown
+from ._published import reference_figures
 
 __all__ = [
     "check_output_dir",
@@ -72,6 +73,9 @@ def check_output_dir(final, entries=()):
                 raise NotADirectoryError(f"{what} {parent} is a file; expected a folder (or a path that does not "
                                          "exist yet).")
             break
+    for folder in dict.fromkeys((parent, final.parent)):  # the run writes its staging folder beside final
+        if folder.is_dir() and not os.access(folder, os.W_OK | os.X_OK):  # a read-only file system too
+            _not_writable(final, folder, "not writable")
     for name, kind in dict(entries).items():
         path = final / name
         if kind == "dir" and path.exists() and not path.is_dir():
@@ -80,6 +84,11 @@ def check_output_dir(final, entries=()):
         if kind == "file" and path.is_dir():
             raise IsADirectoryError(f"{path} is a folder; the run writes a file of that name: expected a file, or "
                                     "no such entry (move the folder away or choose another --out).")
+
+
+def _not_writable(final, folder, reason, error=PermissionError):
+    raise error(f"output folder {final}: cannot write into {folder} ({reason}); expected a folder the run can write "
+                "into (choose another --out).")
 
 
 def _staging_folders(final):
@@ -176,9 +185,12 @@ def staged_output_dir(final):
     """
     final = Path(final)
     check_output_dir(final)
-    final.parent.mkdir(parents=True, exist_ok=True)
-    _remove_stale_staging(final)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.tmp-", dir=final.parent))
+    try:
+        final.parent.mkdir(parents=True, exist_ok=True)
+        _remove_stale_staging(final)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{final.name}.tmp-", dir=final.parent))
+    except OSError as exc:  # name the folder the user chose, not the staging folder beside it
+        _not_writable(final, final.parent, exc.strerror or exc, OSError)
     try:
         me = owner()
         (tmp / _OWNER_FILE).write_text(json.dumps({**me, "created": time.time()}))
@@ -279,6 +291,9 @@ def results_markdown(results, *, heading_level=1):
         )
         out.append("")
         out.append(_markdown_table(comparison_rows(results, name)))
+        others = reference_figures(results.get("benchmark", ""), name)
+        if others:
+            out += ["", f"Published on this test set (not trained here): {others}."]
     out += best_model_markdown(results.get("best_model"), f"{h}#")
     out += ["", f"{h}# Models", ""]
     for m in results["models"]:

@@ -8,7 +8,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..dynamics import ABS_POW, POW, SIGN, SQRT, STEP
+from ..dynamics import ABS_POW, POW, SIGN, SQRT, STEP, USER
+from ..dynamics._user import user_op
 from ..estimation import model_step
 
 __all__ = ["CasadiModel", "simulate_casadi", "to_casadi"]
@@ -53,7 +54,20 @@ def _factor(ca, v, op, a, b):
         return ca.if_else(ca.logic_and(v >= a, v <= b), 1.0, 0.0)
     if op == SIGN:
         return ca.sign(v)
-    raise ValueError(f"unknown factor operation {op}.")
+    raise ValueError(_no_casadi_form(op))
+
+
+def _no_casadi_form(op):
+    """The message for a factor operation that has no CasADi form: a user operation (``register_op``)."""
+    if op >= USER:
+        try:
+            what = f"the user operation {user_op(op).label('z')} (op code {op}, registered with register_op or a " \
+                   "CustomLibrary)"
+        except ValueError:
+            what = f"the user operation of op code {op}, not registered in this process,"
+        return (f"to_casadi: the model uses {what}, which has no CasADi form; expected a model whose terms use "
+                "only the built-in operations (powers, abs powers, sqrt, sign, step): fit it with a built-in library.")
+    return f"to_casadi: unknown factor operation {op}; expected a built-in operation (powers, sqrt, sign, step)."
 
 
 def _rhs_expr(ca, terms, coef, z, n):

@@ -4,7 +4,7 @@ from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy, InitialFit, ModelView, Structure, linear_term
 from ._bouc_wen import BoucWenHiddenState
 from ._estimator import HiddenStateSINDy
-from ._latent import LatentHiddenState, latent_invariants
+from ._latent import LatentHiddenState
 from ._objective import SEARCH_PENALTY
 from ._parametric import ParametricHiddenState
 from ._tanks import TanksHiddenState
@@ -22,6 +22,5 @@ __all__ = [
     "ParametricHiddenState",
     "Structure",
     "TanksHiddenState",
-    "latent_invariants",
     "linear_term",
 ]

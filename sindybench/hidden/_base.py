@@ -190,12 +190,29 @@ def positive_dimension(spec, name, *, note=""):
     return dim
 
 
+def with_defaults(bounds, defaults=None):
+    """A strategy's ``bounds`` dict (None: empty) over ``defaults``; anything but a dict is a ``ValueError``."""
+    if bounds is not None and not isinstance(bounds, dict):
+        raise ValueError(f"bounds must be a dict name -> dimension (LogUniform(low, high), ...) or (low, high[, log]), "
+                         f"or None; got {bounds!r}.")
+    return {**(defaults or {}), **(bounds or {})}
+
+
 def bounds_space(strategy, names, bounds, *, positive=False):
     """The parameters among ``names`` that ``strategy`` leaves None (searched), with their dimensions from ``bounds``.
 
     ``positive``: ``(low, high)`` is log-scaled and the values must be
-    positive (:func:`positive_dimension`).
+    positive (:func:`positive_dimension`). A key of ``bounds`` that is not
+    one of the strategy's physical parameters (``_physical``) is an error
+    naming the accepted ones: a misspelled key would otherwise leave the
+    default range searched.
     """
+    bounds = with_defaults(bounds)
+    accepted = tuple(strategy._physical)
+    unknown = [key for key in bounds if key not in accepted]
+    if unknown:
+        raise ValueError(f"bounds has the unknown key {unknown[0]!r}; {type(strategy).__name__} accepts "
+                         f"{', '.join(map(repr, accepted))}.")
     space = {}
     for name in names:
         if getattr(strategy, name) is not None:
@@ -280,7 +297,7 @@ class HiddenStrategy(BaseEstimator):
         The default lists the ``_physical`` parameters that are ``None``, with
         their range from ``self.bounds`` (read by :func:`~sindybench.search.as_dimension`).
         """
-        return bounds_space(self, self._physical, getattr(self, "bounds", None) or {})
+        return bounds_space(self, self._physical, getattr(self, "bounds", None))
 
     def resolve_params(self, values=None):
         """All physical parameters: constructor values, ``values`` for the searched ones."""

@@ -36,7 +36,7 @@ from scipy.integrate import cumulative_simpson, cumulative_trapezoid
 from .._validation import check_bool, check_integer
 from ..io import register_model
 from ..search import LogUniform
-from ._base import Design, HiddenStrategy, InitialFit, Structure, linear_term
+from ._base import Design, HiddenStrategy, InitialFit, Structure, linear_term, with_defaults
 
 __all__ = ["BoucWenHiddenState", "DEFAULT_BOUNDS"]
 
@@ -144,11 +144,8 @@ class BoucWenHiddenState(HiddenStrategy):
 
     def search_space(self):
         """Searched parameters with their ranges (``bounds`` over :data:`DEFAULT_BOUNDS`)."""
-        if self.bounds is not None and not isinstance(self.bounds, dict):
-            raise ValueError(f"bounds must be a dict name -> dimension (LogUniform(low, high), ...) or "
-                             f"(low, high[, log]), or None; got {self.bounds!r}.")
         merged = copy.copy(self)
-        merged.bounds = {**DEFAULT_BOUNDS, **(self.bounds or {})}
+        merged.bounds = with_defaults(self.bounds, DEFAULT_BOUNDS)
         return super(BoucWenHiddenState, merged).search_space()
 
     def _validate(self):

@@ -44,15 +44,18 @@ class Candidate(NamedTuple):
 def structure_dynamics(structure, library, coef, simulation):
     """The :class:`~sindybench.dynamics.Dynamics` of a strategy's ``structure`` with the learned ``coef``.
 
-    ``simulation``: ``dt``, ``n_substeps``, ``input_hold`` and ``max_abs``.
+    ``simulation``: ``dt``, ``n_substeps``, ``input_hold`` and ``max_abs``, and optionally
+    ``method`` (default ``"rk4"``) and ``bounds`` (None: the structure's).
     """
     s = structure
+    settings = {"method": "rk4", **simulation}
+    bounds = settings.pop("bounds", None)
     return assemble(library, coef, n_states=s.n_states, learned=s.learned, fixed_terms=s.fixed_terms,
                     fixed_coef=s.fixed_coef, fixed_rhs=s.fixed_rhs, output_index=s.output_index,
-                    state_names=s.state_names, bounds=s.bounds, method="rk4", **simulation)
+                    state_names=s.state_names, bounds=s.bounds if bounds is None else bounds, **settings)
 
 
-def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, simulation):
+def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, simulation, *, normalize=False):
     """Fit the candidate of ``hidden`` with physical ``params`` on the first ``n_rows`` samples.
 
     Parameters
@@ -68,17 +71,21 @@ def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, 
     n_rows : int
         The regression uses the first ``n_rows`` samples (and the strategy's ``Design.rows``).
     simulation : dict
-        ``dt``, ``n_substeps``, ``input_hold``, ``max_abs`` of the candidate's dynamics.
+        ``dt``, ``n_substeps``, ``input_hold``, ``max_abs`` (and ``method``, ``bounds``) of the
+        candidate's dynamics.
+    normalize : bool, default=False
+        Centre and scale the regression (see :func:`~sindybench._regression.fit_sparse`).
 
     Returns
     -------
     Candidate
     """
     return fit_candidate_records(hidden, params, library, optimizer, derivative, [X], [y], [n_rows],
-                                 simulation)._replace(designs=None)
+                                 simulation, normalize=normalize)._replace(designs=None)
 
 
-def fit_candidate_records(hidden, params, library, optimizer, derivative, Xs, ys, n_rows, simulation):
+def fit_candidate_records(hidden, params, library, optimizer, derivative, Xs, ys, n_rows, simulation, *,
+                          normalize=False):
     """:func:`fit_candidate` on several records: one design per record, one regression on the stacked rows.
 
     ``Xs``, ``ys`` and ``n_rows`` hold one entry per record; the strategy's
@@ -104,7 +111,7 @@ def fit_candidate_records(hidden, params, library, optimizer, derivative, Xs, ys
         feature_filter = _RecordFilters(filters, [len(y) for y in ys])
     coef = fit_sparse(library, optimizer, np.hstack([np.vstack([p[1] for p in parts]), np.vstack(Xs)]),
                       np.vstack([p[2] for p in parts]), rows=np.concatenate([p[3] for p in parts]),
-                      feature_filter=feature_filter, what="library output Theta([x, u])")
+                      feature_filter=feature_filter, what="library output Theta([x, u])", normalize=normalize)
     return Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
                      differentiation=derivative.differentiation, coef=coef, derivative=derivative, design=designs[0],
                      dynamics=structure_dynamics(structure, library, coef, simulation), designs=designs)

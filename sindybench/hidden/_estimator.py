@@ -8,24 +8,23 @@ from sklearn.base import clone
 from sklearn.utils.validation import check_is_fitted
 
 from .._base import DynamicsEstimator
+from .._params import Constraint
+from .._preprocessing import operating_point
 from .._equations import EquationRow
 from ..optimizers import STLS
 from .._validation import (
     check_array_like,
     check_bool,
     check_dt,
-    check_estimator_param,
     check_inputs_outputs,
     check_integer,
     check_option,
-    check_positive,
     check_records,
 )
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name
 from ..search import check_search_space, minimize
-from ..simulate import _HOLDS
 from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy
 from ._candidate import Candidate, candidate_initial_state, fit_candidate, fit_candidate_records, structure_dynamics
@@ -40,6 +39,12 @@ logger = logging.getLogger(__name__)
 
 _HIDDEN_PREFIX = "hidden__"
 _INITIAL_STATES = ("strategy", "fit", "periodic")
+
+
+def _check_strategy_param(value, name):
+    if value is not None and not isinstance(value, HiddenStrategy):
+        raise ValueError(f"{name} must be a HiddenStrategy (e.g. DerivativeHiddenState()); got {type(value).__name__}.")
+    return value
 
 
 class HiddenStateSINDy(DynamicsEstimator):
@@ -119,10 +124,22 @@ class HiddenStateSINDy(DynamicsEstimator):
         the environment variable ``SINDYBENCH_PROGRESS=0`` turns bars off.
     n_substeps : int, default=1
         Integration steps per sample in simulations.
+    integrator : {"rk4", "euler"}, default="rk4"
     input_hold : {"zoh", "linear"}, default="zoh"
         Input interpolation between samples in simulations.
+    bounds : (lower, upper) or None, default=None
+        State bounds for simulations (scalars or one per state), instead of
+        the strategy's own (``structure_.bounds``); None keeps the strategy's.
     max_abs : float, default=1e6
         A simulated state beyond this magnitude counts as divergence.
+    input_delay : int, default=0
+        Input delay in samples: the model is driven by ``u(t - input_delay dt)``
+        (as :class:`~sindybench.SINDy`'s ``input_delay``).
+    normalize : bool, default=False
+        Centre and scale the regression (as :class:`~sindybench.SINDy`'s
+        ``normalize``): the library's features of the centred, scaled states
+        and inputs, each target divided by its root mean square, the
+        coefficients mapped back exactly to the user's units.
     refine : OutputErrorRefinement or None, default=None
         Refine the final model by its open-loop simulation error on the
         training record (:class:`~sindybench.refine.OutputErrorRefinement`):
@@ -174,6 +191,9 @@ class HiddenStateSINDy(DynamicsEstimator):
         Record of the refinement (costs before and after, simulations,
         status, refined physical parameters, pruned terms); None without
         ``refine``.
+    scaling_ : dict or None
+        With ``normalize``: ``{"mean": ..., "scale": ...}`` of the training
+        states and inputs ``[x, u]``; None without.
     state_names_ : list of str
     output_index_ : tuple of int
         The states that are the outputs (``structure_.output_index``).
@@ -217,8 +237,12 @@ class HiddenStateSINDy(DynamicsEstimator):
         refit=True,
         show_progress_bar=True,
         n_substeps=1,
+        integrator="rk4",
         input_hold="zoh",
+        bounds=None,
         max_abs=1e6,
+        input_delay=0,
+        normalize=False,
         refine=None,
         initial_state="strategy",
     ):
@@ -236,34 +260,32 @@ class HiddenStateSINDy(DynamicsEstimator):
         self.refit = refit
         self.show_progress_bar = show_progress_bar
         self.n_substeps = n_substeps
+        self.integrator = integrator
         self.input_hold = input_hold
+        self.bounds = bounds
         self.max_abs = max_abs
+        self.input_delay = input_delay
+        self.normalize = normalize
         self.refine = refine
         self.initial_state = initial_state
+
+    _parameter_constraints = {
+        **DynamicsEstimator._parameter_constraints,
+        "hidden": Constraint(_check_strategy_param),
+        "n_trials": Constraint(check_integer),
+        "validation": Constraint(check_option, options=VALIDATIONS),
+        "refit": Constraint(check_bool),
+        "show_progress_bar": Constraint(check_bool),
+        "initial_state": Constraint(check_option, options=_INITIAL_STATES),
+    }
 
     # ------------------------------------------------------------------ checks
     def _check_params(self, dt):
         dt = check_dt(dt if dt is not None else self.dt, allow_none=True)
         if dt is None:
             raise ValueError("dt is None; pass dt to the constructor or to fit.")
-        if self.hidden is not None and not isinstance(self.hidden, HiddenStrategy):
-            raise ValueError(
-                f"hidden must be a HiddenStrategy (e.g. DerivativeHiddenState()); got {type(self.hidden).__name__}."
-            )
-        check_estimator_param(self.optimizer, "optimizer", "a regressor with coef_ such as STLS()")
-        n_trials = check_integer(self.n_trials, "n_trials")
-        check_integer(self.n_substeps, "n_substeps")
-        check_integer(self.local_trials, "local_trials", low=0, high=n_trials - 1)
-        check_option(self.validation, "validation", VALIDATIONS)
-        check_option(self.input_hold, "input_hold", _HOLDS)
-        check_bool(self.refit, "refit")
-        check_bool(self.show_progress_bar, "show_progress_bar")
-        check_positive(self.max_abs, "max_abs", allow_inf=True)
-        check_option(self.initial_state, "initial_state", _INITIAL_STATES)
-        if self.refine is not None and not hasattr(self.refine, "run"):
-            raise ValueError(
-                f"refine must be an OutputErrorRefinement or None; got {type(self.refine).__name__}."
-            )
+        self._validate_params()
+        check_integer(self.local_trials, "local_trials", low=0, high=self.n_trials - 1)
         space = _check_search_params(self.search_params)
         bad = [k for k in space if k.startswith(_HIDDEN_PREFIX)]
         if bad:
@@ -324,6 +346,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         records = self._fit_is_records(X, y)
         X, y1 = check_records(X, y, y_kind="outputs") if records else _check_fit_data(X, y)
         dt, est_space = self._check_params(dt)
+        X = [self.delayed_inputs(X_r) for X_r in X] if records else self.delayed_inputs(X)
         self._check_refine_records(len(y1) if records else 1)
         hidden = clone(self.hidden) if self.hidden is not None else _default_strategy()
         hidden._validate()
@@ -367,6 +390,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         else:
             states = np.asarray(cand.design.states, dtype=float)
             x0 = states[0].copy()
+        scaling = _scaling_record(states, X, records) if self.normalize else None
         refinement = None
         if self.refine is not None:
             if records:
@@ -393,6 +417,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         self.dt_ = dt
         self.n_features_in_ = (X[0] if records else X).shape[1]
         self.refinement_ = refinement
+        self.scaling_ = scaling
         self._y_1d = all(y_r.ndim == 1 for y_r in y) if records else np.asarray(y).ndim == 1
         self._rebuild_model()
         return self
@@ -406,7 +431,8 @@ class HiddenStateSINDy(DynamicsEstimator):
 
     def _simulation(self, dt):
         """The simulation settings of this estimator's dynamics (see :func:`structure_dynamics`)."""
-        return dict(dt=dt, n_substeps=self.n_substeps, input_hold=self.input_hold, max_abs=self.max_abs)
+        return dict(dt=dt, n_substeps=self.n_substeps, input_hold=self.input_hold, max_abs=self.max_abs,
+                    method=self.integrator, bounds=self.bounds)
 
     def _candidate(self, hidden, values, X, y, dt, n_rows, derivative=None):
         """The candidate of ``values``; ``X``, ``y`` and ``n_rows`` are lists for several records."""
@@ -418,7 +444,7 @@ class HiddenStateSINDy(DynamicsEstimator):
             derivative = Derivative(differentiation, dt)
         fit = fit_candidate_records if isinstance(y, list) else fit_candidate
         return fit(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
-                   self._simulation(dt))
+                   self._simulation(dt), normalize=self.normalize)
 
     def _refine(self, hidden, cand, X, y):
         """The candidate refined by simulation error, its refined first state and the refinement record.
@@ -481,7 +507,7 @@ class HiddenStateSINDy(DynamicsEstimator):
 
     def _equation_notes(self):
         gauge = getattr(self.hidden_, "gauge", None)  # strategies with latent states say how their scale is fixed
-        return gauge().splitlines() if callable(gauge) else []
+        return gauge(model=self).splitlines() if callable(gauge) else []
 
     def _equation_rows(self):
         check_is_fitted(self)
@@ -501,6 +527,13 @@ class HiddenStateSINDy(DynamicsEstimator):
                 rows.append(EquationRow(names[i], s.fixed_coef[:, i], fixed_names, list(s.fixed_terms), names,
                                         learned=False))
         return rows
+
+
+def _scaling_record(states, X, records):
+    """``scaling_``: the operating point of the training ``[x, u]`` (every record's samples)."""
+    U = np.vstack(X) if records else X
+    mean, scale = operating_point(np.hstack([states, U]))
+    return {"mean": mean.tolist(), "scale": scale.tolist()}
 
 
 def _default_strategy():

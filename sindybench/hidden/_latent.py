@@ -26,7 +26,8 @@ coefficient of each latent row's driver (``u0`` or ``v0`` for ``z0``, ``z(j-1)``
 for ``zj``) at 1 during the refinement; ``scale="range"`` by the latent
 state's finite bounds. :meth:`LatentHiddenState.gauge` says which in words,
 and gauge-free quantities (the poles and the static gain of the linearized
-model at an operating point) come from :func:`latent_invariants`.
+model at an operating point) come from
+:func:`sindybench.estimation.latent_invariants`.
 """
 
 import numbers
@@ -38,9 +39,9 @@ from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
 from ..simulate import TermsRHS, simulate
-from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term
+from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term, with_defaults
 
-__all__ = ["LatentHiddenState", "latent_invariants"]
+__all__ = ["LatentHiddenState"]
 
 
 class LatentHiddenState(HiddenStrategy):
@@ -99,7 +100,7 @@ class LatentHiddenState(HiddenStrategy):
     >>> s.structure({"tau": 10.0}, n_outputs=1, n_inputs=1).state_names
     ['y0', 'z0']
     >>> print(s.gauge())
-    z0: the coefficient of u0 in z0' is 1 (scale gauge)
+    z0: the coefficient of u0 in z0' is held at 1 by the refinement (scale gauge)
     >>> LatentHiddenState(order=2, driver="velocity").structure({"tau": 1.0}, n_outputs=1, n_inputs=1).state_names
     ['y0', 'v0', 'z0']
     """
@@ -142,7 +143,7 @@ class LatentHiddenState(HiddenStrategy):
         self.search_space()
 
     def search_space(self):
-        bounds = {"tau": (1e-3, 1e3), "gain": (1e-3, 1e3), **(self.bounds or {})}
+        bounds = with_defaults(self.bounds, {"tau": (1e-3, 1e3), "gain": (1e-3, 1e3)})
         names = ("tau", "gain") if self.scale == "range" else ("tau",)
         return bounds_space(self, names, bounds, positive=True)
 
@@ -166,14 +167,40 @@ class LatentHiddenState(HiddenStrategy):
         """Quadratic polynomial in ``(y, [v,] z, u)``."""
         return PolynomialLibrary(degree=2)
 
-    def gauge(self):
-        """The gauge of each latent state, in words."""
+    def gauge(self, model=None):
+        """How each latent state's scale is fixed, in words; with ``model``, what its fit actually holds.
+
+        Parameters
+        ----------
+        model : HiddenStateSINDy, optional
+            A model fitted with this strategy (``equations()`` passes it). Its
+            coefficients are read: the driver's coefficient as fitted (or that
+            the row has none, and the scale is then free), whether a refinement
+            held it, and whether a mixing ``z -> z + k y`` of a latent state
+            with an output leaves the outputs unchanged within the model's
+            library (a freedom the scale gauge does not fix).
+
+        Returns
+        -------
+        str
+            One line per latent state (more with a free mixing).
+
+        Examples
+        --------
+        >>> print(LatentHiddenState(n_latent=2).gauge())
+        z0: the coefficient of u0 in z0' is held at 1 by the refinement (scale gauge)
+        z1: the coefficient of z0 in z1' is held at 1 by the refinement (scale gauge)
+        """
+        self._validate()
+        q = int(self.n_latent)
         if self.scale == "range":
-            return "\n".join(f"z{j}: ranges over {tuple(self.latent_bounds)} (range gauge)"
-                             for j in range(int(self.n_latent)))
+            return "\n".join(f"z{j}: ranges over {tuple(self.latent_bounds)} (range gauge)" for j in range(q))
         first = {"input": "u0", "velocity": "v0", "output": "y0"}[self.driver]
-        return "\n".join(f"z{j}: the coefficient of {first if j == 0 else f'z{j - 1}'} in z{j}' is 1 (scale gauge)"
-                         for j in range(int(self.n_latent)))
+        drivers = [first] + [f"z{j}" for j in range(q - 1)]
+        if model is None:
+            return "\n".join(f"z{j}: the coefficient of {d} in z{j}' is held at 1 by the refinement (scale gauge)"
+                              for j, d in enumerate(drivers))
+        return "\n".join(_fitted_gauge(self, model, drivers))
 
     def structure(self, params, *, n_outputs, n_inputs):
         if n_inputs < 1 and self.driver == "input":
@@ -272,69 +299,79 @@ class LatentHiddenState(HiddenStrategy):
                 z0 = fit.x if np.all(np.isfinite(fit.x)) else start
             except ValueError:
                 z0 = start
-        return np.r_[meas, z0]
+        return np.r_[meas, np.clip(z0, zlo[0], zhi[0])]  # at rest may lie past the range: the range holds it
+
+
+def _fitted_gauge(strategy, model, drivers):
+    """The lines of :meth:`LatentHiddenState.gauge` for a fitted ``model`` (see there)."""
+    p = len(model.structure_.output_index)
+    terms = [tuple(t) for t in (getattr(model.library_, "terms_", None) or ())]
+    refined = getattr(model, "refinement_", None) is not None
+    lines = []
+    for j, (col, name) in enumerate(zip(strategy._drivers(p), drivers)):
+        row = model.structure_.learned.index(p * int(strategy.order) + j)
+        term = ((col, POW, 1.0, 0.0),)
+        c = float(model.coef_[row, terms.index(term)]) if term in terms else 0.0
+        if c == 0.0:
+            why = "has no linear term " + name if term not in terms else "coefficient is 0"
+            lines.append(f"z{j}: not fixed: z{j}' has no {name} term (the library {why}); the scale of z{j} is free")
+            continue
+        held = "held in the refinement" if refined else "from the starting lag, not held: no refinement ran"
+        lines.append(f"z{j}: the coefficient of {name} in z{j}' is {c:.4g} (scale gauge, {held})")
+    for j in range(len(drivers)):
+        for i in range(p):
+            if _mixing_is_free(strategy, model, j, i):
+                lines.append(f"z{j}: z{j} -> z{j} + k y{i} gives the same outputs for any k within this library; "
+                             "the gauge leaves this mixing free")
+    return lines
+
+
+def _mixing_is_free(strategy, model, j, i, n_points=None, rtol=1e-8):
+    """Whether ``z_j -> z_j + k y_i`` maps the fitted model onto another of its library, gauge terms unchanged.
+
+    Checked numerically: the transformed right-hand side ``T f(T^-1 x, u)`` at
+    random points is regressed on the library's features there; the mixing is
+    free when it is reproduced exactly (relative residual ``rtol``) with every
+    latent row's driver coefficient unchanged.
+    """
+    s, lib = model.structure_, model.library_
+    terms = getattr(lib, "terms_", None)
+    if terms is None:
+        return False
+    n, m = s.n_states, int(model.n_features_in_)
+    p = len(s.output_index)
+    cz = p * int(strategy.order) + j
+    rng = np.random.default_rng(0)
+    states = np.asarray(model.states_ if not isinstance(model.states_, list) else model.states_[0], dtype=float)
+    states = states[np.all(np.isfinite(states), axis=1)]
+    n_points = n_points or 4 * len(terms) + 10
+    x = states[rng.integers(0, len(states), n_points)] if len(states) else np.zeros((n_points, n))
+    x = x + rng.standard_normal(x.shape) * (np.std(states, axis=0) + 1.0) * 0.1 if len(states) else x
+    u = rng.standard_normal((n_points, m))
+    k = 0.1 * (np.std(x[:, cz]) + 1.0) / (np.std(x[:, i]) + 1.0)
+    back = x.copy()
+    back[:, cz] -= k * x[:, i]  # T^-1 x: the original coordinates
+    with np.errstate(all="ignore"):
+        f = np.array([np.asarray(model.rhs_(xb, ub), dtype=float) for xb, ub in zip(back, u)])
+        f[:, cz] += k * f[:, i]  # T f
+        theta = lib.transform(np.c_[x, u])
+    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(theta))):
+        return False
+    target = f[:, list(s.learned)]
+    coef, *_ = np.linalg.lstsq(theta, target, rcond=None)
+    if np.max(np.abs(theta @ coef - target)) > rtol * max(np.max(np.abs(target)), 1.0):
+        return False
+    for jj, col in enumerate(strategy._drivers(p)):
+        term = ((col, POW, 1.0, 0.0),)
+        if term in [tuple(t) for t in terms]:
+            t, row = [tuple(t) for t in terms].index(term), s.learned.index(p * int(strategy.order) + jj)
+            if abs(coef[t, row] - model.coef_[row, t]) > 1e-6 * (1.0 + abs(model.coef_[row, t])):
+                return False
+    return True
 
 
 _DRIVERS = ("input", "velocity", "output")
 _SCALES = ("driver", "range")
-
-
-def latent_invariants(model, u_op, *, y_guess=None, eps=1e-6):
-    """Gauge-free quantities of a fitted latent model at a steady operating point.
-
-    The poles (eigenvalues of the state Jacobian at the equilibrium for the
-    constant input ``u_op``) and the static gain of the outputs from the inputs
-    do not depend on the latent states' scale.
-
-    Parameters
-    ----------
-    model : HiddenStateSINDy
-        Fitted, with a :class:`LatentHiddenState` (any fitted model works).
-    u_op : array-like of shape (n_inputs,)
-        Constant input of the operating point.
-    y_guess : array-like, optional
-        Start of the equilibrium search (default: the training states' mean).
-    eps : float, default=1e-6
-        Relative step of the central differences of a right-hand side that is
-        not made of terms (on the Python path or with compiled rows); a model
-        of terms is differentiated exactly, by its terms' derivatives.
-
-    Returns
-    -------
-    dict
-        ``"state"``: the equilibrium, ``"jacobian"``: the state Jacobian there,
-        ``"poles"``: its eigenvalues (1/time), ``"gain"``: d y / d u at steady
-        state (n_outputs, n_inputs), or None where the Jacobian is singular
-        (an integrator, or a continuum of equilibria).
-    """
-    u_op = np.asarray(u_op, dtype=float).reshape(-1)
-    rhs = model.rhs_
-    start = np.mean(model.states_, axis=0) if y_guess is None else np.asarray(y_guess, dtype=float)
-    sol = least_squares(lambda x: rhs(x, u_op), start, xtol=1e-14, ftol=1e-14, gtol=1e-14)
-    x = sol.x
-    n, m = x.size, u_op.size
-
-    if isinstance(rhs, TermsRHS):  # the exact derivatives of the terms, as sindybench.estimation.linearize takes them
-        _, J = rhs.jacobian(x, u_op)
-    else:
-        J = _central_differences(lambda z: np.asarray(rhs(z[:n], z[n:]), dtype=float), np.r_[x, u_op], eps)
-    A, B = J[:, :n], J[:, n:]
-    out_idx = list(model.structure_.output_index)
-    gain = None  # an integrator or a continuum of equilibria (a hysteresis state at rest): no static gain
-    if np.linalg.cond(A) < 1e10:
-        gain = -np.linalg.solve(A, B)[out_idx].reshape(len(out_idx), m)
-    return {"state": x, "jacobian": A, "poles": np.linalg.eigvals(A), "gain": gain}
-
-
-def _central_differences(f, v, eps):
-    """Jacobian of ``f`` at ``v`` by central differences of relative step ``eps``."""
-    out = []
-    for i in range(v.size):
-        h = eps * max(1.0, abs(v[i]))
-        e = np.zeros_like(v)
-        e[i] = h
-        out.append((f(v + e) - f(v - e)) / (2 * h))
-    return np.array(out).T
 
 
 register_model(LatentHiddenState)

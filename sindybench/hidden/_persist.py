@@ -29,7 +29,10 @@ Stored ``fitted`` entries (a new fitted attribute goes into both functions;
 ``refinement``
     ``refinement_``, the record of the simulation-error refinement (null without
     ``refine``; the refined values are in ``params``, ``coef``,
-    ``structure.fixed_coef`` and ``x0``).
+    ``structure.fixed_coef`` and ``x0``);
+``scaling``
+    ``scaling_`` (null without ``normalize``; absent in older files, which
+    load with ``normalize=False``).
 """
 
 import math
@@ -37,7 +40,7 @@ import math
 import numpy as np
 from sklearn.base import clone
 
-from .._sindy_persist import fitted_parts
+from .._sindy_persist import fitted_parts, load_scaling
 from .._stls import STLS
 from .._validation import check_bounds
 from ..io import check_limit, check_params, encode_array, encode_value, fitted_to_dict
@@ -109,6 +112,7 @@ def hidden_sindy_to_dict(model):
         "n_outputs": int(model.n_outputs_),
         "output_1d": bool(model._y_1d),
         "refinement": encode_value(model.refinement_, "fitted.refinement"),
+        "scaling": encode_value(model.scaling_, "fitted.scaling"),
     }
 
 
@@ -188,4 +192,5 @@ def hidden_sindy_from_dict(model, fitted):
     model.n_features_in_ = n_inputs
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
+    load_scaling(model, fitted)
     model._rebuild_model()

@@ -140,6 +140,18 @@ class TanksHiddenState(ParametricHiddenState):
     def _state_names(self, p, q):
         return ["y0", "x1"]
 
+    def _validate_data(self, u, y):
+        """The measured lower level is a tank level too: below the tanks' lower bound it is refused."""
+        lo, _ = self._tank_bounds()
+        low = np.asarray(y, dtype=float) < lo
+        if low.any():
+            k = int(np.argmax(low.any(axis=1) if low.ndim > 1 else low))
+            raise ValueError(f"y has levels below the tanks' lower bound {lo:g} (first at sample {k}: "
+                             f"{np.asarray(y, dtype=float).reshape(len(y), -1)[k, 0]:g}); expected tank levels "
+                             f">= {lo:g} (bounds={self.bounds!r}). Measured with an offset? Subtract it, or clip "
+                             "small noise below the bound.")
+        super()._validate_data(u, y)
+
     def default_library(self):
         """Quadratic polynomial in ``(y, x1, u)`` plus ``sqrt(y)``, ``sqrt(x1)``."""
         return ConcatLibrary([PolynomialLibrary(degree=2), SqrtLibrary(variables=[0, 1])])

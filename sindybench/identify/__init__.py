@@ -1,5 +1,24 @@
-"""Identify a system from data: ``identify`` and its estimator ``IdentifyCV`` (the structure search)."""
+"""Identify a system from data: the data advice, ``identify`` and its estimator ``IdentifyCV`` (the structure search)."""
 
+from ._advice import (
+    DataAdvice,
+    ProposedTerm,
+    advice,
+    detect_input_hold,
+    detect_saturation,
+    estimate_delay,
+    excitation_order,
+)
 from ._estimator import IdentifyCV, identify
 
-__all__ = ["IdentifyCV", "identify"]
+__all__ = [
+    "DataAdvice",
+    "IdentifyCV",
+    "ProposedTerm",
+    "advice",
+    "detect_input_hold",
+    "detect_saturation",
+    "estimate_delay",
+    "excitation_order",
+    "identify",
+]

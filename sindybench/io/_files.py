@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np  # noqa: F401  (used by the doctests)
 from sklearn.utils.validation import check_is_fitted
 
+from .._validation import shown
 from ._registry import _REGISTRY, _lookup, _registered
 from ._checks import check_plain
 from ._values import Fields, _construct, _encode_params
@@ -103,7 +104,7 @@ def model_from_dict(data, *, allow_import=False):
         raise ValueError(f"format: not a sindybench model; expected a JSON object with format = {FORMAT!r}.")
     version = data.get("format_version")
     if version != FORMAT_VERSION:
-        raise ValueError(f"format_version: model file version {version!r} is not supported; expected {FORMAT_VERSION}.")
+        raise ValueError(f"format_version: model file version {shown(version)} is not supported; expected {FORMAT_VERSION}.")
     check_plain(data)  # bounded nesting and integers before any recursive reading
     envelope = Fields(data, "", allow_import=allow_import)  # top-level fields are named bare: "fitted.coef"
     entry = _lookup(data.get("class"), "class", model=True)
@@ -111,7 +112,7 @@ def model_from_dict(data, *, allow_import=False):
     try:
         entry.from_dict(model, envelope.fields("fitted"))
     except (KeyError, TypeError, IndexError, AttributeError) as exc:  # a hook without a check of its own
-        raise ValueError(f"fitted: the {entry.cls.__name__} data is malformed: {exc!r}.") from exc
+        raise ValueError(f"fitted: the {entry.cls.__name__} data is malformed: {shown(exc)}.") from exc
     return model
 
 

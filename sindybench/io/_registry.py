@@ -4,6 +4,8 @@ from typing import Callable, NamedTuple
 
 import numpy as np  # noqa: F401  (used by the doctest)
 
+from .._validation import shown
+
 __all__ = ["register_model"]
 
 
@@ -75,12 +77,12 @@ def register_model(cls, *, to_dict=None, from_dict=None, functions=()):
     old = _REGISTRY.get(name)
     if old is not None and (old.cls.__module__, old.cls.__qualname__) != (cls.__module__, cls.__qualname__):
         raise ValueError(
-            f"another class named {name!r} is registered ({old.cls.__module__}.{old.cls.__qualname__}); "
+            f"another class named {shown(name)} is registered ({old.cls.__module__}.{old.cls.__qualname__}); "
             "expected one class per name."
         )
     valid = cls._get_param_names() if hasattr(cls, "_get_param_names") else []
     if isinstance(functions, str) or any(f not in valid for f in functions):
-        raise ValueError(f"functions = {functions!r}; expected a tuple of constructor parameters of {name} {valid}.")
+        raise ValueError(f"functions = {shown(functions)}; expected a tuple of constructor parameters of {name} {valid}.")
     _REGISTRY[name] = _Entry(cls, to_dict, from_dict, tuple(functions))
     return cls
 
@@ -96,5 +98,5 @@ def _function_params():
 
 def _lookup(name, field, *, model=False):
     if not isinstance(name, str) or name not in _REGISTRY or (model and _REGISTRY[name].to_dict is None):
-        raise ValueError(f"{field}: unknown class {name!r}; expected one of {_registered(model)}.")
+        raise ValueError(f"{field}: unknown class {shown(name)}; expected one of {_registered(model)}.")
     return _REGISTRY[name]

@@ -6,6 +6,7 @@ import types
 
 import numpy as np
 
+from .._validation import shown
 from ._registry import _REGISTRY, _function_params, _lookup, _registered
 
 __all__ = [
@@ -39,9 +40,9 @@ def _kind(value):
     if isinstance(value, bool):
         return f"a boolean ({value})"
     if isinstance(value, (int, float)):
-        return f"a number ({value!r})"
+        return f"a number ({shown(value)})"
     if isinstance(value, str):
-        return f"a string ({value[:40]!r})"
+        return f"a string ({shown(value, 40)})"
     if isinstance(value, list):
         return f"a list of {len(value)}"
     return f"an object with keys {sorted(value)[:6]}"
@@ -89,7 +90,7 @@ def decode_array(value, field, shape=None):
         raise ValueError(f"{field}: expected an array {{'dtype', 'shape', 'data'}}; got {_kind(value)}.")
     dtype, dims, data = value["dtype"], value["shape"], value["data"]
     if dtype not in _DTYPES:
-        raise ValueError(f"{field}.dtype: expected one of {sorted(_DTYPES)}; got {dtype!r}.")
+        raise ValueError(f"{field}.dtype: expected one of {sorted(_DTYPES)}; got {shown(dtype)}.")
     if (not isinstance(dims, list) or len(dims) > MAX_NDIM
             or not all(isinstance(d, int) and not isinstance(d, bool) and 0 <= d < MAX_DIM for d in dims)):
         raise ValueError(f"{field}.shape: expected a list of at most {MAX_NDIM} integers in [0, {MAX_DIM}); "
@@ -118,7 +119,7 @@ def _function_path(func, field):
     qualname = getattr(func, "__qualname__", "")
     if not isinstance(func, types.FunctionType) or "<lambda>" in qualname or "<locals>" in qualname:
         raise ValueError(
-            f"{field} = {func!r} cannot be stored: only a module-level function can be saved (by its import "
+            f"{field} = {shown(func)} cannot be stored: only a module-level function can be saved (by its import "
             "path); move it to the top level of an importable module (no lambda, no function defined inside "
             "another function)."
         )
@@ -133,22 +134,24 @@ def _function_path(func, field):
     except ValueError:
         found = None
     if found is not func:
-        raise ValueError(f"{field} = {func!r} is not importable as {path!r}; expected a module-level function.")
+        raise ValueError(f"{field} = {shown(func)} is not importable as {shown(path)}; expected a module-level function.")
     return path
 
 
 def _import_function(path, field):
     module, _, qualname = path.partition(":")
-    if not module or not qualname:
-        raise ValueError(f"{field}: expected a function path 'module:name'; got {path!r}.")
+    if not all(part.isidentifier() for part in (*module.split("."), *qualname.split("."))):
+        # importlib reads '../x' as a relative import (TypeError) and 'a/b' as a module name
+        raise ValueError(f"{field}: expected a function path 'module:name' of dotted Python names "
+                         f"('my_models.laws:leak'); got {shown(path)}.")
     try:
         obj = importlib.import_module(module)
         for part in qualname.split("."):
             obj = getattr(obj, part)
     except (ImportError, AttributeError) as exc:
-        raise ValueError(f"{field}: cannot import the function {path!r} ({exc}); expected an installed module.") from None
+        raise ValueError(f"{field}: cannot import the function {shown(path)} ({exc}); expected an installed module.") from None
     if not isinstance(obj, types.FunctionType):
-        raise ValueError(f"{field}: {path!r} is a {type(obj).__name__}; expected a Python function.")
+        raise ValueError(f"{field}: {shown(path)} is a {type(obj).__name__}; expected a Python function.")
     return obj
 
 
@@ -197,13 +200,13 @@ def encode_value(value, field="value", *, function_ok=True):
     if isinstance(value, dict):
         bad = [k for k in value if not isinstance(k, str)]
         if bad:
-            raise ValueError(f"{field} has the key {bad[0]!r}; expected string keys only.")
-        return {"dict": {k: encode_value(v, f"{field}[{k!r}]", function_ok=False) for k, v in value.items()}}
+            raise ValueError(f"{field} has the key {shown(bad[0])}; expected string keys only.")
+        return {"dict": {k: encode_value(v, f"{field}[{shown(k)}]", function_ok=False) for k, v in value.items()}}
     if isinstance(value, np.ndarray):
         return {"array": encode_array(value)}
     if isinstance(value, types.FunctionType):
         if not function_ok:
-            raise ValueError(f"{field} = {value!r} cannot be stored: a Python function is stored only as one of "
+            raise ValueError(f"{field} = {shown(value)} cannot be stored: a Python function is stored only as one of "
                              f"{_function_params()}.")
         return {"function": _function_path(value, field)}
     name = type(value).__name__
@@ -297,7 +300,7 @@ def decode_value(value, field="value", *, allow_import=False, function_ok=True):
     if tag == "dict":
         if not isinstance(inner, dict):
             raise ValueError(f"{field}.dict: expected an object; got {_kind(inner)}.")
-        return {k: decode_value(v, f"{field}[{k!r}]", allow_import=allow_import, function_ok=False)
+        return {k: decode_value(v, f"{field}[{shown(k)}]", allow_import=allow_import, function_ok=False)
                 for k, v in inner.items()}
     if tag == "array":
         return decode_array(inner, f"{field}.array")
@@ -305,11 +308,11 @@ def decode_value(value, field="value", *, allow_import=False, function_ok=True):
         if not isinstance(inner, str):
             raise ValueError(f"{field}.function: expected 'module:name'; got {_kind(inner)}.")
         if not function_ok:  # checked before anything is imported
-            raise ValueError(f"{field} names the Python function {inner[:80]!r}, which is not expected here; a "
+            raise ValueError(f"{field} names the Python function {shown(inner, 80)}, which is not expected here; a "
                              f"model file may name a function only as one of {_function_params()}.")
         if not allow_import:
             raise ValueError(
-                f"{field} is the Python function {inner!r}; loading it imports that module: pass "
+                f"{field} is the Python function {shown(inner)}; loading it imports that module: pass "
                 "allow_import=True if you trust this file."
             )
         return _import_function(inner, field)
@@ -441,7 +444,7 @@ class Fields:
         if bad is not None and bad.any():
             i = tuple(int(k) for k in np.argwhere(bad)[0])
             want = "finite values > 0" if positive else "finite values"
-            raise ValueError(f"{self.where(name)}: expected {want}; got {a[i].item()!r} at index {list(i)}.")
+            raise ValueError(f"{self.where(name)}: expected {want}; got {shown(a[i].item())} at index {list(i)}.")
         return a
 
     def _list(self, name, n, what):

@@ -5,6 +5,7 @@ the budget, and which RUNNING trials were left behind by a dead worker.
 """
 
 import contextlib
+import datetime
 import json
 import logging
 import os
@@ -15,7 +16,7 @@ import warnings
 
 import optuna
 from optuna.storages import BaseStorage, InMemoryStorage, JournalStorage, RDBStorage
-from optuna.storages.journal import JournalFileBackend, JournalFileOpenLock
+from optuna.storages.journal import JournalFileBackend, JournalFileOpenLock, JournalFileSymlinkLock
 from optuna.trial import TrialState
 
 from .._process import owner, owner_is_gone
@@ -27,6 +28,7 @@ __all__ = [
     "describe_storage",
     "fail_dead_workers",
     "make_storage",
+    "mend_journal_tail",
     "tag_trial",
     "this_call_trials",
     "worker_id",
@@ -38,6 +40,10 @@ logger = logging.getLogger(__name__)
 #: silence after which another worker marks the trial FAIL.
 HEARTBEAT_INTERVAL = 60
 GRACE_PERIOD = 180
+
+#: Seconds after which a RUNNING trial that names no worker is an orphan: its worker could not write its
+#: name (a full disk), which it does a few milliseconds after creating the trial.
+UNTAGGED_GRACE = 60
 
 #: A process that started this many seconds after a trial cannot be the trial's worker (a reused PID).
 _START_MARGIN = 7200.0
@@ -316,12 +322,130 @@ def make_storage(storage):
 
 def _journal(path):
     try:
-        return JournalStorage(JournalFileBackend(path))
+        return JournalStorage(_JournalFile(path))
     except (ValueError, KeyError, TypeError, AttributeError, IndexError) as exc:  # garbage in the log
         raise ValueError(
             f"storage {path!r}: the journal file cannot be read ({type(exc).__name__}: {exc}); expected a journal "
             "written by Optuna. Move it away or pass another file."
         ) from exc
+
+
+class _JournalFile(JournalFileBackend):
+    """Optuna's journal file, which a write cut short (a full disk, a killed worker) can no longer poison.
+
+    Optuna appends each record as one line under the file's lock, and a reader
+    stops at a last line without its newline. A write that fails half-way
+    (``ENOSPC``, ``EFBIG``) is undone here: the file is cut back to its size
+    before the write, under the lock, and the error says so. A torn last record
+    left by a process that died while writing is mended under the lock before
+    every write and when the file is opened (:func:`mend_journal_tail`): so a
+    resumed study never appends to an unterminated line (which turned the next
+    record and every later one into unreadable text).
+    """
+
+    def __init__(self, file_path):
+        self._lock_file = JournalFileSymlinkLock(file_path)  # the lock Optuna's backend takes by default
+        super().__init__(file_path, lock_obj=self._lock_file)
+        self._where = file_path
+        self._locked(mend_journal_tail, file_path)
+
+    def _locked(self, func, *args):
+        self._lock_file.acquire()
+        try:
+            return func(*args)
+        finally:
+            self._lock_file.release()
+
+    def append_logs(self, logs):
+        data = ("\n".join(json.dumps(log, separators=(",", ":")) for log in logs) + "\n").encode("utf-8")
+        self._locked(self._append, data)
+
+    def _append(self, data):
+        mend_journal_tail(self._where)
+        fd = os.open(self._where, os.O_WRONLY | os.O_APPEND)
+        try:
+            size = os.fstat(fd).st_size
+            try:
+                view = memoryview(data)
+                while view:
+                    view = view[os.write(fd, view):]
+                os.fsync(fd)
+            except OSError as exc:
+                with contextlib.suppress(OSError):  # else the next open sets the torn record aside
+                    os.ftruncate(fd, size)
+                raise OSError(exc.errno, f"storage {self._where!r}: the journal file could not be written "
+                              f"({exc.strerror}); the record was taken back and the finished trials are kept. "
+                              "Free some space and call again to resume.") from exc
+        finally:
+            os.close(fd)
+
+
+def mend_journal_tail(path):
+    r"""Mend the end of an Optuna journal file whose last line has no newline (a write cut short).
+
+    A last line that is a whole record (only its newline is missing) gets its
+    newline and is kept. Anything else is a torn record: its bytes are appended
+    to ``path + ".torn"`` (set aside, never overwritten) and cut from the
+    journal, with a warning. Call it under the journal's lock.
+
+    Returns
+    -------
+    str or None
+        ``"completed"``, ``"set aside"``, or None when the file ended cleanly.
+
+    Examples
+    --------
+    >>> import os, tempfile
+    >>> path = os.path.join(tempfile.mkdtemp(), "study.log")
+    >>> with open(path, "w") as f:
+    ...     _ = f.write('{"op_code":0,"worker_id":"w"}\n{"op_code":4,"wor')
+    >>> mend_journal_tail(path)
+    'set aside'
+    >>> open(path).read(), open(path + ".torn").read()
+    ('{"op_code":0,"worker_id":"w"}\n', '{"op_code":4,"wor\n')
+    """
+    with open(path, "r+b") as f:
+        end = f.seek(0, os.SEEK_END)
+        if end == 0:
+            return None
+        f.seek(end - 1)
+        if f.read(1) == b"\n":
+            return None
+        start, pos = 0, end
+        while pos > 0:  # the last line starts after the last newline
+            low = max(0, pos - 65536)
+            f.seek(low)
+            newline = f.read(pos - low).rfind(b"\n")
+            if newline >= 0:
+                start = low + newline + 1
+                break
+            pos = low
+        f.seek(start)
+        tail = f.read()
+        if _is_record(tail):
+            f.seek(end)
+            f.write(b"\n")
+            logger.warning("storage %r: the last journal record had lost its newline; completed", path)
+            return "completed"
+        try:
+            with open(path + ".torn", "ab") as aside:
+                aside.write(tail + b"\n")
+        except OSError as exc:
+            raise OSError(exc.errno, f"storage {path!r}: the journal file ends in a torn record ({len(tail)} bytes "
+                          f"of an unfinished write) that could not be set aside in {path + '.torn'!r} "
+                          f"({exc.strerror}); free some space and call again.") from exc
+        f.truncate(start)
+        logger.warning("storage %r: the journal ended in a torn record (%d bytes of an unfinished write); set aside "
+                       "in %r, the finished trials are kept", path, len(tail), path + ".torn")
+        return "set aside"
+
+
+def _is_record(line):
+    try:
+        entry = json.loads(line)
+    except ValueError:
+        return False
+    return isinstance(entry, dict) and "op_code" in entry
 
 
 def worker_id():
@@ -364,8 +488,9 @@ def this_call_trials():
 
 def _is_orphan(study, trial, me):
     owner_host, _, pid = trial.user_attrs.get("worker", "").rpartition(":")
-    if not pid.isdigit():
-        return False
+    if not pid.isdigit():  # a worker tags its trial right after creating it, unless that write failed (full disk)
+        start = trial.datetime_start
+        return start is not None and (datetime.datetime.now() - start).total_seconds() > UNTAGGED_GRACE
     token = trial.user_attrs.get("worker_token")
     if (owner_host, int(pid), token) == (me["host"], me["pid"], me["token"]):
         return (study.study_name, trial.number) not in _RUNNING_HERE
@@ -428,7 +553,7 @@ def fail_dead_workers(study):
             "trial %d of study %r was left RUNNING by worker %s, which no longer runs: marked FAIL",
             trial.number,
             study.study_name,
-            owner,
+            trial.user_attrs.get("worker", "(unnamed: its name could not be written)"),
         )
         failed.append(trial.number)
     return failed

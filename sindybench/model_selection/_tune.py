@@ -405,6 +405,10 @@ def tune(
             objective = _objective(estimator, search_space, X, y, splits, scorer, sign, n_trials, running)
             best = _run_study(study, objective, search_space, n_trials=n_trials, timeout=timeout, n_jobs=n_jobs,
                               show_progress_bar=show_progress_bar)
+    except AssertionError as exc:  # Optuna's loop hides a storage write that failed (a full disk) behind an assert
+        if isinstance(exc.__context__, OSError):
+            raise exc.__context__ from None
+        raise
     except Exception as exc:
         failure = _storage_failure(exc)
         if failure is None:

@@ -283,6 +283,29 @@ def _solve_groups(a, c, ind, rows, alpha, units):
     return out
 
 
+def _warn_unit_mismatch(coef, first, threshold, cache, normalize_columns):
+    """Warn when the threshold emptied a target whose least-squares coefficients were all far below it.
+
+    Coefficients a million times smaller than the threshold mean a threshold
+    in other units than the library's columns (a library scaled by 1e300):
+    the empty row is then no sparse model but a unit mismatch.
+    """
+    lost = np.flatnonzero(~coef.any(axis=1) & (first > 0) & (first < _UNIT_MISMATCH * threshold))
+    if lost.size:
+        i = int(lost[0])
+        warnings.warn(
+            f"STLS: threshold={threshold:g} removed every coefficient of target {i} (of {lost.size} such "
+            f"target{'s' * (lost.size > 1)}): its least-squares coefficients were at most {first[i]:.3g}, far below "
+            f"the threshold (the library's column norms span {np.min(cache.col_norms):.3g} to "
+            f"{np.max(cache.col_norms):.3g}). Expected a threshold in the coefficients' units"
+            f"{'' if normalize_columns else ', or normalize_columns=True'}.",
+            UserWarning, stacklevel=4)
+
+
+_UNIT_MISMATCH = 1e-6
+"""Least-squares coefficients below this fraction of the threshold: a threshold in other units."""
+
+
 def _stls_core(cache, threshold, alpha, max_iter, normalize_columns, unbias):
     """STLS on a :class:`GramCache`; returns ``coef`` (n_targets, n_features) and ``n_iter``."""
     # Working units: ``a`` holds the columns of theta / theta_scale (/ their norms with normalize_columns),
@@ -302,6 +325,7 @@ def _stls_core(cache, threshold, alpha, max_iter, normalize_columns, unbias):
     coef = np.zeros((n_targets, n_features))
     pattern = np.ones_like(ind)
     todo = np.ones(n_targets, dtype=bool)
+    first = np.zeros(n_targets)  # the largest least-squares coefficient of each target before any threshold
     n_iter = 0
     for _ in range(max_iter):
         if not ind.any():
@@ -316,7 +340,10 @@ def _stls_core(cache, threshold, alpha, max_iter, normalize_columns, unbias):
             full = np.zeros(n_features)
             full[support] = w
             with np.errstate(over="ignore"):  # an overflowing coefficient is reported at the end
-                big = np.abs(full * (y_scale[i] / units)) >= threshold
+                magnitude = np.abs(full * (y_scale[i] / units))
+                big = magnitude >= threshold
+            if n_iter == 0:
+                first[i] = np.max(magnitude, initial=0.0)
             full[~big] = 0.0
             coef[i] = full
             new_ind[i] = big
@@ -340,6 +367,7 @@ def _stls_core(cache, threshold, alpha, max_iter, normalize_columns, unbias):
         coef = np.zeros_like(coef)
         for i, (cols, w) in _solve_groups(a, c, support, rows, 0.0, units).items():
             coef[i, cols] = w
+    _warn_unit_mismatch(coef, first, threshold, cache, normalize_columns)
     with np.errstate(over="ignore"):
         coef = coef / norms * (y_scale[:, None] / t_scale)
     if not np.all(np.isfinite(coef)):

@@ -4,7 +4,7 @@ import numbers
 
 import numpy as np
 
-from .._validation import check_integer, check_signal
+from .._validation import check_integer, check_signal, real_scalar
 from ..metrics import fit_index, r2
 
 MAX_POINTS = 6000  # samples drawn per curve at most (longer records are strided)
@@ -52,6 +52,7 @@ def _column(a, index, name):
 def _time(n, dt):
     if dt is None:
         return np.arange(n), "sample"
+    dt = real_scalar(dt)
     if isinstance(dt, bool) or not isinstance(dt, numbers.Real) or not dt > 0:
         raise ValueError(f"dt must be a number > 0 or None (samples on the x axis); got {dt!r}.")
     return np.arange(n) * float(dt), "time [s]"

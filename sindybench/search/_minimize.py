@@ -16,6 +16,7 @@ from scipy.optimize import minimize as scipy_minimize
 from sklearn.utils import check_random_state
 
 from .._progress import progress_bar
+from .._validation import check_integer, check_positive
 from ._space import LogUniform, Uniform, check_search_space, sample_params
 from ._study import create_study
 
@@ -127,8 +128,7 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
     penalty : float, default=1e3
         Score of a failed evaluation (and the cap of every score).
     n_local : int, default=0
-        Evaluations of the local refinement (the caller checks
-        ``0 <= n_local < n_trials``).
+        Evaluations of the local refinement, ``0 <= n_local < n_trials``.
     n_starts : int, default=3
         Distinct best trials the local refinement starts from.
     step : float, default=0.05
@@ -156,6 +156,10 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
     >>> abs(best["a"] - 0.3) < 1e-3, len(history) <= 30
     (True, True)
     """
+    n_trials = check_integer(n_trials, "n_trials", low=1)
+    n_local = check_integer(n_local, "n_local", low=0, high=n_trials - 1)
+    n_starts = check_integer(n_starts, "n_starts", low=1)
+    step = check_positive(step, "step")
     space = check_search_space(space, name="space", convert=True)
     if callable(space):
         raise ValueError("space must be a dict name -> dimension; a callable(trial) space cannot be refined locally.")

@@ -65,6 +65,24 @@ def _check_range(owner, low, high, *, positive=False):
         raise ValueError(f"{owner}: low={low!r} >= high={high!r}; expected low < high.")
     if positive and low <= 0:
         raise ValueError(f"{owner}: low={low!r}; expected low > 0 on a log scale.")
+    if not positive and not math.isfinite(high - low):  # the unit coordinate divides by the span
+        raise ValueError(f"{owner}: the span high - low overflows a float; expected a range narrower than "
+                         f"{np.finfo(float).max:.3g}.")
+    _check_resolved(owner, low, high)
+
+
+def _check_resolved(owner, low, high):
+    """A range a float resolves: wider than ``RESOLUTION`` of its magnitude (else its unit coordinate is rounding)."""
+    if not high - low > max(RESOLUTION * max(abs(low), abs(high)), np.finfo(float).tiny / RESOLUTION):
+        raise ValueError(f"{owner}: the range [{low!r}, {high!r}] is narrower than floating point resolves "
+                         f"(relative width {RESOLUTION:g}); expected a wider range, or a fixed value.")
+
+
+RESOLUTION = 1e-12
+"""Relative width below which a range counts as a single value (a few thousand float steps; and an absolute
+width of at least ``tiny / RESOLUTION``, about 2e-296, away from subnormal numbers)."""
+N_SIGMA_RANGE = (1e-6, 8.0)
+"""``n_sigma`` of a :class:`Normal`: below, its quantile range is not resolved; above, ``ndtr`` rounds to 1."""
 
 
 class Dimension:
@@ -146,7 +164,8 @@ class LogUniform(Dimension):
         return (np.log(value) - np.log(self.low)) / (np.log(self.high) - np.log(self.low))
 
     def from_unit(self, z):
-        v = np.exp(np.log(self.low) + z * (np.log(self.high) - np.log(self.low)))
+        with np.errstate(over="ignore"):  # z far past 1: clipped to high below
+            v = np.exp(np.log(self.low) + z * (np.log(self.high) - np.log(self.low)))
         return float(min(max(v, self.low), self.high))
 
 
@@ -198,6 +217,9 @@ class Categorical(Dimension):
     choices: tuple
 
     def __post_init__(self):
+        if isinstance(self.choices, (str, bytes, dict)) or not hasattr(self.choices, "__iter__"):
+            raise ValueError(f"Categorical: choices must be a list or tuple of choices; got {self.choices!r} (write "
+                             f"[{self.choices!r}] for a single choice).")
         object.__setattr__(self, "choices", tuple(self.choices))
         if not self.choices:
             raise ValueError("Categorical: choices is empty; expected at least one choice.")
@@ -232,12 +254,27 @@ class Normal(Dimension):
     mean: float
     sigma: float
     n_sigma: float = 4.0
+    _positive = False  # the values are positive (LogNormal): not a field
 
     def __post_init__(self):
         _real(self.mean, "mean", self)
         for name in ("sigma", "n_sigma"):
             if _real(getattr(self, name), name, self) <= 0:
                 raise ValueError(f"{self}: {name} must be > 0; got {getattr(self, name)!r}.")
+        if not N_SIGMA_RANGE[0] <= self.n_sigma <= N_SIGMA_RANGE[1]:
+            low, high = self._quantiles()  # ndtr rounds to 0.5 (tiny n_sigma) or to 1.0 (n_sigma past 8)
+            raise ValueError(f"{self}: n_sigma={self.n_sigma!r} gives the quantile range [{low!r}, {high!r}] in "
+                             f"floating point; expected n_sigma in [{N_SIGMA_RANGE[0]:g}, {N_SIGMA_RANGE[1]:g}].")
+        with np.errstate(over="ignore"):
+            try:
+                support = self.support()
+            except OverflowError:
+                support = (-math.inf, math.inf)
+        if not (math.isfinite(support[0]) and math.isfinite(support[1]) and support[0] < support[1]) \
+                or (self._positive and not support[0] > 0):
+            raise ValueError(f"{self}: its support at +-n_sigma is {support}; expected finite values with low < high"
+                             f"{' and low > 0' if self._positive else ''} (another mean, sigma or n_sigma).")
+        _check_resolved(self, *support)
 
     def _quantiles(self):
         bound = float(ndtr(self.n_sigma))
@@ -287,6 +324,8 @@ class LogNormal(Normal):
     >>> prior.suggest(optuna.trial.FixedTrial({"k:quantile": 0.5}), "k")
     50000.0...
     """
+
+    _positive = True
 
     def _value(self, q):
         return math.exp(super()._value(q))

@@ -1,13 +1,16 @@
 """Prediction bands: the ensemble's members simulated on new inputs."""
 
+import hashlib
+import warnings
 from typing import NamedTuple
 
 import numpy as np
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
+from .._divergence import DivergenceWarning
 from .._validation import check_signal
-from ._bootstrap import check_alpha, circular_block_indices
+from ._bootstrap import BootstrapEnsemble, check_alpha, circular_block_indices
 
 __all__ = ["PredictionBand", "prediction_band"]
 
@@ -28,6 +31,9 @@ class PredictionBand(NamedTuple):
     alpha : float
     n_diverged : int
         Members whose simulation diverged.
+    ensemble_key : str
+        A fingerprint of the ensemble that made the band (its residuals and
+        block length): :meth:`with_noise` takes that ensemble only.
     """
 
     median: np.ndarray
@@ -38,10 +44,22 @@ class PredictionBand(NamedTuple):
     outputs: list
     alpha: float
     n_diverged: int
+    ensemble_key: str = ""
 
     def coverage(self, y):
-        """Fraction of the measured ``y`` (n_samples, n_outputs) inside the band's output columns."""
-        y = np.asarray(y, dtype=float).reshape(self.median.shape[0], -1)
+        """Fraction of the measured ``y`` (n_samples, n_outputs) inside the band's output columns.
+
+        Raises
+        ------
+        ValueError
+            When ``y`` is not one finite value per sample and output (a NaN is
+            neither inside nor outside the band).
+        """
+        n, n_out = self.median.shape[0], len(self.outputs)
+        y = check_signal(y, "y")
+        if y.shape != (n, n_out):
+            raise ValueError(f"y has shape {y.shape}; expected ({n}, {n_out}) (one row per sample of the band, one "
+                             "column per output).")
         lo, hi = self.lower[:, self.outputs], self.upper[:, self.outputs]
         return float(np.mean((y >= lo) & (y <= hi)))
 
@@ -57,10 +75,30 @@ class PredictionBand(NamedTuple):
         Returns
         -------
         PredictionBand
+
+        Raises
+        ------
+        ValueError
+            When ``ensemble`` is not the ensemble that made this band.
         """
+        key = _check_ensemble(ensemble)
+        if key != self.ensemble_key:
+            raise ValueError("ensemble is not the BootstrapEnsemble that made this band (its residuals differ); "
+                             "expected the ensemble passed to prediction_band.")
         samples = self.samples.copy()
         _add_residuals(samples, ensemble, self.outputs, random_state)
-        return _quantile_band(samples, self.names, self.outputs, self.alpha)
+        return _quantile_band(samples, self.names, self.outputs, self.alpha, key)
+
+
+def _check_ensemble(ensemble):
+    """The fingerprint of a fitted :class:`BootstrapEnsemble`, or a ``ValueError`` for anything else."""
+    if not isinstance(ensemble, BootstrapEnsemble):
+        raise ValueError(f"ensemble must be a fitted BootstrapEnsemble; got {type(ensemble).__name__} (wrap a model "
+                         "in BootstrapEnsemble(model).fit(X, y) for a band).")
+    check_is_fitted(ensemble)
+    digest = hashlib.sha256(np.ascontiguousarray(ensemble.residuals_, dtype=float).tobytes())
+    digest.update(str(ensemble.block_length_).encode())
+    return digest.hexdigest()[:16]
 
 
 def _run(member, X, y_init, x0, states):
@@ -84,13 +122,28 @@ def _add_residuals(samples, ensemble, outputs, random_state):
         samples[k][:, outputs] += e[idx]
 
 
-def _quantile_band(samples, names, outputs, alpha):
-    """The band of ``samples`` (n_members, n_samples, n_columns); diverged members left out of the quantiles."""
+def _quantile_band(samples, names, outputs, alpha, key):
+    """The band of ``samples`` (n_members, n_samples, n_columns); diverged members left out of the quantiles.
+
+    A diverged member's output lies outside every finite band, so the band of
+    the others is a ``1 - alpha`` band of the ensemble only while the diverged
+    share is at most ``alpha``: past that (or with fewer than two members left)
+    it is refused, below it a :class:`~sindybench.DivergenceWarning` says how
+    many diverged.
+    """
     diverged = ~np.all(np.isfinite(samples), axis=(1, 2))
-    kept = samples[~diverged] if (~diverged).any() else samples
-    lower, median, upper = np.quantile(kept, [alpha / 2, 0.5, 1 - alpha / 2], axis=0)
+    n, n_div = samples.shape[0], int(diverged.sum())
+    if n_div:
+        what = (f"{n_div} of {n} ensemble members diverged on these inputs (their simulation left max_abs or became "
+                "NaN)")
+        if n - n_div < 2 or n_div > alpha * n:
+            raise ValueError(f"{what}: a {1 - alpha:.0%} band may leave out at most {int(np.floor(alpha * n))} of "
+                             f"{n} members and needs at least 2 to remain. Expected fewer diverging members: start "
+                             "from other initial states (y_init / x0), use a larger alpha or check the model.")
+        warnings.warn(f"{what}; the band is over the {n - n_div} others.", DivergenceWarning, stacklevel=3)
+    lower, median, upper = np.quantile(samples[~diverged], [alpha / 2, 0.5, 1 - alpha / 2], axis=0)
     return PredictionBand(median=median, lower=lower, upper=upper, samples=samples, names=names, outputs=outputs,
-                          alpha=alpha, n_diverged=int(diverged.sum()))
+                          alpha=alpha, n_diverged=n_div, ensemble_key=key)
 
 
 def prediction_band(ensemble, X, *, y_init=None, x0=None, alpha=0.05, states=False, noise=False, random_state=None):
@@ -120,8 +173,16 @@ def prediction_band(ensemble, X, *, y_init=None, x0=None, alpha=0.05, states=Fal
     Returns
     -------
     PredictionBand
+
+    Raises
+    ------
+    ValueError
+        When ``ensemble`` is not a fitted ``BootstrapEnsemble``, or when more
+        than an ``alpha`` share of the members diverge (or fewer than two
+        remain); fewer diverging members give a
+        :class:`~sindybench.DivergenceWarning` naming how many.
     """
-    check_is_fitted(ensemble)
+    key = _check_ensemble(ensemble)
     alpha = check_alpha(alpha, "bands")
     if (x0 is None) == (y_init is None):
         raise ValueError("give exactly one of x0 and y_init.")
@@ -132,4 +193,4 @@ def prediction_band(ensemble, X, *, y_init=None, x0=None, alpha=0.05, states=Fal
     outputs, names = runs[0][1], runs[0][2]
     if noise:
         _add_residuals(samples, ensemble, outputs, random_state)
-    return _quantile_band(samples, names, outputs, alpha)
+    return _quantile_band(samples, names, outputs, alpha, key)

@@ -28,6 +28,7 @@ from sklearn.base import BaseEstimator, clone
 from sklearn.utils import check_random_state
 from sklearn.utils.validation import check_is_fitted
 
+from .._base import DynamicsEstimator
 from .._validation import check_integer, is_records
 from ..io import SaveLoadMixin, register_model
 from ..refine._covariance import insignificant_lag
@@ -176,8 +177,10 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
         -------
         self
         """
-        if not hasattr(self.estimator, "fit"):
-            raise ValueError(f"estimator must be a SINDy or HiddenStateSINDy; got {type(self.estimator).__name__}.")
+        if not isinstance(self.estimator, DynamicsEstimator):
+            raise ValueError(f"estimator must be a SINDy or HiddenStateSINDy (a model that simulates from an initial "
+                             f"state, which the residual bootstrap needs); got {type(self.estimator).__name__}. "
+                             "ARX and NNARX start from past outputs and are not supported.")
         n = next((len(a) for a in (X, y) if is_records(a)), None)
         if n is not None:
             raise ValueError(f"BootstrapEnsemble resamples the residuals of one record; got a list of {n} records. "
@@ -223,6 +226,10 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
     def median_coef(self, *, min_inclusion=0.5):
         """E-SINDy's bagged coefficients: the median over members, zero where inclusion < ``min_inclusion``."""
         check_is_fitted(self)
+        if isinstance(min_inclusion, bool) or not isinstance(min_inclusion, numbers.Real) \
+                or not 0.0 <= min_inclusion <= 1.0:
+            raise ValueError(f"min_inclusion must be a number in [0, 1] (a share of the members); got "
+                             f"{min_inclusion!r}.")
         return np.where(self.inclusion_probabilities_ >= min_inclusion, np.median(self.coef_, axis=0), 0.0)
 
     def median_model(self):

@@ -19,6 +19,8 @@ __all__ = ["IdentifyCV", "identify"]
 _HOLDS = ("zoh", "linear")
 # fewest samples a fold may train on
 _MIN_TRAIN = 5
+# the settings that make a structure (the threshold and the refinement make a candidate of it)
+_STRUCTURE = ("family", "library", "derivative", "input_hold", "input_delay")
 # first samples that start a simulation of new data, unless n_init says
 _N_INIT = 20
 # the most a screening stage keeps, whatever the fraction
@@ -67,7 +69,7 @@ def _screen(struct, library, ctx):
 
 def _full(row, library, ctx, refinement):
     """Stages 2 and 3: one candidate on every block (refined when ``refinement`` is given)."""
-    struct = {k: row[k] for k in ("family", "library", "derivative", "input_hold")}
+    struct = {k: row[k] for k in _STRUCTURE}
     make = lambda n: make_estimator(struct, library, stls_threshold(row["threshold"], n), ctx["dt"],  # noqa: E731
                                     ctx["settings"], refine=refinement)
     result = evaluate(make, ctx["X"], ctx["y"], ctx["blocks"], n_init=ctx["n_init"], scale=ctx["scale"])
@@ -81,11 +83,12 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     """Identify a model from inputs, outputs and the sample time: a structure search scored by simulation.
 
     Selection inside ``fit``, as in scikit-learn's ``LassoCV`` or
-    ``GridSearchCV``: the data decides the derivative method and its bandwidth
-    (from the output's spectrum), the input hold (from the input's shape,
-    confirmed on validation), the hard terms worth proposing (a velocity that
-    changes sign, a positive output, an output that sits at its maximum), and
-    the search chooses the family, the library and the sparsity. Every
+    ``GridSearchCV``: the data advice (:func:`~sindybench.identify.advice`,
+    logged) gives the input delay and the input hold (both confirmed on
+    validation) and the hard terms worth proposing (a velocity that changes
+    sign, a positive output, an output that sits at a level); the output's
+    spectrum gives the derivative methods' bandwidth; and the search chooses
+    the family, the library, the derivative method and the sparsity. Every
     candidate is an ordinary :class:`~sindybench.SINDy` or
     :class:`~sindybench.HiddenStateSINDy`, fitted on the samples before a
     validation block and scored by the RMSE of its open-loop simulation of
@@ -98,8 +101,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
        on at most ``screen_window`` samples before it;
     2. *blocks*: the best ``screen_keep`` fraction (at most 16) and the best
        candidate of every family and library, on all ``n_blocks``
-       forward-chaining blocks, plus the best two with the other input hold
-       (unless ``input_hold`` is given);
+       forward-chaining blocks (plus the best two without the input delay,
+       when the advice found one);
     3. *refine*: the parsimonious pick of stage 2, then its Pareto front
        (sparsest first), then the best ones (``n_refine`` in all), refined
        by their simulation error
@@ -135,7 +138,12 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         Derivative methods among ``"finite_difference"``, ``"savgol"``,
         ``"spectral"`` (bandwidths from the data); None = all three.
     input_hold : {"zoh", "linear"} or None, default=None
-        None = decided from the input's shape and confirmed on validation.
+        None = both holds are candidates (the advice's, from the input's
+        shape, first): validation decides.
+    input_delay : int or None, default=None
+        Input delay in samples (the estimators' ``input_delay``); None = the
+        data advice's estimate (:func:`~sindybench.identify.estimate_delay`),
+        confirmed on validation against no delay.
     n_blocks : int, default=3
         Validation blocks at the end of the record.
     block_size : float, default=0.15
@@ -183,13 +191,13 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     best_index_ : int
         Row of ``cv_results_`` that was chosen.
     best_params_ : dict
-        The chosen settings (family, library, derivative, input hold,
-        threshold, refine) and the refitted model's ``n_terms`` and
+        The chosen settings (family, library, derivative, input hold, input
+        delay, threshold, refine) and the refitted model's ``n_terms`` and
         ``max_row_terms``. The threshold is a level of RMS contribution
         (coefficient times the RMS of its term, in the target's units).
     cv_results_ : dict of lists
         One entry per candidate: ``family``, ``library``, ``derivative``,
-        ``input_hold``, ``threshold``, ``refine``, ``stage``, ``n_terms``,
+        ``input_hold``, ``input_delay``, ``threshold``, ``refine``, ``stage``, ``n_terms``,
         ``max_row_terms``, ``split<k>_validation_error``,
         ``mean_validation_error``, ``std_validation_error`` (inf for a
         candidate not scored on every block), ``fit_time`` and ``status``
@@ -198,8 +206,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         ``{"n_terms", "validation_error", "index"}`` of the candidates no
         other one beats with as few terms, sparsest first.
     settings_ : dict
-        What the data decided before any fit (bandwidth, derivative methods,
-        input hold, proposed terms).
+        What the data decided before any fit: the data advice (``advice``),
+        input delay and hold, bandwidth, derivative methods, proposed terms.
     blocks_ : list of (int, int)
         The validation blocks.
     n_features_in_ : int
@@ -223,7 +231,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     """
 
     def __init__(self, *, dt=None, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None,
-                 n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000, n_refine=4,
+                 input_delay=None, n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000, n_refine=4,
                  max_terms=15,
                  refinement=None, n_init=None, time_budget=None, max_candidates=None, random_state=None,
                  n_jobs=None, show_progress_bar=True):
@@ -232,6 +240,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self.libraries = libraries
         self.derivatives = derivatives
         self.input_hold = input_hold
+        self.input_delay = input_delay
         self.n_blocks = n_blocks
         self.block_size = block_size
         self.max_path = max_path
@@ -262,6 +271,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 check_option(v, name, options)
         if self.input_hold is not None:
             check_option(self.input_hold, "input_hold", _HOLDS)
+        if self.input_delay is not None:
+            check_integer(self.input_delay, "input_delay", low=0)
         check_integer(self.n_blocks, "n_blocks", low=2)
         check_positive(self.block_size, "block_size")
         if self.block_size * self.n_blocks >= 0.9:
@@ -334,13 +345,17 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         blocks = validation_blocks(n, self.n_blocks, self.block_size, _MIN_TRAIN, min_block=n_init + 2)
         settings = data_settings(X[: blocks[-1][0]], y[: blocks[-1][0]], dt)
         structs = structures(X, y, dt, settings, families=self.families, libraries=self.libraries,
-                             derivatives=self.derivatives, input_hold=self.input_hold)
+                             derivatives=self.derivatives, input_hold=self.input_hold, input_delay=self.input_delay)
+        if self.input_hold is None and X.shape[1] > 0:  # the advice's hold first, the other one too: validation decides
+            other = {"zoh": "linear", "linear": "zoh"}
+            structs += [(dict(s, input_hold=other[s["input_hold"]]), lib) for s, lib in structs]
         budget = _Budget(self.time_budget, self.max_candidates)
         scale = np.std(y[: blocks[-1][0]], axis=0)
         ctx = {"X": X, "y": y, "dt": dt, "settings": settings, "blocks": blocks, "n_init": n_init,
                "scale": np.where(scale > 0, scale, 1.0), "window": self.screen_window, "deadline": budget.deadline,
-               "levels": self.max_path if self.max_candidates is None else max(1, min(self.max_path,
-                                                                                       self.max_candidates))}
+               # with a candidate budget, the screening's paths take at most half of it
+               "levels": self.max_path if self.max_candidates is None else max(
+                   1, min(self.max_path, self.max_candidates // (2 * max(len(structs), 1))))}
         parallel = Parallel(n_jobs=self.n_jobs)
         rows, libraries = [], []
         with progress_bar(len(structs), desc="identify", show=self.show_progress_bar) as bar:
@@ -365,9 +380,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                     seen.add((rows[i]["family"], rows[i]["library"]))
                     keep.append(i)
             second = [(rows[i], libraries[i]) for i in keep]
-            if self.input_hold is None and X.shape[1] > 0:
-                other = {"zoh": "linear", "linear": "zoh"}
-                second += [(dict(rows[i], input_hold=other[rows[i]["input_hold"]]), libraries[i]) for i in keep[:2]]
+            if self.input_delay is None and settings["input_delay"] > 0:  # the advice's delay, confirmed against none
+                second += [(dict(rows[i], input_delay=0), libraries[i]) for i in keep[:2]]
             second += [(dict(s, threshold=0.0), lib) for s, lib in latent]
             second = second[: budget.take(len(second))]
             bar.total += len(second)
@@ -400,7 +414,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms for r in rows])
         mean = np.where(full, table["mean_validation_error"], np.inf)
         if not np.any(np.isfinite(mean)):
-            reasons = sorted({r["status"] for r in rows if r["status"] != "ok"})[:3]
+            reasons = sorted({r["status"] for r in rows if r["status"] != "ok"})[:3] or [
+                "the budget ended before any candidate was scored on every block"]
             raise ValueError(f"identify: none of the {len(rows)} candidates with at most max_terms={self.max_terms} "
                              f"terms per row simulated every validation block without failing (first reasons: "
                              f"{reasons}); expected a record long and rich enough for at least one candidate, or a "
@@ -409,7 +424,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         best = parsimonious_index(mean, table["std_validation_error"], terms, self.n_blocks)
         front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}
                  for i in pareto_front(list(mean), terms)]
-        chosen = {k: rows[best][k] for k in ("family", "library", "derivative", "input_hold", "threshold", "refine")}
+        chosen = {k: rows[best][k] for k in _STRUCTURE + ("threshold", "refine")}
         final = make_estimator(chosen, libraries[best], stls_threshold(chosen["threshold"], n), dt, settings,
                                refine=refinement if chosen["refine"] else None).fit(X, y[:, 0] if y_1d else y)
         chosen["n_terms"], chosen["max_row_terms"], _ = n_terms(final)
@@ -471,8 +486,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
 
 def _table(rows, n_blocks):
     """``cv_results_``: one list per column; block errors of screened rows only in their last split."""
-    table = {k: [r[k] for r in rows] for k in ("family", "library", "derivative", "input_hold", "threshold",
-                                                "refine", "stage", "n_terms", "max_row_terms", "fit_time", "status")}
+    table = {k: [r[k] for r in rows] for k in _STRUCTURE + ("threshold", "refine", "stage", "n_terms",
+                                                            "max_row_terms", "fit_time", "status")}
     errors = np.full((len(rows), n_blocks), np.nan)
     for i, r in enumerate(rows):
         errors[i, n_blocks - len(r["errors"]):] = r["errors"]

@@ -1,14 +1,13 @@
 """The candidate structures of ``identify``: model families, graded libraries, settings the data decides.
 
 A *structure* is a plain dict of named settings (``family``, ``library``,
-``derivative``, ``input_hold``); :func:`make_estimator` turns a structure and a
-threshold into an ordinary, unfitted :class:`~sindybench.SINDy` or
-:class:`~sindybench.HiddenStateSINDy`. Everything here reads the estimation
-record only (never a benchmark's physics): the derivative's bandwidth from
-the output's spectrum, the input hold from the input's shape, the hard terms
-from what the signals do (a velocity that changes sign proposes Coulomb
-friction, a positive output proposes square roots, an output that sits at its
-maximum proposes a regime indicator at that level).
+``derivative``, ``input_hold``, ``input_delay``); :func:`make_estimator` turns
+a structure and a threshold into an ordinary, unfitted
+:class:`~sindybench.SINDy` or :class:`~sindybench.HiddenStateSINDy`.
+Everything here reads the estimation record only (never a benchmark's
+physics): the data advice (:func:`~sindybench.identify.advice`: input delay,
+input hold, the hard terms that features of the signals propose), and the
+derivative's bandwidth from the output's spectrum.
 """
 
 import numpy as np
@@ -21,6 +20,7 @@ from ..libraries import AbsProductLibrary, FrictionLibrary, IndicatorLibrary, Po
 from ..optimizers import STLS
 from ..refine import OutputErrorRefinement
 from ..search import LogUniform
+from ._advice import advice
 
 __all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
 
@@ -37,12 +37,6 @@ _LATENT_REFINEMENT = {"max_nfev": 30, "max_samples": 5000}
 #: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
 LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
 _DEGREE = {"linear": 1, "poly2": 2, "poly3": 3}
-# an output counts as saturated when this fraction of its samples sit at its maximum (within 1e-9 of the range)
-_SATURATION_FRACTION = 0.01
-# a velocity "changes sign" when each sign holds at least this fraction of the samples
-_SIGN_FRACTION = 0.05
-
-
 def _bandwidth(y, dt):
     """The frequency below which 99.99 % of the power of the detrended outputs lies (clamped to the band)."""
     fs = 1.0 / dt
@@ -67,16 +61,8 @@ def _savgol_window(f_c, dt, polyorder=3):
     return w if w % 2 else w + 1
 
 
-def _input_hold(X):
-    """``"zoh"`` when the input is piecewise constant (most consecutive samples equal), else ``"linear"``."""
-    if X.shape[1] == 0 or X.shape[0] < 3:
-        return "zoh"
-    same = np.mean(np.all(np.diff(X, axis=0) == 0.0, axis=1))
-    return "zoh" if same > 0.5 else "linear"
-
-
 def data_settings(X, y, dt):
-    """What the estimation record decides before any fit: bandwidth, derivative methods, input hold, hard terms.
+    """What the estimation record decides before any fit: advice, bandwidth, derivative methods, proposed terms.
 
     Parameters
     ----------
@@ -87,29 +73,40 @@ def data_settings(X, y, dt):
     Returns
     -------
     dict
-        ``bandwidth`` (Hz for seconds), ``derivatives`` (name -> method
-        parameters), ``input_hold`` (the hold the input's shape suggests),
-        ``positive`` (every output > 0), ``saturation`` (the level at which an
-        output sits at its maximum, per output, or None).
+        ``advice`` (the :class:`~sindybench.identify.DataAdvice`, logged),
+        ``input_delay`` and ``input_hold`` (the advice's; several inputs: the
+        hold of the first), ``bandwidth`` (Hz for seconds: 99.99 % of the
+        detrended outputs' power below it), ``derivatives`` (name -> method
+        parameters), ``proposed`` (the advice's proposed terms, as text),
+        ``positive`` (outputs with a proposed square root), ``saturation``
+        (per output, the upper level where it saturates, or None) and
+        ``indicator`` (per output, the lower end of the proposed indicator of
+        that level, or None).
 
     Examples
     --------
     >>> t = np.arange(2000) * 0.01
     >>> s = data_settings(np.sin(t)[:, None], np.cos(t)[:, None] + 2.0, 0.01)
-    >>> s["input_hold"], s["positive"], s["saturation"]
-    ('linear', True, [None])
+    >>> s["input_hold"], s["input_delay"], s["positive"], s["saturation"]
+    ('linear', 0, [0], [None])
     """
+    report = advice(X, y, dt=dt)
     f_c = _bandwidth(y, dt)
     window = _savgol_window(f_c, dt)
     derivatives = {"finite_difference": {}, f"savgol_{window}": {"window_length": window},
                    f"spectral_{f_c:.3g}": {"cutoff": f_c}}
-    saturation = []
-    for col in y.T:
-        top, span = col.max(), np.ptp(col)
-        at_top = np.mean(col >= top - 1e-9 * max(span, 1e-300))
-        saturation.append(float(top) if span > 0 and at_top >= _SATURATION_FRACTION else None)
-    return {"bandwidth": f_c, "derivatives": derivatives, "input_hold": _input_hold(X),
-            "positive": bool(np.all(y > 0)), "saturation": saturation}
+    terms = report.proposed_terms
+    saturation, indicator = [None] * y.shape[1], [None] * y.shape[1]
+    for j, side, level, _ in report.saturation:
+        if side == "upper":
+            saturation[j] = float(level)
+    for p in terms:
+        if p.kind == "indicator" and np.isinf(p.high):
+            indicator[p.output] = float(p.low)
+    return {"advice": report, "input_delay": int(report.input_delay), "input_hold": report.input_hold,
+            "bandwidth": f_c, "derivatives": derivatives, "proposed": [str(p) for p in terms],
+            "positive": [p.output for p in terms if p.kind == "sqrt"], "saturation": saturation, "indicator": indicator,
+            "friction": [p.output for p in terms if p.kind == "friction"]}
 
 
 def _differentiation(name, params):
@@ -120,17 +117,16 @@ def _differentiation(name, params):
     return FiniteDifference()
 
 
-def _hard_terms(family, settings, velocity_sign_changes, n_outputs, n_inputs):
+def _hard_terms(family, settings, n_outputs, n_inputs):
     """The proposed hard-term libraries of a family over ``Z = [states, inputs]`` (a list, maybe empty)."""
     order = _ORDER[family]
-    out = list(range(n_outputs))
     libs = []
-    if order >= 2 and velocity_sign_changes:
-        libs.append(FrictionLibrary(variables=list(range(n_outputs, 2 * n_outputs))))
+    if order >= 2 and settings["friction"]:  # a velocity that changes sign: Coulomb friction of that velocity
+        libs.append(FrictionLibrary(variables=[n_outputs + j for j in settings["friction"]]))
     if settings["positive"]:
-        libs.append(SqrtLibrary(variables=out, lower=0.0))
+        libs.append(SqrtLibrary(variables=list(settings["positive"]), lower=0.0))
     n_states = order * n_outputs
-    for i, level in enumerate(settings["saturation"]):
+    for i, level in enumerate(settings["indicator"]):
         if level is not None:
             libs.append(IndicatorLibrary(variables=[i], lower=level,
                                          times=list(range(n_states, n_states + n_inputs)) or None))
@@ -142,8 +138,8 @@ def _latent_hard_terms(settings, n_inputs):
     libs = []
     if settings["positive"]:  # a positive output proposes roots of it and of the latent state (held >= 0)
         libs.append(SqrtLibrary(variables=[0, 1], lower=0.0))
-    if settings["saturation"][0] is not None:
-        libs.append(IndicatorLibrary(variables=[0], lower=settings["saturation"][0], times=list(range(2, 2 + n_inputs))))
+    if settings["indicator"][0] is not None:
+        libs.append(IndicatorLibrary(variables=[0], lower=settings["indicator"][0], times=list(range(2, 2 + n_inputs))))
     if not libs:
         return None
     lib = PolynomialLibrary(degree=1)
@@ -152,11 +148,11 @@ def _latent_hard_terms(settings, n_inputs):
     return lib
 
 
-def _library(name, family, settings, velocity_sign_changes, n_outputs, n_inputs):
+def _library(name, family, settings, n_outputs, n_inputs):
     base = name.split("+")[0]
     lib = PolynomialLibrary(degree=_DEGREE[base])
     if name.endswith("+hard"):
-        hard = _hard_terms(family, settings, velocity_sign_changes, n_outputs, n_inputs)
+        hard = _hard_terms(family, settings, n_outputs, n_inputs)
         if not hard:
             return None
         for extra in hard:
@@ -164,13 +160,8 @@ def _library(name, family, settings, velocity_sign_changes, n_outputs, n_inputs)
     return lib
 
 
-def _sign_changes(y, dt):
-    """Whether the outputs' velocity (a central difference) takes both signs often (friction can matter)."""
-    v = np.gradient(y, dt, axis=0)
-    return bool(np.all([min(np.mean(c > 0), np.mean(c < 0)) >= _SIGN_FRACTION for c in v.T]))
-
-
-def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None):
+def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None,
+               input_delay=None):
     """Every candidate structure (family x library x derivative) with its library object.
 
     Returns
@@ -180,16 +171,17 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
         :func:`make_estimator`; ``"+hard"`` libraries appear only where the data proposes terms.
     """
     n_outputs, n_inputs = y.shape[1], X.shape[1]
-    velocity_sign_changes = _sign_changes(y, dt)
     derivs = settings["derivatives"] if derivatives is None else {
         k: v for k, v in settings["derivatives"].items() if k in derivatives or k.split("_")[0] in derivatives}
     hold = settings["input_hold"] if input_hold is None else input_hold
+    delay = settings["input_delay"] if input_delay is None else input_delay
     out = []
     for family in families:
         if family == "order2+latent":
             if n_outputs == 1:  # states (y, v, z): the latent state's products with the velocity
                 lib = PolynomialLibrary(degree=1) + AbsProductLibrary(pairs=[(1, 2)])
-                out += [({"family": family, "library": LATENT_LIBRARY, "derivative": d, "input_hold": hold}, lib)
+                out += [({"family": family, "library": LATENT_LIBRARY, "derivative": d, "input_hold": hold,
+                         "input_delay": delay}, lib)
                         for d in derivs]
             continue
         if family == "order1+latent":
@@ -198,17 +190,17 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
                                       ("linear+hard", _latent_hard_terms(settings, n_inputs))):
                     if lib is not None:
                         out.append(({"family": family, "library": lib_name, "derivative": "finite_difference",
-                                     "input_hold": hold}, lib))
+                                     "input_hold": hold, "input_delay": delay}, lib))
             continue
         for lib_name in libraries:
-            lib = _library(lib_name, family, settings, velocity_sign_changes, n_outputs, n_inputs)
+            lib = _library(lib_name, family, settings, n_outputs, n_inputs)
             if lib is None:
                 continue
             for d_name in derivs:
                 if family == "first_order" and lib_name.endswith("+hard") and d_name != next(iter(derivs)):
                     continue
-                out.append(({"family": family, "library": lib_name, "derivative": d_name, "input_hold": hold},
-                            lib))
+                out.append(({"family": family, "library": lib_name, "derivative": d_name, "input_hold": hold,
+                             "input_delay": delay}, lib))
     return out
 
 
@@ -231,19 +223,20 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
     optimizer = STLS(threshold=float(threshold), alpha=1e-9, normalize_columns=True)
     d_name = structure["derivative"]
     differentiation = _differentiation(d_name, settings["derivatives"].get(d_name, {}))
-    hold = structure["input_hold"]
+    hold, delay = structure["input_hold"], structure["input_delay"]
     if structure["family"] == "first_order":
         return SINDy(library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
-                     input_hold=hold, refine=refine)
+                     input_hold=hold, input_delay=delay, refine=refine)
     order = _ORDER[structure["family"]]
     if structure["family"] == "order1+latent":  # a lag of the input as the start, searched, then refined
-        positive, top = settings["positive"], settings["saturation"][0]
+        positive, top = bool(settings["positive"]), settings["saturation"][0]
         hidden = LatentHiddenState(order=1, driver="input", bounds={"tau": LogUniform(_LATENT_TAU[0] * dt,
                                                                                       _LATENT_TAU[1] * dt)},
                                    latent_bounds=(0.0, np.inf) if positive else None,
                                    output_bounds=(0.0, np.inf if top is None else top) if positive else None)
         return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,
-                                differentiation=differentiation, dt=dt, input_hold=hold, validation_size=0.15,
+                                differentiation=differentiation, dt=dt, input_hold=hold, input_delay=delay,
+                                validation_size=0.15,
                                 validation="full", n_trials=_LATENT_TRIALS_1, random_state=0,
                                 refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
                                 show_progress_bar=False)
@@ -251,11 +244,13 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
         tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
         return HiddenStateSINDy(hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": tau}),
                                 library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
-                                input_hold=hold, validation_size=0.15, n_trials=_LATENT_TRIALS, random_state=0,
+                                input_hold=hold, input_delay=delay, validation_size=0.15, n_trials=_LATENT_TRIALS,
+                                random_state=0,
                                 refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
                                 show_progress_bar=False)
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=order), library=clone(library), optimizer=optimizer,
-                            differentiation=differentiation, dt=dt, input_hold=hold, refine=refine,
+                            differentiation=differentiation, dt=dt, input_hold=hold, input_delay=delay,
+                            refine=refine,
                             initial_state="fit" if refine is not None else "strategy", show_progress_bar=False)
 
 

@@ -1,4 +1,4 @@
-"""Identify a system from data: the data advice, ``identify`` and its estimator ``IdentifyCV`` (the structure search)."""
+"""Identify a system from data: the data advice, ``identify`` and its estimator ``IdentifyCV`` (the search)."""
 
 from ._advice import (
     DataAdvice,

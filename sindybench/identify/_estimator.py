@@ -9,7 +9,8 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from .._progress import progress_bar
-from .._validation import check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option, check_positive
+from .._validation import (check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option,
+                           check_positive)
 from ._search import evaluate, pareto_front, parsimonious_index, path_thresholds, stls_threshold, validation_blocks
 from ._space import n_terms
 from ._space import FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
@@ -231,7 +232,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     """
 
     def __init__(self, *, dt=None, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None,
-                 input_delay=None, n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000, n_refine=4,
+                 input_delay=None, n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000,
+                 n_refine=4,
                  max_terms=15,
                  refinement=None, n_init=None, time_budget=None, max_candidates=None, random_state=None,
                  n_jobs=None, show_progress_bar=True):

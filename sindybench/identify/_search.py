@@ -88,7 +88,7 @@ def path_thresholds(estimator, X, y, max_levels):
 
 
 def block_error(estimator, X, y, n_init, scale):
-    """RMSE of the simulation of ``X`` started from ``y[:n_init]``, over ``scale`` (per output, averaged); inf if it diverged."""
+    """RMSE of the simulation of ``X`` from ``y[:n_init]`` over ``scale`` (per output, averaged); inf if it diverged."""
     y_pred = np.asarray(estimator.predict(X, y_init=y[:n_init]), dtype=float).reshape(y.shape)
     if not np.all(np.isfinite(y_pred)):
         return np.inf

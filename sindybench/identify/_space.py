@@ -10,6 +10,8 @@ input hold, the hard terms that features of the signals propose), and the
 derivative's bandwidth from the output's spectrum.
 """
 
+import logging
+
 import numpy as np
 from sklearn.base import clone
 
@@ -20,9 +22,11 @@ from ..libraries import AbsProductLibrary, FrictionLibrary, IndicatorLibrary, Po
 from ..optimizers import STLS
 from ..refine import OutputErrorRefinement
 from ..search import LogUniform
-from ._advice import advice
+from ._advice import advice, detect_input_hold
 
 __all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
+
+logger = logging.getLogger(__name__)
 
 #: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3,
 #: and one latent state (one output only) at order 1 (driven by the input) and 2 (driven by the velocity)
@@ -90,11 +94,16 @@ def data_settings(X, y, dt):
     >>> s["input_hold"], s["input_delay"], s["positive"], s["saturation"]
     ('linear', 0, [0], [None])
     """
-    report = advice(X, y, dt=dt)
+    report = _advice(X, y, dt)
     f_c = _bandwidth(y, dt)
     window = _savgol_window(f_c, dt)
     derivatives = {"finite_difference": {}, f"savgol_{window}": {"window_length": window},
                    f"spectral_{f_c:.3g}": {"cutoff": f_c}}
+    if report is None:  # too short for the advice: no delay, the input's shape for the hold, no proposed terms
+        hold = detect_input_hold(X)[0] if X.shape[1] else "zoh"
+        return {"advice": None, "input_delay": 0, "input_hold": hold, "bandwidth": f_c, "derivatives": derivatives,
+                "proposed": [], "positive": [], "saturation": [None] * y.shape[1], "indicator": [None] * y.shape[1],
+                "friction": []}
     terms = report.proposed_terms
     saturation, indicator = [None] * y.shape[1], [None] * y.shape[1]
     for j, side, level, _ in report.saturation:
@@ -107,6 +116,19 @@ def data_settings(X, y, dt):
             "bandwidth": f_c, "derivatives": derivatives, "proposed": [str(p) for p in terms],
             "positive": [p.output for p in terms if p.kind == "sqrt"], "saturation": saturation, "indicator": indicator,
             "friction": [p.output for p in terms if p.kind == "friction"]}
+
+
+def _advice(X, y, dt):
+    """The data advice with the longest delay search (up to 20 samples) the record allows; None if it allows none."""
+    for max_delay in (20, 10, 5, 2, 0):
+        try:
+            return advice(X, y, dt=dt, max_delay=max_delay)
+        except ValueError as exc:
+            if "too few" not in str(exc):
+                raise
+            reason = exc
+    logger.warning("identify: no data advice (%s): no input delay, the input's shape decides the hold", reason)
+    return None
 
 
 def _differentiation(name, params):
@@ -255,7 +277,7 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
 
 
 def n_terms(estimator):
-    """Nonzero learned coefficients of a fitted estimator (the model's complexity), the most and the fewest in one row."""
+    """Nonzero learned coefficients of a fitted estimator (its complexity), the most and the fewest in one row."""
     nonzero = np.asarray(estimator.coef_) != 0
     per_row = nonzero.sum(axis=1) if nonzero.size else np.zeros(1, dtype=int)
     return int(nonzero.sum()), int(per_row.max()), int(per_row.min())

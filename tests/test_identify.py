@@ -248,3 +248,15 @@ def test_default_search_puts_the_oscillator_on_its_front(oscillator):
     on_front = [p["index"] for p in search.pareto_front_ if p["n_terms"] == 3]
     assert on_front and table["family"][on_front[0]] == "order2"
     assert search.best_estimator_.score(u, y) > 0.999 and search.best_estimator_.n_states_ == 2
+
+
+def test_input_delay_from_the_advice_confirmed_on_validation():
+    rng = np.random.default_rng(5)
+    u = np.repeat(rng.standard_normal(400), 5)[:, None]  # held for 5 samples
+    delayed = np.vstack([np.zeros((3, 1)), u[:-3]])  # the system sees the input 3 samples late
+    y = simulate(lambda x, u: np.array([-2.0 * x[0] + u[0]]), [0.0], delayed, dt=DT)
+    search = IdentifyCV(dt=DT, families=["first_order"], libraries=["linear"], **QUICK).fit(u, y)
+    assert search.settings_["input_delay"] == 3
+    assert 0 in search.cv_results_["input_delay"]  # the delay was also tried without
+    assert search.best_params_["input_delay"] == 3
+    assert _support(search.best_estimator_) == {"y0", "u0"}

@@ -260,3 +260,14 @@ def test_input_delay_from_the_advice_confirmed_on_validation():
     assert 0 in search.cv_results_["input_delay"]  # the delay was also tried without
     assert search.best_params_["input_delay"] == 3
     assert _support(search.best_estimator_) == {"y0", "u0"}
+
+
+@pytest.mark.slow
+def test_n_jobs_gives_the_same_search(oscillator):
+    """Worker processes (joblib) give the very same table (slow: each worker compiles the kernels)."""
+    u, y = oscillator
+    kwargs = dict(dt=DT, families=["order2"], libraries=["linear"], **QUICK)
+    one = IdentifyCV(**kwargs).fit(u, y)
+    two = IdentifyCV(n_jobs=2, **kwargs).fit(u, y)
+    assert one.best_params_ == two.best_params_
+    np.testing.assert_array_equal(one.cv_results_["mean_validation_error"], two.cv_results_["mean_validation_error"])

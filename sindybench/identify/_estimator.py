@@ -4,7 +4,6 @@ import math
 import time
 
 import numpy as np
-from joblib import Parallel, delayed
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
@@ -26,6 +25,18 @@ _STRUCTURE = ("family", "library", "derivative", "input_hold", "input_delay")
 _N_INIT = 20
 # the most a screening stage keeps, whatever the fraction
 _MAX_SURVIVORS = 16
+
+
+def _parallel(n_jobs):
+    """``run(func, args_list)``: a plain loop for ``n_jobs`` None or 1, else joblib's ``Parallel`` (imported here)."""
+    if n_jobs in (None, 1):
+        return lambda func, calls: [func(*args) for args in calls]
+    try:
+        from joblib import Parallel, delayed
+    except ImportError as exc:  # pragma: no cover - joblib comes with scikit-learn
+        raise ImportError("n_jobs != 1 needs joblib: pip install sindybench[parallel] (or pip install joblib).") \
+            from exc
+    return lambda func, calls: Parallel(n_jobs=n_jobs)(delayed(func)(*args) for args in calls)
 
 
 class _Budget:
@@ -358,14 +369,14 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                # with a candidate budget, the screening's paths take at most half of it
                "levels": self.max_path if self.max_candidates is None else max(
                    1, min(self.max_path, self.max_candidates // (2 * max(len(structs), 1))))}
-        parallel = Parallel(n_jobs=self.n_jobs)
+        parallel = _parallel(self.n_jobs)
         rows, libraries = [], []
         with progress_bar(len(structs), desc="identify", show=self.show_progress_bar) as bar:
             # stage 1: every structure's pruning path on the last block (the latent family has its own search)
             latent = [(s, lib) for s, lib in structs if s["family"] in LATENT_FAMILIES]
             structs = [(s, lib) for s, lib in structs if s["family"] not in LATENT_FAMILIES]
             todo = structs[: budget.take(len(structs))]
-            for (struct, library), screened in zip(todo, parallel(delayed(_screen)(s, lib, ctx) for s, lib in todo)):
+            for (struct, library), screened in zip(todo, parallel(_screen, [(s, lib, ctx) for s, lib in todo])):
                 rows.extend(screened)
                 libraries.extend([library] * len(screened))
                 bar.update()
@@ -387,8 +398,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             second += [(dict(s, threshold=0.0), lib) for s, lib in latent]
             second = second[: budget.take(len(second))]
             bar.total += len(second)
-            for (row, library), result in zip(second, parallel(
-                    delayed(_full)(r, lib, ctx, None) for r, lib in second)):
+            for (row, library), result in zip(second, parallel(_full, [(r, lib, ctx, None) for r, lib in second])):
                 rows.append(result)
                 libraries.append(library)
                 bar.update()
@@ -407,8 +417,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             third = scored[: budget.take(min(self.n_refine, len(scored)))]
             refinement = self._refinement(n)
             bar.total += len(third)
-            for i, result in zip(third, parallel(
-                    delayed(_full)(rows[i], libraries[i], ctx, refinement) for i in third)):
+            for i, result in zip(third, parallel(_full, [(rows[i], libraries[i], ctx, refinement) for i in third])):
                 rows.append(result)
                 libraries.append(libraries[i])
                 bar.update()

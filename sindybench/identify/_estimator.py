@@ -61,7 +61,8 @@ def _screen(struct, library, ctx):
     X, y, blocks = ctx["X"], ctx["y"], ctx["blocks"]
     begin = blocks[-1][0]
     lo = max(0, begin - ctx["window"])
-    make = lambda t, n: make_estimator(struct, library, stls_threshold(t, n), ctx["dt"], ctx["settings"])  # noqa: E731
+    make = lambda t, n: make_estimator(struct, library, stls_threshold(t, n), ctx["dt"], ctx["settings"],  # noqa: E731
+                                       random_state=ctx["random_state"])
     rows = []
     try:
         dense = make(0.0, begin - lo).fit(X[lo:begin], y[lo:begin])
@@ -83,7 +84,7 @@ def _full(row, library, ctx, refinement):
     """Stages 2 and 3: one candidate on every block (refined when ``refinement`` is given)."""
     struct = {k: row[k] for k in _STRUCTURE}
     make = lambda n: make_estimator(struct, library, stls_threshold(row["threshold"], n), ctx["dt"],  # noqa: E731
-                                    ctx["settings"], refine=refinement)
+                                    ctx["settings"], refine=refinement, random_state=ctx["random_state"])
     result = evaluate(make, ctx["X"], ctx["y"], ctx["blocks"], n_init=ctx["n_init"], scale=ctx["scale"])
     result.pop("model")
     refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
@@ -189,7 +190,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     max_candidates : int or None, default=None
         Most candidates evaluated. None = no limit.
     random_state : int or None, default=None
-        Kept for the stochastic families to come; the present search is deterministic.
+        Seed of the latent families' search of their start (None = 0: the
+        search is reproducible); the other families are deterministic.
     n_jobs : int or None, default=None
         Parallel candidates (joblib); None = 1.
     show_progress_bar : bool, default=True
@@ -364,7 +366,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             structs += [(dict(s, input_hold=other[s["input_hold"]]), lib) for s, lib in structs]
         budget = _Budget(self.time_budget, self.max_candidates)
         scale = np.std(y[: blocks[-1][0]], axis=0)
-        ctx = {"X": X, "y": y, "dt": dt, "settings": settings, "blocks": blocks, "n_init": n_init,
+        ctx = {"X": X, "y": y, "dt": dt, "settings": settings, "random_state": 0 if self.random_state is None else
+               self.random_state, "blocks": blocks, "n_init": n_init,
                "scale": np.where(scale > 0, scale, 1.0), "window": self.screen_window, "deadline": budget.deadline,
                # with a candidate budget, the screening's paths take at most half of it
                "levels": self.max_path if self.max_candidates is None else max(
@@ -437,7 +440,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                  for i in pareto_front(list(mean), terms)]
         chosen = {k: rows[best][k] for k in _STRUCTURE + ("threshold", "refine")}
         final = make_estimator(chosen, libraries[best], stls_threshold(chosen["threshold"], n), dt, settings,
-                               refine=refinement if chosen["refine"] else None).fit(X, y[:, 0] if y_1d else y)
+                               refine=refinement if chosen["refine"] else None, random_state=ctx["random_state"])
+        final.fit(X, y[:, 0] if y_1d else y)
         chosen["n_terms"], chosen["max_row_terms"], _ = n_terms(final)
         self.settings_ = settings
         self.blocks_ = blocks

@@ -226,7 +226,7 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
     return out
 
 
-def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
+def make_estimator(structure, library, threshold, dt, settings, *, refine=None, random_state=0):
     """An unfitted estimator of ``structure`` with an STLS threshold on normalized columns.
 
     ``first_order`` is :class:`~sindybench.SINDy`; ``order2`` and ``order3``
@@ -241,6 +241,7 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
     :class:`~sindybench.refine.OutputErrorRefinement`) refines the fit by its
     simulation error, and a refined hidden-state model starts new data by
     least squares on its first samples (``initial_state="fit"``).
+    ``random_state`` seeds the latent families' search of their start.
     """
     optimizer = STLS(threshold=float(threshold), alpha=1e-9, normalize_columns=True)
     d_name = structure["derivative"]
@@ -259,7 +260,7 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
         return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,
                                 differentiation=differentiation, dt=dt, input_hold=hold, input_delay=delay,
                                 validation_size=0.15,
-                                validation="full", n_trials=_LATENT_TRIALS_1, random_state=0,
+                                validation="full", n_trials=_LATENT_TRIALS_1, random_state=random_state,
                                 refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
                                 show_progress_bar=False)
     if structure["family"] == "order2+latent":  # its own search of the lag start, then refined by simulation
@@ -267,7 +268,7 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None):
         return HiddenStateSINDy(hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": tau}),
                                 library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
                                 input_hold=hold, input_delay=delay, validation_size=0.15, n_trials=_LATENT_TRIALS,
-                                random_state=0,
+                                random_state=random_state,
                                 refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
                                 show_progress_bar=False)
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=order), library=clone(library), optimizer=optimizer,

@@ -6,6 +6,7 @@ from ._sindy import SINDy
 from .optimizers import STLS, GramCache, stls
 from .hidden import HiddenStateSINDy
 from .io import load_model
+from .identify import identify
 from .simulate import SimulationError
 
 __version__ = "0.1.0"
@@ -20,6 +21,7 @@ __all__ = [
     "__version__",
     "baselines",
     "differentiation",
+    "identify",
     "load_model",
     "stls",
     "uncertainty",

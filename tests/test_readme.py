@@ -26,3 +26,7 @@ def test_readme_quickstart_runs_and_matches_its_quoted_figures(data_home, monkey
     assert abs(rmse - quoted) < 5e-3, (rmse, quoted)
     assert rmse <= 0.60  # issue 5's bar for the tanks remedy
     assert "x1' =" in printed  # the hidden upper tank's equation is shown
+    identified = float(re.search(r"identified: RMSE ([0-9.]+) mm", printed).group(1))
+    quoted = float(re.search(r"test RMSE of ([0-9.]+) mm on the EMPS pulses", text).group(1))
+    assert abs(identified - quoted) < 5e-3, (identified, quoted)
+    assert identified <= 7.87  # issue 27's first goal for EMPS

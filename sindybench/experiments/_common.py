@@ -5,7 +5,8 @@ Every factory has the signature ``make(random_state, quick, dt, n_val)`` of
 that describing a benchmark never pulls in all of the library.
 """
 
-__all__ = ["arx_model", "arx_space", "nnarx_model", "nnarx_space", "refinement", "sindy_model", "stls_space"]
+__all__ = ["IDENTIFIED", "arx_model", "arx_space", "identified", "nnarx_model", "nnarx_space", "refinement", "sindy_model",
+           "stls_space"]
 
 #: simulation-error refinement budget (simulations per round) of a default and a quick run
 REFINE_NFEV, REFINE_NFEV_QUICK = 30, 5
@@ -152,3 +153,29 @@ def nnarx_space(max_na=5, max_nb=5, sizes=((8,), (16,), (32,), (16, 16)), alpha=
         return dims
 
     return space
+
+
+def identified(n_init):
+    """The row "identified automatically": :class:`~sindybench.identify.IdentifyCV` given the record and ``dt`` only.
+
+    Nothing of the benchmark's physics goes in (no family, library, bounds or
+    strategy): only the number of first samples a test lets a model use to
+    start (``n_init``, the protocol's), so that its validation blocks start
+    the way the tests do. With ``--quick``: finite differences only.
+    """
+    from ._spec import ModelSpec
+
+    def make(*, random_state, quick, dt, n_val, n_samples):
+        from ..identify import IdentifyCV
+
+        quick_settings = {"derivatives": ["finite_difference"]} if quick else {}
+        return IdentifyCV(dt=dt, n_init=n_init, random_state=random_state, show_progress_bar=False, **quick_settings)
+
+    return ModelSpec(IDENTIFIED, "identified automatically", make,
+                     description="sindybench.identify on the estimation record's inputs, outputs and sample time: "
+                                 "family, library, sparsity, derivative and input hold chosen by simulation on "
+                                 "validation blocks of the estimation record (parsimony rule)")
+
+
+#: key of the "identified automatically" row of every benchmark
+IDENTIFIED = "identified"

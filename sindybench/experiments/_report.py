@@ -323,6 +323,9 @@ def results_markdown(results, *, heading_level=1):
             ks = ", ".join(f"k={k}: {_short(v['rmse']) if v['rmse'] is not None else v['status']}"
                            for k, v in rows.items())
             out.append(f"  - k-step RMSE on `{name}` (the designated row's protocol): {ks}")
+        if m.get("pareto_front"):
+            front = ", ".join(f"{p['n_terms']}: {p['validation_error']:.3g}" for p in m["pareto_front"])
+            out.append(f"  - Pareto front (terms: validation error): {front}")
         for eq in m["equations"]:
             out.append(f"  - `{eq}`")
     return "\n".join(out) + "\n"

@@ -164,7 +164,10 @@ def fit_model(spec, X, y, *, n_val, dt, n_trials, n_init, seed=0, quick=False, s
     inner = getattr(estimator, "best_params_", None)
     if not info["best_params"] and inner:
         info["best_params"] = {k: jsonable(v) for k, v in inner.items()}
-    info["inner_trials"] = len(getattr(estimator, "search_results_", None) or ())
+    info["inner_trials"] = len(getattr(estimator, "search_results_", None) or getattr(estimator, "cv_results_", {})
+                               .get("family", ()))
+    if getattr(estimator, "pareto_front_", None) is not None:  # identify's candidates: terms vs validation error
+        info["pareto_front"] = [{k: jsonable(v) for k, v in p.items()} for p in estimator.pareto_front_]
     info["fit_time_s"] = time.perf_counter() - start
     return estimator, info
 

@@ -9,7 +9,8 @@ multisine record, validation the next 960; tests: the low-frequency sine
 """
 
 from ..search import LogUniform
-from ._common import REFINE_NFEV_QUICK, arx_model, arx_space, nnarx_model, nnarx_space, refinement, stls_space
+from ._common import (REFINE_NFEV_QUICK, arx_model, arx_space, identified, nnarx_model, nnarx_space, refinement,
+                      stls_space)
 from ._spec import Benchmark, ModelSpec
 
 __all__ = ["BENCHMARK"]
@@ -132,5 +133,6 @@ BENCHMARK = Benchmark(
                   n_trials_quick=2, max_train=10000, max_train_quick=3000,
                   description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead (first 10000 training samples), "
                               "simulated free run"),
+        identified(10),
     ),
 )

@@ -8,7 +8,8 @@ samples of the estimation record, validation: its last 256, test: the
 1024-sample validation record (Ts = 4 s), simulated from its first samples.
 """
 
-from ._common import (REFINE_NFEV_QUICK, arx_model, arx_space, nnarx_model, nnarx_space, refinement, sindy_model,
+from ._common import (REFINE_NFEV_QUICK, arx_model, arx_space, identified, nnarx_model, nnarx_space, refinement,
+                      sindy_model,
                       stls_space)
 from ._spec import Benchmark, ModelSpec
 
@@ -217,6 +218,7 @@ BENCHMARK = Benchmark(
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(max_iter=2000), nnarx_space(), n_trials=25, n_trials_quick=3,
                   description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead, simulated free run"),
+        identified(5),
     ),
     notes="",
 )

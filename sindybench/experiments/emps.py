@@ -19,7 +19,16 @@ refinement, both friction models refined by prediction error instead (scored
 by free run, with their k-step scores), and the ARX / NN-ARX baselines.
 """
 
-from ._common import arx_model, arx_space, nnarx_model, nnarx_space, prediction_refinement, refinement, stls_space
+from ._common import (
+    arx_model,
+    arx_space,
+    identified,
+    nnarx_model,
+    nnarx_space,
+    prediction_refinement,
+    refinement,
+    stls_space,
+)
 from ._spec import Benchmark, ModelSpec
 
 __all__ = ["BENCHMARK"]
@@ -149,5 +158,6 @@ BENCHMARK = Benchmark(
                   max_train=4000, max_train_quick=2000,
                   description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead on "
                               "the first 4000 training samples, simulated free run"),
+        identified(20),
     ),
 )

@@ -11,6 +11,7 @@ validation 960, test the last 1201 samples.
 from ._common import (
     arx_model,
     arx_space,
+    identified,
     nnarx_model,
     nnarx_space,
     prediction_refinement,
@@ -92,5 +93,6 @@ BENCHMARK = Benchmark(
                   description="linear ARX, orders chosen on the validation block"),
         ModelSpec("nnarx", "NN-ARX", nnarx_model(dtype="float32"), nnarx_space(), n_trials=20, n_trials_quick=3,
                   description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead, simulated free run"),
+        identified(5),
     ),
 )

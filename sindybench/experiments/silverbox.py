@@ -35,7 +35,7 @@ sample it is a staircase, held linearly it is close to the signal. Two
 substeps are kept: four gain 0.3 % at twice the cost.
 """
 
-from ._common import arx_model, arx_space, nnarx_model, nnarx_space, refinement
+from ._common import arx_model, arx_space, identified, nnarx_model, nnarx_space, refinement
 from ._spec import Benchmark, ModelSpec
 
 __all__ = ["BENCHMARK"]
@@ -150,5 +150,6 @@ BENCHMARK = Benchmark(
                   max_train=8000, max_train_quick=3000,
                   description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead on "
                               "the first 8000 training samples, simulated free run"),
+        identified(50),
     ),
 )

@@ -1,4 +1,4 @@
-"""Identification from data: the data advice (and, with the search, the automatic choice of a model)."""
+"""Identify a system from data: the data advice, ``identify`` and its estimator ``IdentifyCV`` (the search)."""
 
 from ._advice import (
     DataAdvice,
@@ -9,13 +9,16 @@ from ._advice import (
     estimate_delay,
     excitation_order,
 )
+from ._estimator import IdentifyCV, identify
 
 __all__ = [
     "DataAdvice",
+    "IdentifyCV",
     "ProposedTerm",
     "advice",
     "detect_input_hold",
     "detect_saturation",
     "estimate_delay",
     "excitation_order",
+    "identify",
 ]

@@ -86,7 +86,7 @@ from ._band import plot_prediction_band
 from ._coefficients import coefficient_table, plot_coefficients
 from ._common import MAX_POINTS
 from ._residuals import plot_residual_analysis
-from ._search import plot_search_history
+from ._search import plot_pareto_front, plot_search_history
 from ._simulation import plot_hidden_states, plot_hysteresis, plot_simulation
 
 __all__ = [
@@ -95,6 +95,7 @@ __all__ = [
     "plot_coefficients",
     "plot_hidden_states",
     "plot_hysteresis",
+    "plot_pareto_front",
     "plot_prediction_band",
     "plot_residual_analysis",
     "plot_search_history",

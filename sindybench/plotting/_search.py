@@ -81,3 +81,62 @@ def plot_search_history(search, *, label=None, log=None, ax=None):
     ax.set_ylabel(y_label + (" (lower is better)" if minimize else " (higher is better)"))
     ax.legend(fontsize=7)
     return ax
+
+
+# -------------------------------------------------------------- Pareto front
+def _front_record(search):
+    """``(complexity, error, front indices, chosen index)`` of an IdentifyCV, an identified model or its record."""
+    record = getattr(search, "identification_", None)
+    if record is None and hasattr(search, "cv_results_") and hasattr(search, "pareto_front_"):
+        record = {"cv_results": search.cv_results_, "pareto_front": search.pareto_front_,
+                  "best_index": search.best_index_}
+    if record is None and isinstance(search, dict):
+        record = search
+    if not isinstance(record, dict) or not {"cv_results", "pareto_front"} <= set(record):
+        raise ValueError(
+            f"cannot read a Pareto front from {type(search).__name__}; expected a fitted IdentifyCV, a model "
+            "returned by sindybench.identify (identification_) or its identification_ dict."
+        )
+    table = record["cv_results"]
+    terms = np.array([np.nan if t is None else t for t in table["n_terms"]], dtype=float)
+    error = np.asarray(table["mean_validation_error"], dtype=float)
+    return terms, error, [p["index"] for p in record["pareto_front"]], record.get("best_index")
+
+
+def plot_pareto_front(search, *, ax=None):
+    """Number of terms against validation error of every candidate of ``identify``, with the front and the choice.
+
+    Parameters
+    ----------
+    search : IdentifyCV, identified model or dict
+        A fitted :class:`~sindybench.identify.IdentifyCV`, the model
+        :func:`sindybench.identify` returns (its ``identification_``) or that dict.
+    ax : Axes, optional
+
+    Returns
+    -------
+    Axes
+
+    Examples
+    --------
+    >>> record = {"cv_results": {"n_terms": [2, 5, 5, 9], "mean_validation_error": [0.5, 0.2, 0.3, 0.1]},
+    ...           "pareto_front": [{"index": 0}, {"index": 1}, {"index": 3}], "best_index": 1}
+    >>> ax = plot_pareto_front(record)
+    >>> ax.get_lines()[1].get_xdata().tolist(), ax.get_lines()[1].get_ydata().tolist()
+    ([2.0, 5.0, 9.0], [0.5, 0.2, 0.1])
+    """
+    terms, error, front, best = _front_record(search)
+    ok = np.isfinite(terms) & np.isfinite(error)
+    if not ok.any():
+        raise ValueError("no candidate was scored on every validation block; nothing to draw.")
+    (ax,) = _check_axes(ax, 1) or _new_axes(1, figsize=(6, 4))
+    ax.plot(terms[ok], error[ok], "o", ms=4, alpha=0.35, color="0.5", label=f"candidates ({int(ok.sum())})")
+    ax.plot(terms[front], error[front], "o-", lw=1.6, ms=5, label="Pareto front")
+    if best is not None and ok[best]:
+        ax.plot([terms[best]], [error[best]], "*", ms=14, color="C3", label="chosen (parsimony rule)")
+    if np.all(error[ok] > 0) and error[ok].max() > 20 * error[ok].min():
+        ax.set_yscale("log")
+    ax.set_xlabel("number of terms")
+    ax.set_ylabel("validation error (RMSE / output std)")
+    ax.legend(fontsize=7)
+    return ax

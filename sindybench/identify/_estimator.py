@@ -1,0 +1,557 @@
+"""``IdentifyCV``: the structure search scored by simulation, as an estimator; ``identify``, its one-call form."""
+
+import math
+import time
+
+import numpy as np
+from sklearn.base import BaseEstimator, RegressorMixin
+from sklearn.utils.validation import check_is_fitted
+
+from .._progress import progress_bar
+from .._validation import (check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option,
+                           check_positive)
+from ._search import evaluate, pareto_front, parsimonious_index, path_thresholds, stls_threshold, validation_blocks
+from ._space import n_terms
+from ._space import FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
+
+__all__ = ["IdentifyCV", "identify"]
+
+_HOLDS = ("zoh", "linear")
+# fewest samples a fold may train on
+_MIN_TRAIN = 5
+# the settings that make a structure (the threshold and the refinement make a candidate of it)
+_STRUCTURE = ("family", "library", "derivative", "input_hold", "input_delay")
+# first samples that start a simulation of new data, unless n_init says
+_N_INIT = 20
+# the most a screening stage keeps, whatever the fraction
+_MAX_SURVIVORS = 16
+
+
+def _parallel(n_jobs):
+    """``run(func, args_list)``: a plain loop for ``n_jobs`` None or 1, else joblib's ``Parallel`` (imported here)."""
+    if n_jobs in (None, 1):
+        return lambda func, calls: [func(*args) for args in calls]
+    try:
+        from joblib import Parallel, delayed
+    except ImportError as exc:  # pragma: no cover - joblib comes with scikit-learn
+        raise ImportError("n_jobs != 1 needs joblib: pip install sindybench[parallel] (or pip install joblib).") \
+            from exc
+    return lambda func, calls: Parallel(n_jobs=n_jobs)(delayed(func)(*args) for args in calls)
+
+
+class _Budget:
+    """Candidates and seconds left (a deadline on the wall clock, so that worker processes read it too)."""
+
+    def __init__(self, time_budget, max_candidates):
+        self.deadline = None if time_budget is None else time.time() + time_budget
+        self.left = max_candidates
+
+    def take(self, n):
+        """How many of ``n`` candidates may still run (0 once the time or the count is spent)."""
+        if self.deadline is not None and time.time() >= self.deadline:
+            return 0
+        k = n if self.left is None else min(n, self.left)
+        if self.left is not None:
+            self.left -= k
+        return k
+
+
+def _screen(struct, library, ctx):
+    """Stage 1 of one structure: the pruning path of its dense fit, each level scored on the last block."""
+    X, y, blocks = ctx["X"], ctx["y"], ctx["blocks"]
+    begin = blocks[-1][0]
+    lo = max(0, begin - ctx["window"])
+    make = lambda t, n: make_estimator(struct, library, stls_threshold(t, n), ctx["dt"], ctx["settings"],  # noqa: E731
+                                       random_state=ctx["random_state"])
+    rows = []
+    try:
+        dense = make(0.0, begin - lo).fit(X[lo:begin], y[lo:begin])
+        thresholds = path_thresholds(dense, X[lo:begin], y[lo:begin], ctx["levels"])
+    except Exception as exc:  # the structure cannot be fitted at all: one failed row
+        return [dict(struct, threshold=0.0, refine=False, stage="screen", errors=[np.inf], n_terms=None,
+                     max_row_terms=None, fit_time=0.0, status=f"failed: {type(exc).__name__}: {exc}")]
+    for t in thresholds:
+        if ctx["deadline"] is not None and time.time() >= ctx["deadline"]:
+            break
+        result = evaluate(lambda n, t=t: make(t, n), X, y, blocks[-1:], n_init=ctx["n_init"], scale=ctx["scale"],
+                          train_window=ctx["window"])
+        result.pop("model")
+        rows.append(dict(struct, threshold=t, refine=False, stage="screen", **result))
+    return rows
+
+
+def _full(row, library, ctx, refinement):
+    """Stages 2 and 3: one candidate on every block (refined when ``refinement`` is given)."""
+    struct = {k: row[k] for k in _STRUCTURE}
+    make = lambda n: make_estimator(struct, library, stls_threshold(row["threshold"], n), ctx["dt"],  # noqa: E731
+                                    ctx["settings"], refine=refinement, random_state=ctx["random_state"])
+    result = evaluate(make, ctx["X"], ctx["y"], ctx["blocks"], n_init=ctx["n_init"], scale=ctx["scale"])
+    result.pop("model")
+    refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
+    return dict(struct, threshold=row["threshold"], refine=refined,
+                stage="refine" if refinement is not None else "blocks", **result)
+
+
+class IdentifyCV(RegressorMixin, BaseEstimator):
+    """Identify a model from inputs, outputs and the sample time: a structure search scored by simulation.
+
+    Selection inside ``fit``, as in scikit-learn's ``LassoCV`` or
+    ``GridSearchCV``: the data advice (:func:`~sindybench.identify.advice`,
+    logged) gives the input delay and the input hold (both confirmed on
+    validation) and the hard terms worth proposing (a velocity that changes
+    sign, a positive output, an output that sits at a level); the output's
+    spectrum gives the derivative methods' bandwidth; and the search chooses
+    the family, the library, the derivative method and the sparsity. Every
+    candidate is an ordinary :class:`~sindybench.SINDy` or
+    :class:`~sindybench.HiddenStateSINDy`, fitted on the samples before a
+    validation block and scored by the RMSE of its open-loop simulation of
+    the block (started from its first ``n_init`` samples) over the output's standard deviation.
+
+    The search is a successive halving over the number of validation blocks:
+
+    1. *screen*: every structure's pruning path (thresholds between the
+       sorted coefficients of its dense fit) on the last block only, trained
+       on at most ``screen_window`` samples before it;
+    2. *blocks*: the best ``screen_keep`` fraction (at most 16) and the best
+       candidate of every family and library, on all ``n_blocks``
+       forward-chaining blocks (plus the best two without the input delay,
+       when the advice found one);
+    3. *refine*: the parsimonious pick of stage 2, then its Pareto front
+       (sparsest first), then the best ones (``n_refine`` in all), refined
+       by their simulation error
+       (``refinement``) and scored on all blocks again.
+
+    Halving by blocks rather than by training length because a candidate's
+    cost is one equation-error fit and one simulation per block: the cheap
+    first pass separates the structures that simulate at all from the rest,
+    and only the promising pay for every block and for a refinement (tens of
+    simulations each). A **parsimony rule** then picks the model: the
+    sparsest candidate whose mean error over the blocks is within one
+    standard error of the best one. The chosen settings are refitted on the
+    whole record.
+
+    Parameters
+    ----------
+    dt : float or None, default=None
+        Sampling interval (required, here or in ``fit``).
+    families : sequence of str, default=("first_order", "order2", "order3", "order1+latent", "order2+latent")
+        Model families: first-order SINDy ``y' = f(y, u)``; derivative
+        coordinates of order 2 and 3 (``HiddenStateSINDy(DerivativeHiddenState(n))``);
+        one latent state ``z`` (:class:`~sindybench.hidden.LatentHiddenState`,
+        one output only): at order 1 driven by the input, with the libraries
+        ``linear`` and ``linear+hard`` (square roots of ``y`` and ``z``, the
+        output's saturation indicator), and at order 2 driven by the velocity,
+        with the library ``linear+abs`` (linear terms, ``v|z|``, ``|v|z``,
+        ``|v||z|``). The latent families skip the screening: the lag start is
+        searched inside their ``fit`` and they are refined by simulation error.
+    libraries : sequence of str, default=("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
+        Libraries of graded richness; ``"+hard"`` adds the terms the data
+        proposes (skipped when it proposes none).
+    derivatives : sequence of str or None, default=None
+        Derivative methods among ``"finite_difference"``, ``"savgol"``,
+        ``"spectral"`` (bandwidths from the data); None = all three.
+    input_hold : {"zoh", "linear"} or None, default=None
+        None = both holds are candidates (the advice's, from the input's
+        shape, first): validation decides.
+    input_delay : int or None, default=None
+        Input delay in samples (the estimators' ``input_delay``); None = the
+        data advice's estimate (:func:`~sindybench.identify.estimate_delay`),
+        confirmed on validation against no delay.
+    n_blocks : int, default=3
+        Validation blocks at the end of the record.
+    block_size : float, default=0.15
+        Length of each block, as a fraction of the record.
+    max_path : int, default=12
+        Most thresholds on each structure's pruning path.
+    screen_keep : float, default=1/3
+        Fraction of the screened candidates that go on to every block.
+    screen_window : int, default=8000
+        Most training samples of a screening fit.
+    n_refine : int, default=4
+        Candidates refined by their simulation error (0: none): the
+        parsimonious pick of stage 2, then its Pareto front (sparsest
+        first), then the best ones.
+    max_terms : int, default=15
+        Most terms in one learned row of the chosen model (readability);
+        richer candidates are evaluated and recorded, never chosen.
+    refinement : refinement or None, default=None
+        The refinement of stage 3; None = ``OutputErrorRefinement(max_nfev=20,
+        max_samples=5000)``. Any object the estimators' ``refine`` takes (the
+        hook for a prediction-error refinement of candidates whose free run
+        diverges).
+    n_init : int or None, default=None
+        First samples of new data that start a simulation (the validation
+        blocks start from as many); None = 20. Give the number a test
+        protocol allows, so that the search scores candidates as they will
+        be used (a derivative method needing more start samples then fails).
+    time_budget : float or None, default=None
+        Seconds of search; candidates not started by then are left out (the
+        best one found so far is kept). None = no limit.
+    max_candidates : int or None, default=None
+        Most candidates evaluated. None = no limit.
+    random_state : int or None, default=None
+        Seed of the latent families' search of their start (None = 0: the
+        search is reproducible); the other families are deterministic.
+    n_jobs : int or None, default=None
+        Parallel candidates (joblib); None = 1.
+    show_progress_bar : bool, default=True
+        A progress bar in a terminal or a notebook (``SINDYBENCH_PROGRESS=0`` turns it off).
+
+    Attributes
+    ----------
+    best_estimator_ : SINDy or HiddenStateSINDy
+        The chosen model refitted on the whole record; it carries
+        ``identification_`` (the settings, the table and the front).
+    best_index_ : int
+        Row of ``cv_results_`` that was chosen.
+    best_params_ : dict
+        The chosen settings (family, library, derivative, input hold, input
+        delay, threshold, refine) and the refitted model's ``n_terms`` and
+        ``max_row_terms``. The threshold is a level of RMS contribution
+        (coefficient times the RMS of its term, in the target's units).
+    cv_results_ : dict of lists
+        One entry per candidate: ``family``, ``library``, ``derivative``,
+        ``input_hold``, ``input_delay``, ``threshold``, ``refine``, ``stage``, ``n_terms``,
+        ``max_row_terms``, ``split<k>_validation_error``,
+        ``mean_validation_error``, ``std_validation_error`` (inf for a
+        candidate not scored on every block), ``fit_time`` and ``status``
+        (``"ok"`` or why it failed).
+    pareto_front_ : list of dict
+        ``{"n_terms", "validation_error", "index"}`` of the candidates no
+        other one beats with as few terms, sparsest first.
+    settings_ : dict
+        What the data decided before any fit: the data advice (``advice``),
+        input delay and hold, bandwidth, derivative methods, proposed terms.
+    blocks_ : list of (int, int)
+        The validation blocks.
+    n_features_in_ : int
+
+    See Also
+    --------
+    identify : the function form, returning the chosen model.
+
+    Examples
+    --------
+    >>> from sindybench.simulate import simulate
+    >>> t = np.arange(1500) * 0.01
+    >>> u = (np.sin(t) + np.sin(2.3 * t))[:, None]
+    >>> y = simulate(lambda x, u: np.array([-2.0 * x[0] + u[0]]), [0.0], u, dt=0.01, input_hold="linear")
+    >>> search = IdentifyCV(dt=0.01, families=["first_order"], libraries=["linear", "poly2"],
+    ...                     derivatives=["finite_difference"], n_refine=0, show_progress_bar=False).fit(u, y)
+    >>> search.best_estimator_.equations(precision=2)
+    ["y0' = -2.00 y0 + 1.00 u0"]
+    >>> search.best_params_["family"], search.best_params_["input_hold"]
+    ('first_order', 'linear')
+    """
+
+    def __init__(self, *, dt=None, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None,
+                 input_delay=None, n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000,
+                 n_refine=4,
+                 max_terms=15,
+                 refinement=None, n_init=None, time_budget=None, max_candidates=None, random_state=None,
+                 n_jobs=None, show_progress_bar=True):
+        self.dt = dt
+        self.families = families
+        self.libraries = libraries
+        self.derivatives = derivatives
+        self.input_hold = input_hold
+        self.input_delay = input_delay
+        self.n_blocks = n_blocks
+        self.block_size = block_size
+        self.max_path = max_path
+        self.screen_keep = screen_keep
+        self.screen_window = screen_window
+        self.n_refine = n_refine
+        self.max_terms = max_terms
+        self.refinement = refinement
+        self.n_init = n_init
+        self.time_budget = time_budget
+        self.max_candidates = max_candidates
+        self.random_state = random_state
+        self.n_jobs = n_jobs
+        self.show_progress_bar = show_progress_bar
+
+    # ------------------------------------------------------------------ checks
+    def _check_params(self, dt):
+        dt = check_dt(dt if dt is not None else self.dt, allow_none=True)
+        if dt is None:
+            raise ValueError("dt is None; pass the sampling interval dt to IdentifyCV or to fit.")
+        for name, value, options in (("families", self.families, FAMILIES), ("libraries", self.libraries, LIBRARIES),
+                                     ("derivatives", self.derivatives, ("finite_difference", "savgol", "spectral"))):
+            if value is None and name == "derivatives":
+                continue
+            if isinstance(value, str) or not hasattr(value, "__iter__") or not list(value):
+                raise ValueError(f"{name} must be a non-empty list of names from {list(options)}; got {value!r}.")
+            for v in value:
+                check_option(v, name, options)
+        if self.input_hold is not None:
+            check_option(self.input_hold, "input_hold", _HOLDS)
+        if self.input_delay is not None:
+            check_integer(self.input_delay, "input_delay", low=0)
+        check_integer(self.n_blocks, "n_blocks", low=2)
+        check_positive(self.block_size, "block_size")
+        if self.block_size * self.n_blocks >= 0.9:
+            raise ValueError(f"n_blocks * block_size = {self.n_blocks * self.block_size:.3g} leaves too little "
+                             "training data; expected < 0.9.")
+        check_integer(self.max_path, "max_path")
+        check_positive(self.screen_keep, "screen_keep")
+        if self.screen_keep > 1:
+            raise ValueError(f"screen_keep must be a fraction in (0, 1]; got {self.screen_keep!r}.")
+        check_integer(self.screen_window, "screen_window", low=_MIN_TRAIN)
+        check_integer(self.n_refine, "n_refine", low=0)
+        check_integer(self.max_terms, "max_terms")
+        if self.refinement is not None and not hasattr(self.refinement, "run"):
+            raise ValueError(f"refinement must be an OutputErrorRefinement or None; got "
+                             f"{type(self.refinement).__name__}.")
+        if self.time_budget is not None:
+            check_positive(self.time_budget, "time_budget")
+        if self.max_candidates is not None:
+            check_integer(self.max_candidates, "max_candidates")
+        if self.n_init is not None:
+            check_integer(self.n_init, "n_init")
+        if self.n_jobs is not None:
+            check_integer(self.n_jobs, "n_jobs", low=None)
+        check_bool(self.show_progress_bar, "show_progress_bar")
+        return dt
+
+    @staticmethod
+    def _check_data(X, y):
+        if y is None:
+            raise ValueError("IdentifyCV requires y to be passed, but the target y is None; expected the outputs.")
+        if isinstance(y, list) and y and hasattr(y[0], "shape"):
+            raise ValueError("IdentifyCV takes one record (arrays X and y); several records are not supported yet.")
+        check_array_like(X, "X")
+        check_array_like(y, "y")
+        X, y = check_inputs_outputs(X, y)
+        if y.shape[0] < 2 * _MIN_TRAIN:
+            raise ValueError(f"y has {y.shape[0]} sample(s) (n_samples = {y.shape[0]}); identify needs at least "
+                             f"{2 * _MIN_TRAIN} to train and validate a candidate.")
+        for j, col in enumerate(X.T):
+            if np.ptp(col) == 0:
+                raise ValueError(f"input column {j} is constant ({col[0]!r}); a constant input cannot be told apart "
+                                 "from an offset. Expected inputs that vary (drop the constant column).")
+        for j, col in enumerate(y.T):
+            if np.ptp(col) == 0:
+                raise ValueError(f"output column {j} is constant ({col[0]!r}); expected outputs that vary.")
+        return X, y
+
+    # --------------------------------------------------------------------- fit
+    def fit(self, X, y, *, dt=None):
+        """Search the structures, choose one by the parsimony rule and refit it on the whole record.
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs)
+            Inputs ``u``.
+        y : array-like of shape (n_samples, n_outputs) or (n_samples,)
+            Measured outputs.
+        dt : float, optional
+            Sampling interval (overrides the constructor's ``dt``).
+
+        Returns
+        -------
+        self
+        """
+        dt = self._check_params(dt)
+        y_1d = y is not None and np.asarray(y).ndim == 1
+        X, y = self._check_data(X, y)
+        n = y.shape[0]
+        n_init = self.n_init if self.n_init is not None else _N_INIT
+        blocks = validation_blocks(n, self.n_blocks, self.block_size, _MIN_TRAIN, min_block=n_init + 2)
+        settings = data_settings(X[: blocks[-1][0]], y[: blocks[-1][0]], dt)
+        structs = structures(X, y, dt, settings, families=self.families, libraries=self.libraries,
+                             derivatives=self.derivatives, input_hold=self.input_hold, input_delay=self.input_delay)
+        if self.input_hold is None and X.shape[1] > 0:  # the advice's hold first, the other one too: validation decides
+            other = {"zoh": "linear", "linear": "zoh"}
+            structs += [(dict(s, input_hold=other[s["input_hold"]]), lib) for s, lib in structs]
+        budget = _Budget(self.time_budget, self.max_candidates)
+        scale = np.std(y[: blocks[-1][0]], axis=0)
+        ctx = {"X": X, "y": y, "dt": dt, "settings": settings, "random_state": 0 if self.random_state is None else
+               self.random_state, "blocks": blocks, "n_init": n_init,
+               "scale": np.where(scale > 0, scale, 1.0), "window": self.screen_window, "deadline": budget.deadline,
+               # with a candidate budget, the screening's paths take at most half of it
+               "levels": self.max_path if self.max_candidates is None else max(
+                   1, min(self.max_path, self.max_candidates // (2 * max(len(structs), 1))))}
+        parallel = _parallel(self.n_jobs)
+        rows, libraries = [], []
+        with progress_bar(len(structs), desc="identify", show=self.show_progress_bar) as bar:
+            # stage 1: every structure's pruning path on the last block (the latent family has its own search)
+            latent = [(s, lib) for s, lib in structs if s["family"] in LATENT_FAMILIES]
+            structs = [(s, lib) for s, lib in structs if s["family"] not in LATENT_FAMILIES]
+            todo = structs[: budget.take(len(structs))]
+            for (struct, library), screened in zip(todo, parallel(_screen, [(s, lib, ctx) for s, lib in todo])):
+                rows.extend(screened)
+                libraries.extend([library] * len(screened))
+                bar.update()
+            if budget.left is not None:  # the path's levels count as candidates
+                budget.left = max(0, budget.left - (len(rows) - len(todo)))
+            # stage 2: the best screened candidates on every block (and the best ones with the other hold)
+            ok = [i for i, r in enumerate(rows) if np.isfinite(r["errors"][0])]
+            ok.sort(key=lambda i: rows[i]["errors"][0])
+            keep = ok[: min(_MAX_SURVIVORS, max(4, math.ceil(self.screen_keep * len(ok))))]
+            # ... and the best of every family and library, so that a sparse structure is refined and compared too
+            seen = {(rows[i]["family"], rows[i]["library"]) for i in keep}
+            for i in ok:
+                if (rows[i]["family"], rows[i]["library"]) not in seen:
+                    seen.add((rows[i]["family"], rows[i]["library"]))
+                    keep.append(i)
+            second = [(rows[i], libraries[i]) for i in keep]
+            if self.input_delay is None and settings["input_delay"] > 0:  # the advice's delay, confirmed against none
+                second += [(dict(rows[i], input_delay=0), libraries[i]) for i in keep[:2]]
+            second += [(dict(s, threshold=0.0), lib) for s, lib in latent]
+            second = second[: budget.take(len(second))]
+            bar.total += len(second)
+            for (row, library), result in zip(second, parallel(_full, [(r, lib, ctx, None) for r, lib in second])):
+                rows.append(result)
+                libraries.append(library)
+                bar.update()
+            # stage 3: the parsimonious pick of stage 2 and the best ones, refined by simulation error
+            scored = [i for i, r in enumerate(rows) if r["stage"] == "blocks" and np.all(np.isfinite(r["errors"]))
+                      and r["max_row_terms"] <= self.max_terms and r["family"] not in LATENT_FAMILIES]
+            scored.sort(key=lambda i: np.mean(rows[i]["errors"]))
+            if scored:
+                pick = scored[parsimonious_index([np.mean(rows[i]["errors"]) for i in scored],
+                                                 [np.std(rows[i]["errors"]) for i in scored],
+                                                 [rows[i]["n_terms"] for i in scored], self.n_blocks)]
+                front = [scored[k] for k in pareto_front([np.mean(rows[i]["errors"]) for i in scored],
+                                                         [rows[i]["n_terms"] for i in scored])]
+                order = [pick] + front + scored  # the pick, then the front sparsest first, then the best
+                scored = [i for k, i in enumerate(order) if i not in order[:k]]
+            third = scored[: budget.take(min(self.n_refine, len(scored)))]
+            refinement = self._refinement(n)
+            bar.total += len(third)
+            for i, result in zip(third, parallel(_full, [(rows[i], libraries[i], ctx, refinement) for i in third])):
+                rows.append(result)
+                libraries.append(libraries[i])
+                bar.update()
+        table = _table(rows, self.n_blocks)
+        full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms for r in rows])
+        mean = np.where(full, table["mean_validation_error"], np.inf)
+        if not np.any(np.isfinite(mean)):
+            reasons = sorted({r["status"] for r in rows if r["status"] != "ok"})[:3] or [
+                "the budget ended before any candidate was scored on every block"]
+            raise ValueError(f"identify: none of the {len(rows)} candidates with at most max_terms={self.max_terms} "
+                             f"terms per row simulated every validation block without failing (first reasons: "
+                             f"{reasons}); expected a record long and rich enough for at least one candidate, or a "
+                             "larger time_budget / max_candidates / max_terms.")
+        terms = [t if t is not None else 10**9 for t in table["n_terms"]]
+        best = parsimonious_index(mean, table["std_validation_error"], terms, self.n_blocks)
+        front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}
+                 for i in pareto_front(list(mean), terms)]
+        chosen = {k: rows[best][k] for k in _STRUCTURE + ("threshold", "refine")}
+        final = make_estimator(chosen, libraries[best], stls_threshold(chosen["threshold"], n), dt, settings,
+                               refine=refinement if chosen["refine"] else None, random_state=ctx["random_state"])
+        final.fit(X, y[:, 0] if y_1d else y)
+        chosen["n_terms"], chosen["max_row_terms"], _ = n_terms(final)
+        self.settings_ = settings
+        self.blocks_ = blocks
+        self.cv_results_ = table
+        self.best_index_ = int(best)
+        self.best_params_ = chosen
+        self.pareto_front_ = front
+        final.identification_ = {"settings": chosen, "data": settings, "blocks": blocks, "cv_results": table,
+                                 "pareto_front": front, "best_index": int(best)}
+        self.best_estimator_ = final
+        self.n_features_in_ = X.shape[1]
+        return self
+
+    def _refinement(self, n_samples):
+        if self.refinement is not None:
+            from sklearn.base import clone
+
+            return clone(self.refinement)
+        from ..refine import OutputErrorRefinement
+
+        return OutputErrorRefinement(max_nfev=20, max_samples=min(n_samples, 5000))
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        tags.target_tags.single_output = True
+        tags.regressor_tags.poor_score = True  # an open-loop simulation of the checks' random data
+        tags.input_tags.allow_nan = False
+        return tags
+
+    # -------------------------------------------------------------- delegation
+    def predict(self, X, *, y_init=None, x0=None):
+        """The chosen model's open-loop simulated outputs (see its ``predict``)."""
+        check_is_fitted(self)
+        return self.best_estimator_.predict(X, y_init=y_init, x0=x0)
+
+    def simulate(self, X, *, y_init=None, x0=None):
+        """The chosen model's free run of the full state (see its ``simulate``)."""
+        check_is_fitted(self)
+        return self.best_estimator_.simulate(X, y_init=y_init, x0=x0)
+
+    def score(self, X, y, sample_weight=None):
+        """R^2 of the chosen model's simulation (see its ``score``)."""
+        check_is_fitted(self)
+        return self.best_estimator_.score(X, y, sample_weight=sample_weight)
+
+    def to_json(self, path):
+        """Save the chosen model as a model file (see its ``to_json``; :func:`sindybench.load_model` reads it)."""
+        check_is_fitted(self)
+        return self.best_estimator_.to_json(path)
+
+    def equations(self, **kwargs):
+        """The chosen model's equations (see its ``equations``)."""
+        check_is_fitted(self)
+        return self.best_estimator_.equations(**kwargs)
+
+
+def _table(rows, n_blocks):
+    """``cv_results_``: one list per column; block errors of screened rows only in their last split."""
+    table = {k: [r[k] for r in rows] for k in _STRUCTURE + ("threshold", "refine", "stage", "n_terms",
+                                                            "max_row_terms", "fit_time", "status")}
+    errors = np.full((len(rows), n_blocks), np.nan)
+    for i, r in enumerate(rows):
+        errors[i, n_blocks - len(r["errors"]):] = r["errors"]
+    for k in range(n_blocks):
+        table[f"split{k}_validation_error"] = errors[:, k]
+    complete = ~np.isnan(errors).any(axis=1) & np.isfinite(errors).all(axis=1)
+    with np.errstate(invalid="ignore"):
+        table["mean_validation_error"] = np.where(complete, errors.mean(axis=1), np.inf)
+        table["std_validation_error"] = np.where(complete, errors.std(axis=1), np.inf)
+    return table
+
+
+def identify(X, y, *, dt, **kwargs):
+    """Identify a model from inputs, outputs and the sample time alone; return the chosen, fitted model.
+
+    Runs :class:`IdentifyCV` (its parameters by keyword) and returns its
+    ``best_estimator_``: an ordinary :class:`~sindybench.SINDy` or
+    :class:`~sindybench.HiddenStateSINDy`, so ``predict``, ``simulate``,
+    ``equations``, ``to_json``, the Kalman filter and the uncertainty tools work
+    on it unchanged. Its ``identification_`` holds the record of the
+    selection: the chosen settings, what the data decided, the validation
+    blocks, every candidate (``cv_results``) and the Pareto front.
+
+    Parameters
+    ----------
+    X : array-like of shape (n_samples, n_inputs)
+        Inputs.
+    y : array-like of shape (n_samples, n_outputs) or (n_samples,)
+        Measured outputs.
+    dt : float
+        Sampling interval.
+    **kwargs
+        Parameters of :class:`IdentifyCV` (``families``, ``time_budget``, ``n_jobs``, ...).
+
+    Returns
+    -------
+    SINDy or HiddenStateSINDy
+        The fitted model, with ``identification_``.
+
+    Examples
+    --------
+    >>> from sindybench.simulate import simulate
+    >>> t = np.arange(1500) * 0.01
+    >>> u = (np.sin(t) + np.sin(2.3 * t))[:, None]
+    >>> y = simulate(lambda x, u: np.array([-2.0 * x[0] + u[0]]), [0.0], u, dt=0.01, input_hold="linear")
+    >>> model = identify(u, y, dt=0.01, families=["first_order"], n_refine=0, show_progress_bar=False)
+    >>> model.equations(precision=2)
+    ["y0' = -2.00 y0 + 1.00 u0"]
+    >>> model.identification_["settings"]["family"]
+    'first_order'
+    """
+    return IdentifyCV(dt=dt, **kwargs).fit(X, y).best_estimator_

@@ -1,0 +1,209 @@
+"""The functional core of ``identify``: validation blocks, candidate scores, the parsimony rule, the Pareto front.
+
+Every candidate is an ordinary estimator (built by
+:func:`~sindybench.identify._space.make_estimator`), fitted on the samples
+before a validation block and scored by the RMSE of its open-loop simulation of
+that block divided by the output's standard deviation over the record (one
+scale for every block, so a quiet block does not weigh more), started from
+the block's first ``n_init`` samples as new data is started. A candidate that fails (an exception, a diverged
+simulation) is a result with its reason, never the end of the search.
+"""
+
+import time
+import warnings
+
+import numpy as np
+
+from ..metrics import rmse
+
+__all__ = ["evaluate", "pareto_front", "parsimonious_index", "path_thresholds", "stls_threshold", "validation_blocks"]
+
+
+def validation_blocks(n_samples, n_blocks, block_size, min_train, min_block=10):
+    """Forward-chaining folds: ``n_blocks`` consecutive blocks at the end of the record, each trained on all before it.
+
+    Parameters
+    ----------
+    n_samples : int
+    n_blocks : int
+    block_size : float
+        Each block's length as a fraction of the record.
+    min_train : int
+        Fewest training samples the first fold may have.
+    min_block : int, default=10
+        Fewest samples of a block.
+
+    Returns
+    -------
+    list of (int, int)
+        ``(start, stop)`` of each validation block, the last block last; a
+        fold trains on ``[0, start)``.
+
+    Examples
+    --------
+    >>> validation_blocks(1000, 3, 0.15, 100)
+    [(550, 700), (700, 850), (850, 1000)]
+    >>> validation_blocks(100, 3, 0.15, 80)
+    Traceback (most recent call last):
+    ...
+    ValueError: 100 samples are too few for 3 validation blocks of 15 samples after at least 80 training samples; expected at least 125 samples (or fewer blocks).
+    """
+    size = max(int(round(block_size * n_samples)), min_block)
+    first = n_samples - n_blocks * size
+    if first < min_train:
+        raise ValueError(
+            f"{n_samples} samples are too few for {n_blocks} validation blocks of {size} samples after at least "
+            f"{min_train} training samples; expected at least {min_train + n_blocks * size} samples "
+            "(or fewer blocks).")
+    return [(first + k * size, first + (k + 1) * size) for k in range(n_blocks)]
+
+
+def path_thresholds(estimator, X, y, max_levels):
+    """The pruning path of a dense fit: levels between its terms' sorted RMS contributions.
+
+    A term's contribution is its coefficient times the RMS of its column,
+    in the units of its target. Each level lies halfway (on a log scale)
+    between two consecutive contributions of the dense fit, so each level
+    drops about one more term; at most ``max_levels`` levels, spread evenly
+    along the path. A level is a threshold on RMS contributions, the same
+    for any number of samples (see :func:`stls_threshold`).
+
+    Returns
+    -------
+    list of float
+        Increasing levels, starting with 0 (the dense fit).
+    """
+    states = getattr(estimator, "states_", None)
+    Z = np.hstack([y if states is None else states, X])
+    theta = np.asarray(estimator.library_.transform(Z), dtype=float)
+    rms = np.sqrt(np.mean(theta**2, axis=0))
+    w = np.abs(np.asarray(estimator.coef_)) * rms[None, :]
+    w = np.unique(w[np.isfinite(w) & (w > 0)])
+    if w.size < 2:
+        return [0.0]
+    mids = np.sqrt(w[:-1] * w[1:])
+    if mids.size > max_levels - 1:
+        mids = mids[np.unique(np.round(np.linspace(0, mids.size - 1, max_levels - 1)).astype(int))]
+    return [0.0] + [float(m) for m in mids]
+
+
+def block_error(estimator, X, y, n_init, scale):
+    """RMSE of the simulation of ``X`` from ``y[:n_init]`` over ``scale`` (per output, averaged); inf if it diverged."""
+    y_pred = np.asarray(estimator.predict(X, y_init=y[:n_init]), dtype=float).reshape(y.shape)
+    if not np.all(np.isfinite(y_pred)):
+        return np.inf
+    return float(np.mean(rmse(y, y_pred, multioutput="raw_values") / scale))
+
+
+def stls_threshold(level, n_samples):
+    """The STLS threshold on unit-norm columns (``normalize_columns=True``) of an RMS-contribution ``level``.
+
+    A column of ``n`` samples with RMS ``r`` has norm ``r sqrt(n)``, so the
+    threshold is ``level * sqrt(n)``.
+
+    Examples
+    --------
+    >>> stls_threshold(0.5, 400)
+    10.0
+    """
+    return float(level) * float(np.sqrt(n_samples))
+
+
+def evaluate(make, X, y, blocks, *, n_init, scale, train_window=None):
+    """Fit ``make()`` before each block and score its simulation of the block.
+
+    Parameters
+    ----------
+    make : callable
+        ``make(n_samples) -> unfitted estimator`` for ``n_samples`` training samples.
+    X, y : ndarray
+    blocks : list of (int, int)
+    n_init : int
+        First samples of a block that start its simulation.
+    scale : ndarray of shape (n_outputs,)
+        The outputs' standard deviations over the record.
+    train_window : int, optional
+        Fit on the last ``train_window`` samples before each block only (screening).
+
+    Returns
+    -------
+    dict
+        ``errors`` (RMSE over ``scale`` per block, inf where it failed),
+        ``n_terms``, ``max_row_terms`` (of the fit before the last block),
+        ``fit_time`` (seconds), ``status`` (``"ok"`` or the first failure's
+        reason) and ``model`` (the fit before the last block, or None).
+    """
+    errors, status, model, terms = [], "ok", None, (None, None)
+    start = time.perf_counter()
+    for begin, end in blocks:
+        lo = 0 if train_window is None else max(0, begin - train_window)
+        try:
+            with warnings.catch_warnings(), np.errstate(all="ignore"):
+                warnings.simplefilter("ignore")
+                est = make(begin - lo).fit(X[lo:begin], y[lo:begin])
+                from ._space import n_terms
+
+                terms = n_terms(est)
+                if terms[2] == 0:
+                    raise ValueError("a learned row has no terms left")
+                err = block_error(est, X[begin:end], y[begin:end], n_init, scale)
+        except Exception as exc:  # a failing candidate is recorded, never ends the search
+            errors.append(np.inf)
+            if status == "ok":
+                status = f"failed: {type(exc).__name__}: {exc}"
+            continue
+        if not np.isfinite(err):
+            err = np.inf
+            if status == "ok":
+                status = f"diverged on the validation block [{begin}, {end})"
+        errors.append(float(err))
+        model = est
+    return {"errors": errors, "n_terms": terms[0], "max_row_terms": terms[1],
+            "fit_time": time.perf_counter() - start, "status": status, "model": model}
+
+
+def parsimonious_index(mean_errors, std_errors, n_terms, n_blocks):
+    """The sparsest candidate within one standard error of the best mean validation error.
+
+    The standard error is the best candidate's spread across the blocks
+    divided by ``sqrt(n_blocks)``. Among the candidates within it, the one
+    with the fewest terms; ties go to the lower error.
+
+    Examples
+    --------
+    >>> parsimonious_index([0.10, 0.11, 0.30], [0.03, 0.01, 0.0], [12, 4, 2], 3)
+    1
+    >>> parsimonious_index([np.inf, np.inf], [0.0, 0.0], [1, 2], 3)
+    Traceback (most recent call last):
+    ...
+    ValueError: no candidate has a finite validation error on every block.
+    """
+    mean = np.asarray(mean_errors, dtype=float)
+    ok = np.isfinite(mean)
+    if not ok.any():
+        raise ValueError("no candidate has a finite validation error on every block.")
+    best = int(np.argmin(np.where(ok, mean, np.inf)))
+    tol = mean[best] + float(std_errors[best]) / np.sqrt(max(n_blocks, 1))
+    within = [i for i in np.flatnonzero(ok) if mean[i] <= tol]
+    return int(min(within, key=lambda i: (n_terms[i], mean[i])))
+
+
+def pareto_front(mean_errors, n_terms):
+    """Indices of the candidates on the front of (number of terms, mean validation error), sparsest first.
+
+    A candidate is on the front when no other one has as few terms or fewer
+    and a lower error.
+
+    Examples
+    --------
+    >>> pareto_front([0.5, 0.2, 0.3, 0.1, np.inf], [2, 5, 5, 9, 1])
+    [0, 1, 3]
+    """
+    order = sorted((i for i, e in enumerate(mean_errors) if np.isfinite(e) and n_terms[i] is not None),
+                   key=lambda i: (n_terms[i], mean_errors[i]))
+    front, best = [], np.inf
+    for i in order:
+        if mean_errors[i] < best:
+            front.append(i)
+            best = mean_errors[i]
+    return front

@@ -1,0 +1,284 @@
+"""The candidate structures of ``identify``: model families, graded libraries, settings the data decides.
+
+A *structure* is a plain dict of named settings (``family``, ``library``,
+``derivative``, ``input_hold``, ``input_delay``); :func:`make_estimator` turns
+a structure and a threshold into an ordinary, unfitted
+:class:`~sindybench.SINDy` or :class:`~sindybench.HiddenStateSINDy`.
+Everything here reads the estimation record only (never a benchmark's
+physics): the data advice (:func:`~sindybench.identify.advice`: input delay,
+input hold, the hard terms that features of the signals propose), and the
+derivative's bandwidth from the output's spectrum.
+"""
+
+import logging
+
+import numpy as np
+from sklearn.base import clone
+
+from .._sindy import SINDy
+from ..differentiation import FiniteDifference, SavitzkyGolay, Spectral
+from ..hidden import DerivativeHiddenState, HiddenStateSINDy, LatentHiddenState
+from ..libraries import AbsProductLibrary, FrictionLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary
+from ..optimizers import STLS
+from ..refine import OutputErrorRefinement
+from ..search import LogUniform
+from ._advice import advice, detect_input_hold
+
+__all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
+
+logger = logging.getLogger(__name__)
+
+#: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3,
+#: and one latent state (one output only) at order 1 (driven by the input) and 2 (driven by the velocity)
+FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent")
+LATENT_FAMILIES = ("order1+latent", "order2+latent")
+_ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order1+latent": 1, "order2+latent": 2}
+#: the order-2 latent family's library: linear, plus the absolute products of the velocity and the latent state
+LATENT_LIBRARY = "linear+abs"
+# the latent family's own search (the lag's time constant, in samples) and refinement
+_LATENT_TRIALS, _LATENT_TRIALS_1, _LATENT_TAU = 12, 20, (1.0, 1000.0)
+_LATENT_REFINEMENT = {"max_nfev": 30, "max_samples": 5000}
+#: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
+LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
+_DEGREE = {"linear": 1, "poly2": 2, "poly3": 3}
+def _bandwidth(y, dt):
+    """The frequency below which 99.99 % of the power of the detrended outputs lies (clamped to the band)."""
+    fs = 1.0 / dt
+    n = y.shape[0]
+    t = np.arange(n)
+    power = np.zeros(n // 2 + 1)
+    for col in y.T:
+        resid = col - np.polyval(np.polyfit(t, col, 1), t)
+        power += np.abs(np.fft.rfft(resid * np.hanning(n))) ** 2
+    freqs = np.fft.rfftfreq(n, dt)
+    cum = np.cumsum(power)
+    if cum[-1] <= 0:
+        return fs / 4
+    f_c = float(freqs[np.searchsorted(cum, (1.0 - 1e-4) * cum[-1])])
+    return float(np.clip(f_c, fs / 400, fs / 4))
+
+
+def _savgol_window(f_c, dt, polyorder=3):
+    """Odd Savitzky-Golay window whose -3 dB cutoff is near ``f_c`` (Schafer's rule), at least 5 samples."""
+    w = ((polyorder + 1) / (f_c * dt) + 4.6) / 3.2
+    w = int(np.clip(round(w), polyorder + 2, 201))
+    return w if w % 2 else w + 1
+
+
+def data_settings(X, y, dt):
+    """What the estimation record decides before any fit: advice, bandwidth, derivative methods, proposed terms.
+
+    Parameters
+    ----------
+    X : ndarray of shape (n_samples, n_inputs)
+    y : ndarray of shape (n_samples, n_outputs)
+    dt : float
+
+    Returns
+    -------
+    dict
+        ``advice`` (the :class:`~sindybench.identify.DataAdvice`, logged),
+        ``input_delay`` and ``input_hold`` (the advice's; several inputs: the
+        hold of the first), ``bandwidth`` (Hz for seconds: 99.99 % of the
+        detrended outputs' power below it), ``derivatives`` (name -> method
+        parameters), ``proposed`` (the advice's proposed terms, as text),
+        ``positive`` (outputs with a proposed square root), ``saturation``
+        (per output, the upper level where it saturates, or None) and
+        ``indicator`` (per output, the lower end of the proposed indicator of
+        that level, or None).
+
+    Examples
+    --------
+    >>> t = np.arange(2000) * 0.01
+    >>> s = data_settings(np.sin(t)[:, None], np.cos(t)[:, None] + 2.0, 0.01)
+    >>> s["input_hold"], s["input_delay"], s["positive"], s["saturation"]
+    ('linear', 0, [0], [None])
+    """
+    report = _advice(X, y, dt)
+    f_c = _bandwidth(y, dt)
+    window = _savgol_window(f_c, dt)
+    derivatives = {"finite_difference": {}, f"savgol_{window}": {"window_length": window},
+                   f"spectral_{f_c:.3g}": {"cutoff": f_c}}
+    if report is None:  # too short for the advice: no delay, the input's shape for the hold, no proposed terms
+        hold = detect_input_hold(X)[0] if X.shape[1] else "zoh"
+        return {"advice": None, "input_delay": 0, "input_hold": hold, "bandwidth": f_c, "derivatives": derivatives,
+                "proposed": [], "positive": [], "saturation": [None] * y.shape[1], "indicator": [None] * y.shape[1],
+                "friction": []}
+    terms = report.proposed_terms
+    saturation, indicator = [None] * y.shape[1], [None] * y.shape[1]
+    for j, side, level, _ in report.saturation:
+        if side == "upper":
+            saturation[j] = float(level)
+    for p in terms:
+        if p.kind == "indicator" and np.isinf(p.high):
+            indicator[p.output] = float(p.low)
+    return {"advice": report, "input_delay": int(report.input_delay), "input_hold": report.input_hold,
+            "bandwidth": f_c, "derivatives": derivatives, "proposed": [str(p) for p in terms],
+            "positive": [p.output for p in terms if p.kind == "sqrt"], "saturation": saturation, "indicator": indicator,
+            "friction": [p.output for p in terms if p.kind == "friction"]}
+
+
+def _advice(X, y, dt):
+    """The data advice with the longest delay search (up to 20 samples) the record allows; None if it allows none."""
+    for max_delay in (20, 10, 5, 2, 0):
+        try:
+            return advice(X, y, dt=dt, max_delay=max_delay)
+        except ValueError as exc:
+            if "too few" not in str(exc):
+                raise
+            reason = exc
+    logger.warning("identify: no data advice (%s): no input delay, the input's shape decides the hold", reason)
+    return None
+
+
+def _differentiation(name, params):
+    if name.startswith("savgol"):
+        return SavitzkyGolay(window_length=params["window_length"], polyorder=3)
+    if name.startswith("spectral"):
+        return Spectral(cutoff=params["cutoff"], taper=0.5)
+    return FiniteDifference()
+
+
+def _hard_terms(family, settings, n_outputs, n_inputs):
+    """The proposed hard-term libraries of a family over ``Z = [states, inputs]`` (a list, maybe empty)."""
+    order = _ORDER[family]
+    libs = []
+    if order >= 2 and settings["friction"]:  # a velocity that changes sign: Coulomb friction of that velocity
+        libs.append(FrictionLibrary(variables=[n_outputs + j for j in settings["friction"]]))
+    if settings["positive"]:
+        libs.append(SqrtLibrary(variables=list(settings["positive"]), lower=0.0))
+    n_states = order * n_outputs
+    for i, level in enumerate(settings["indicator"]):
+        if level is not None:
+            libs.append(IndicatorLibrary(variables=[i], lower=level,
+                                         times=list(range(n_states, n_states + n_inputs)) or None))
+    return libs
+
+
+def _latent_hard_terms(settings, n_inputs):
+    """Linear terms plus the proposed hard terms over ``Z = [y, z, u]`` of the order-1 latent family (or None)."""
+    libs = []
+    if settings["positive"]:  # a positive output proposes roots of it and of the latent state (held >= 0)
+        libs.append(SqrtLibrary(variables=[0, 1], lower=0.0))
+    if settings["indicator"][0] is not None:
+        libs.append(IndicatorLibrary(variables=[0], lower=settings["indicator"][0], times=list(range(2, 2 + n_inputs))))
+    if not libs:
+        return None
+    lib = PolynomialLibrary(degree=1)
+    for extra in libs:
+        lib = lib + extra
+    return lib
+
+
+def _library(name, family, settings, n_outputs, n_inputs):
+    base = name.split("+")[0]
+    lib = PolynomialLibrary(degree=_DEGREE[base])
+    if name.endswith("+hard"):
+        hard = _hard_terms(family, settings, n_outputs, n_inputs)
+        if not hard:
+            return None
+        for extra in hard:
+            lib = lib + extra
+    return lib
+
+
+def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None,
+               input_delay=None):
+    """Every candidate structure (family x library x derivative) with its library object.
+
+    Returns
+    -------
+    list of (dict, library)
+        The structure's settings (strings, for the results table) and the library of
+        :func:`make_estimator`; ``"+hard"`` libraries appear only where the data proposes terms.
+    """
+    n_outputs, n_inputs = y.shape[1], X.shape[1]
+    derivs = settings["derivatives"] if derivatives is None else {
+        k: v for k, v in settings["derivatives"].items() if k in derivatives or k.split("_")[0] in derivatives}
+    hold = settings["input_hold"] if input_hold is None else input_hold
+    delay = settings["input_delay"] if input_delay is None else input_delay
+    out = []
+    for family in families:
+        if family == "order2+latent":
+            if n_outputs == 1:  # states (y, v, z): the latent state's products with the velocity
+                lib = PolynomialLibrary(degree=1) + AbsProductLibrary(pairs=[(1, 2)])
+                out += [({"family": family, "library": LATENT_LIBRARY, "derivative": d, "input_hold": hold,
+                         "input_delay": delay}, lib)
+                        for d in derivs]
+            continue
+        if family == "order1+latent":
+            if n_outputs == 1 and n_inputs >= 1:  # states (y, z), driven by u0; refined, so one derivative
+                for lib_name, lib in (("linear", PolynomialLibrary(degree=1)),
+                                      ("linear+hard", _latent_hard_terms(settings, n_inputs))):
+                    if lib is not None:
+                        out.append(({"family": family, "library": lib_name, "derivative": "finite_difference",
+                                     "input_hold": hold, "input_delay": delay}, lib))
+            continue
+        for lib_name in libraries:
+            lib = _library(lib_name, family, settings, n_outputs, n_inputs)
+            if lib is None:
+                continue
+            for d_name in derivs:
+                if family == "first_order" and lib_name.endswith("+hard") and d_name != next(iter(derivs)):
+                    continue
+                out.append(({"family": family, "library": lib_name, "derivative": d_name, "input_hold": hold,
+                             "input_delay": delay}, lib))
+    return out
+
+
+def make_estimator(structure, library, threshold, dt, settings, *, refine=None, random_state=0):
+    """An unfitted estimator of ``structure`` with an STLS threshold on normalized columns.
+
+    ``first_order`` is :class:`~sindybench.SINDy`; ``order2`` and ``order3``
+    are :class:`~sindybench.HiddenStateSINDy` with
+    :class:`~sindybench.hidden.DerivativeHiddenState`; ``order1+latent`` and
+    ``order2+latent`` are :class:`~sindybench.hidden.LatentHiddenState`
+    (order 1 driven by the input, the latent state and the output held
+    non-negative when the output is positive and the output below its
+    saturation level; order 2 driven by the velocity), the lag start searched
+    inside ``fit`` (20 and 12 trials, time constant 1 to 1000 samples) and
+    refined by simulation error. ``refine`` (an
+    :class:`~sindybench.refine.OutputErrorRefinement`) refines the fit by its
+    simulation error, and a refined hidden-state model starts new data by
+    least squares on its first samples (``initial_state="fit"``).
+    ``random_state`` seeds the latent families' search of their start.
+    """
+    optimizer = STLS(threshold=float(threshold), alpha=1e-9, normalize_columns=True)
+    d_name = structure["derivative"]
+    differentiation = _differentiation(d_name, settings["derivatives"].get(d_name, {}))
+    hold, delay = structure["input_hold"], structure["input_delay"]
+    if structure["family"] == "first_order":
+        return SINDy(library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
+                     input_hold=hold, input_delay=delay, refine=refine)
+    order = _ORDER[structure["family"]]
+    if structure["family"] == "order1+latent":  # a lag of the input as the start, searched, then refined
+        positive, top = bool(settings["positive"]), settings["saturation"][0]
+        hidden = LatentHiddenState(order=1, driver="input", bounds={"tau": LogUniform(_LATENT_TAU[0] * dt,
+                                                                                      _LATENT_TAU[1] * dt)},
+                                   latent_bounds=(0.0, np.inf) if positive else None,
+                                   output_bounds=(0.0, np.inf if top is None else top) if positive else None)
+        return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,
+                                differentiation=differentiation, dt=dt, input_hold=hold, input_delay=delay,
+                                validation_size=0.15,
+                                validation="full", n_trials=_LATENT_TRIALS_1, random_state=random_state,
+                                refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
+                                show_progress_bar=False)
+    if structure["family"] == "order2+latent":  # its own search of the lag start, then refined by simulation
+        tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
+        return HiddenStateSINDy(hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": tau}),
+                                library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
+                                input_hold=hold, input_delay=delay, validation_size=0.15, n_trials=_LATENT_TRIALS,
+                                random_state=random_state,
+                                refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
+                                show_progress_bar=False)
+    return HiddenStateSINDy(hidden=DerivativeHiddenState(order=order), library=clone(library), optimizer=optimizer,
+                            differentiation=differentiation, dt=dt, input_hold=hold, input_delay=delay,
+                            refine=refine,
+                            initial_state="fit" if refine is not None else "strategy", show_progress_bar=False)
+
+
+def n_terms(estimator):
+    """Nonzero learned coefficients of a fitted estimator (its complexity), the most and the fewest in one row."""
+    nonzero = np.asarray(estimator.coef_) != 0
+    per_row = nonzero.sum(axis=1) if nonzero.size else np.zeros(1, dtype=int)
+    return int(nonzero.sum()), int(per_row.max()), int(per_row.min())

@@ -31,6 +31,7 @@ from ._candidate import Candidate, candidate_initial_state, fit_candidate, fit_c
 from ._derivative import Derivative
 from ._objective import SEARCH_PENALTY, VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
+from ._latent_starts import fit_starts
 from ._refinement import refined_values, refinement_problem
 
 __all__ = ["HiddenStateSINDy"]
@@ -347,6 +348,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         self
         """
         records = self._fit_is_records(X, y)
+        if getattr(self.hidden, "start", None) == "auto" and not records:  # several starts, the best kept
+            return self._fit_starts(X, y, dt)
         X, y1 = check_records(X, y, y_kind="outputs") if records else _check_fit_data(X, y)
         dt, est_space = self._check_params(dt)
         X = [self.delayed_inputs(X_r) for X_r in X] if records else self.delayed_inputs(X)
@@ -423,6 +426,16 @@ class HiddenStateSINDy(DynamicsEstimator):
         self.scaling_ = scaling
         self._y_1d = all(y_r.ndim == 1 for y_r in y) if records else np.asarray(y).ndim == 1
         self._rebuild_model()
+        if hasattr(hidden, "check_fit") and not records:
+            hidden.check_fit(self, X, y1, dt)
+        return self
+
+    def _fit_starts(self, X, y, dt):
+        X, y = _check_fit_data(X, y)
+        best, record = fit_starts(self, X, y, dt)
+        best.hidden_.check_fit(best, best.delayed_inputs(X), y if y.ndim == 2 else y[:, None], best.dt_)
+        self.__dict__.update({k: v for k, v in vars(best).items() if k.endswith("_") or k.startswith("_")})
+        self.starts_ = record
         return self
 
     def _components(self, est_values):

@@ -31,14 +31,17 @@ model at an operating point) come from
 """
 
 import numbers
+import warnings
 
 import numpy as np
 from scipy.optimize import least_squares
+from sklearn.base import clone
 
 from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
 from ..simulate import TermsRHS, simulate
+from ._latent_starts import subspace_start, support_warnings
 from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term, with_defaults
 
 __all__ = ["LatentHiddenState"]
@@ -84,6 +87,17 @@ class LatentHiddenState(HiddenStrategy):
         With ``scale="range"``, a finite range is required.
     output_bounds : (float, float), optional
         Simulation bounds of the outputs (e.g. a sensor range).
+    start : {"lag", "subspace", "auto"}, default="lag"
+        The latent states' start. ``"lag"``: the lag chain of the driver
+        (``tau`` searched). ``"subspace"``: the states of a linear
+        state-space model of order ``n_outputs * order + n_latent`` fitted by
+        subspace identification (MOESP, no search), in the coordinates
+        orthogonal to the measured ones, scaled to the gauge. ``"auto"``:
+        :class:`~sindybench.HiddenStateSINDy` fits every start of
+        :meth:`starts` (the input lag, the output lag, the subspace model),
+        each with its own search and refinement, and keeps the one with the
+        smallest simulation error on the validation block
+        (``model.starts_`` records each).
 
     Notes
     -----
@@ -108,7 +122,7 @@ class LatentHiddenState(HiddenStrategy):
     _physical = ("tau", "gain")
 
     def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, bounds=None,
-                 latent_bounds=None, output_bounds=None):
+                 latent_bounds=None, output_bounds=None, start="lag"):
         self.n_latent = n_latent
         self.order = order
         self.driver = driver
@@ -118,6 +132,7 @@ class LatentHiddenState(HiddenStrategy):
         self.bounds = bounds
         self.latent_bounds = latent_bounds
         self.output_bounds = output_bounds
+        self.start = start
 
     def _validate(self):
         if isinstance(self.n_latent, bool) or not isinstance(self.n_latent, numbers.Integral) or self.n_latent < 1:
@@ -140,17 +155,23 @@ class LatentHiddenState(HiddenStrategy):
             raise ValueError(f"scale='range' fixes the latent scale by its bounds; expected finite latent_bounds, "
                              f"got {self.latent_bounds!r}.")
         check_bounds(self.output_bounds, 1, name="output_bounds")
+        if self.start not in _STARTS:
+            raise ValueError(f"start must be one of {_STARTS}; got {self.start!r}.")
         self.search_space()
 
     def search_space(self):
         bounds = with_defaults(self.bounds, {"tau": (1e-3, 1e3), "gain": (1e-3, 1e3)})
         names = ("tau", "gain") if self.scale == "range" else ("tau",)
+        if self.start == "subspace":
+            names = ()  # the subspace model sets the start: nothing to search
         return bounds_space(self, names, bounds, positive=True)
 
     def resolve_params(self, values=None):
         values = dict(values or {})
         if self.scale == "driver":
             values["gain"] = 1.0
+        if self.start == "subspace":  # unused by the start; the initial state's first guess only
+            values = {"tau": 1.0, "gain": 1.0, **values}
         params = {name: getattr(self, name) if getattr(self, name) is not None else values.get(name)
                   for name in self._physical}
         missing = [name for name, value in params.items() if value is None]
@@ -162,6 +183,31 @@ class LatentHiddenState(HiddenStrategy):
 
     def refinable(self, params):
         return ()  # tau and gain set the start; the latent rows are learned
+
+    def starts(self):
+        """The starts ``start="auto"`` tries: ``[(name, strategy), ...]``.
+
+        The lag of the driver (this strategy with ``start="lag"``), the lag
+        of the first output (``driver="output"``, which also moves the scale
+        gauge onto ``y0``; not repeated when the driver is already the
+        output), and the subspace model (``start="subspace"``).
+
+        Examples
+        --------
+        >>> [name for name, _ in LatentHiddenState(start="auto").starts()]
+        ['input lag', 'output lag', 'subspace']
+        """
+        own = clone(self).set_params(start="lag")
+        out = [(f"{self.driver} lag", own)]
+        if self.driver != "output":
+            out.append(("output lag", clone(own).set_params(driver="output")))
+        out.append(("subspace", clone(own).set_params(start="subspace")))
+        return out
+
+    def check_fit(self, model, u, y, dt):
+        """Warn when ``n_latent`` looks larger than the data support (see :func:`support_warnings`)."""
+        for message in support_warnings(self, model, u, y, dt):
+            warnings.warn(message, UserWarning, stacklevel=3)
 
     def default_library(self):
         """Quadratic polynomial in ``(y, [v,] z, u)``."""
@@ -257,7 +303,10 @@ class LatentHiddenState(HiddenStrategy):
 
     def design(self, u, y, dt, *, derivative, params):
         states = self._measured(y, derivative)
-        z, z_dot = self._lags(self._drive(states, u, y.shape[1]), params, dt)
+        if self.start == "subspace":
+            z, z_dot = subspace_start(self, u, y, dt, self._drivers(y.shape[1]))
+        else:
+            z, z_dot = self._lags(self._drive(states, u, y.shape[1]), params, dt)
         return Design(states=np.c_[states, z], targets=np.c_[derivative(y, order=int(self.order)), z_dot])
 
     def refine_free(self, coef, terms, *, n_outputs, n_inputs):
@@ -371,6 +420,7 @@ def _mixing_is_free(strategy, model, j, i, n_points=None, rtol=1e-8):
 
 
 _DRIVERS = ("input", "velocity", "output")
+_STARTS = ("lag", "subspace", "auto")
 _SCALES = ("driver", "range")
 
 

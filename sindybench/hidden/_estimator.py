@@ -2,6 +2,7 @@
 
 import logging
 import numbers
+import warnings
 
 import numpy as np
 from sklearn.base import clone
@@ -477,7 +478,15 @@ class HiddenStateSINDy(DynamicsEstimator):
                                      build=lambda s, coef: structure_dynamics(s, cand.library, coef, simulation))
         if cand.designs is not None:  # several records: one initial state each
             problem["x0"] = np.array([np.asarray(d.states[0], dtype=float) for d in cand.designs])
-        result, record = self._run_refinement(cand.dynamics, X, y, **problem)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result, record = self._run_refinement(cand.dynamics, X, y, **problem)
+        fallback = getattr(hidden, "diverging_refinement", lambda refine: None)(self.refine)
+        if result is None and fallback is not None and cand.dynamics.compiled:  # the start diverges: prediction error
+            result, record = self._run_refinement(cand.dynamics, X, y, refine=fallback, **problem)
+            caught = [w for w in caught if "refinement skipped" not in str(w.message)]
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         if result is None:
             return cand, None, record
         params, coef, x0 = refined_values(cand, result)

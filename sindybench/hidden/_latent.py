@@ -40,6 +40,7 @@ from sklearn.base import clone
 from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
+from ..refine import OutputErrorRefinement, PredictionErrorRefinement
 from ..simulate import TermsRHS, simulate
 from ._latent_starts import subspace_start, support_warnings
 from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term, with_defaults
@@ -203,6 +204,20 @@ class LatentHiddenState(HiddenStrategy):
             out.append(("output lag", clone(own).set_params(driver="output")))
         out.append(("subspace", clone(own).set_params(start="subspace")))
         return out
+
+    def diverging_refinement(self, refine):
+        """The refinement used when ``refine`` cannot start because the start's simulation diverges.
+
+        An :class:`~sindybench.refine.OutputErrorRefinement` becomes a
+        :class:`~sindybench.refine.PredictionErrorRefinement` (one-step
+        predictions through the state estimator, which start from a
+        diverging model) with the same budget, pruning level and freedoms;
+        anything else: None (the start is kept, as for other strategies).
+        """
+        if not isinstance(refine, OutputErrorRefinement):
+            return None
+        return PredictionErrorRefinement(max_nfev=refine.max_nfev, prune=refine.prune, physical=refine.physical,
+                                         initial_state=refine.initial_state, max_samples=refine.max_samples)
 
     def check_fit(self, model, u, y, dt):
         """Warn when ``n_latent`` looks larger than the data support (see :func:`support_warnings`)."""

@@ -1,0 +1,121 @@
+"""LatentHiddenState's starts (lag, subspace, auto), its support warnings and its prediction-error fallback."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from sindybench import STLS, HiddenStateSINDy
+from sindybench.differentiation import SavitzkyGolay
+from sindybench.hidden import LatentHiddenState
+from sindybench.hidden._subspace import moesp, singular_values
+from sindybench.libraries import PolynomialLibrary
+from sindybench.refine import OutputErrorRefinement, PredictionErrorRefinement
+from sindybench.simulate import SimulationError, simulate
+
+
+def _motor(rng, n=600, noise=0.005):
+    """A DC motor whose current is hidden: speed ``w' = -0.5 w + 2 i``, current ``i' = -3 i - 2 w + 3 u``."""
+
+    def truth(x, u):
+        return np.array([-0.5 * x[0] + 2.0 * x[1], -3.0 * x[1] - 2.0 * x[0] + 3.0 * u[0]])
+
+    dt = 0.05
+    u = np.repeat(rng.uniform(-1, 1, n // 30 + 1), 30)[:n, None]
+    x = simulate(truth, [0.0, 0.0], u, dt, n_substeps=2)
+    return u, x[:, :1] + noise * rng.standard_normal((n, 1)), dt, truth
+
+
+def _model(dt, n, start, n_latent=1, refine=None, n_trials=6):
+    return HiddenStateSINDy(
+        hidden=LatentHiddenState(n_latent=n_latent, bounds={"tau": (0.05, 20.0, True)}, start=start),
+        library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=1e-4),
+        differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4, validation_size=n // 4,
+        validation="full", n_trials=n_trials, random_state=0,
+        refine=refine or OutputErrorRefinement(prune=0.05, max_nfev=100), initial_state="fit")
+
+
+def _rmse(model, u, y):
+    return float(np.sqrt(np.mean((model.predict(u, y_init=y[:5]) - y) ** 2)))
+
+
+def test_moesp_recovers_a_second_order_system(rng):
+    """The poles and the Markov parameters of a known discrete system, from noise-free data."""
+    A = np.array([[0.9, 0.2], [-0.2, 0.8]])
+    B, C = np.array([[0.0], [1.0]]), np.array([[1.0, 0.0]])
+    u = rng.standard_normal((500, 1))
+    x, y = np.zeros(2), np.zeros((500, 1))
+    for k in range(500):
+        y[k] = C @ x
+        x = A @ x + B @ u[k]
+    A_, B_, C_, _, sv = moesp(u, y, 2)
+    np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(A_)), np.sort_complex(np.linalg.eigvals(A)),
+                               atol=1e-8)
+    for k in range(4):
+        np.testing.assert_allclose(C_ @ np.linalg.matrix_power(A_, k) @ B_, C @ np.linalg.matrix_power(A, k) @ B,
+                                   atol=1e-8)
+    assert sv[2] < 1e-8 * sv[0] < sv[1]  # two states: the third singular value is zero
+    with pytest.raises(ValueError, match="needs more samples"):
+        moesp(u[:30], y[:30], 2)
+
+
+def test_subspace_start_fits_the_hidden_current_motor(rng):
+    """No search: the subspace start alone gives a model that simulates the record to the noise level."""
+    u, y, dt, _ = _motor(rng)
+    model = _model(dt, len(u), "subspace").fit(u, y)
+    assert model.search_results_ == []  # nothing searched
+    assert _rmse(model, u, y) < 0.01  # noise 0.005, output std ~ 0.5
+    assert model.equations()[2].startswith("gauge: z0: the coefficient of u0 in z0' is")
+    with pytest.raises(ValueError, match="start must be one of"):
+        _model(dt, len(u), "best").fit(u, y)
+
+
+def test_auto_keeps_the_best_start_by_validation(rng):
+    """``start="auto"``: every start recorded; the kept one has the smallest validation score, never above the lag's."""
+    u, y, dt, _ = _motor(rng)
+    model = _model(dt, len(u), "auto").fit(u, y)
+    names = [s["start"] for s in model.starts_]
+    assert names == ["input lag", "output lag", "subspace"]
+    scores = [s["score"] for s in model.starts_]
+    n_val = len(u) // 4
+    kept = float(np.sqrt(np.mean((model.predict(u, y_init=y[:5])[-n_val:] - y[-n_val:]) ** 2)))
+    assert kept == pytest.approx(min(scores), rel=1e-9)
+    assert kept <= scores[0]  # never worse than today's single start (the input lag) on validation
+    assert model.get_params()["hidden__start"] == "auto"  # the parameter stays; the fitted strategy is the start's
+    assert model.hidden_.start in ("lag", "subspace")
+
+
+def test_more_latent_states_than_the_data_support_warn(rng):
+    """A noise-free first-order plant given two latent states: the subspace singular values say so."""
+
+    def truth(x, u):
+        return np.array([-x[0] + u[0]])
+
+    dt, n = 0.05, 600
+    u = np.repeat(rng.uniform(-1, 1, n // 30 + 1), 30)[:n, None]
+    y = simulate(truth, [0.0], u, dt, n_substeps=2)
+    assert singular_values(u, y)[1] < 1e-3 * singular_values(u, y)[0]
+    with pytest.warns(UserWarning, match="n_latent=2 may be more than the data support"):
+        _model(dt, n, "lag", n_latent=2, n_trials=3, refine=OutputErrorRefinement(max_nfev=5)).fit(u, y)
+    u2, y2, dt2, _ = _motor(rng)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)  # one latent state for a second-order plant: no warning
+        LatentHiddenState().check_fit(_model(dt2, len(u2), "subspace").fit(u2, y2), u2, y2, dt2)
+
+
+def test_a_diverging_start_is_refined_by_prediction_error(rng, monkeypatch):
+    """When the output-error refinement cannot start (the start diverges), prediction error refines it."""
+    assert isinstance(LatentHiddenState().diverging_refinement(OutputErrorRefinement(prune=0.02)),
+                      PredictionErrorRefinement)
+    assert LatentHiddenState().diverging_refinement(PredictionErrorRefinement()) is None
+    u, y, dt, _ = _motor(rng)
+
+    def diverges(self, *args, **kwargs):
+        raise SimulationError("the starting model diverges", step=10)
+
+    monkeypatch.setattr(OutputErrorRefinement, "run", diverges)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message="refinement skipped")
+        model = _model(dt, len(u), "subspace", refine=OutputErrorRefinement(prune=0.05, max_nfev=30)).fit(u, y)
+    assert model.refinement_["status"] >= 0
+    assert _rmse(model, u, y) < 0.02

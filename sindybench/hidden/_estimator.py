@@ -463,7 +463,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         return fit(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
                    self._simulation(dt), normalize=self.normalize)
 
-    def _refine(self, hidden, cand, X, y):
+    def _refine(self, hidden, cand, X, y, held=()):
         """The candidate refined by simulation error, its refined first state and the refinement record.
 
         A model whose simulation of the training record diverges cannot be
@@ -497,7 +497,20 @@ class HiddenStateSINDy(DynamicsEstimator):
                              dynamics=structure_dynamics(structure, cand.library, coef, simulation))
         logger.info("refinement: cost %.3g -> %.3g in %d simulations (%s)", result.initial_cost, result.cost,
                     result.nfev, result.message)
-        return cand, x0, result.summary()
+        summary = result.summary()
+        mixing = getattr(hidden, "canonical_mixing", None)
+        gauged = None if mixing is None or cand.designs is not None else mixing(cand, x0, n_inputs)
+        if gauged is not None and not held:  # a free mixing z -> z + k y: refined again in its canonical gauge
+            coef, states, x0_new, mixing_held = gauged
+            states[0] = x0_new
+            moved = cand._replace(coef=coef, design=cand.design._replace(states=states),
+                                  dynamics=structure_dynamics(cand.structure, cand.library, coef, simulation))
+            moved, x0_again, again = self._refine(hidden, moved, X, y, held=mixing_held)
+            if again.get("status", -1) >= 0 and again["cost"] <= summary["cost"] * (1 + 1e-3) + 1e-15:
+                return moved, x0_again, again
+        if held:
+            summary["mixing_held"] = [list(map(int, h)) for h in held]
+        return cand, x0, summary
 
     def _rebuild_model(self):
         """Assemble ``dynamics_``, ``_candidate_`` and the derived attributes from the plain fitted attributes.

@@ -219,6 +219,10 @@ class LatentHiddenState(HiddenStrategy):
         return PredictionErrorRefinement(max_nfev=refine.max_nfev, prune=refine.prune, physical=refine.physical,
                                          initial_state=refine.initial_state, max_samples=refine.max_samples)
 
+    def canonical_mixing(self, cand, x0, n_inputs):
+        """A refined candidate in the mixing gauge (see :func:`canonical_mixing`), or None."""
+        return canonical_mixing(self, cand, x0, n_inputs)
+
     def check_fit(self, model, u, y, dt):
         """Warn when ``n_latent`` looks larger than the data support (see :func:`support_warnings`)."""
         for message in support_warnings(self, model, u, y, dt):
@@ -382,56 +386,127 @@ def _fitted_gauge(strategy, model, drivers):
             continue
         held = "held in the refinement" if refined else "from the starting lag, not held: no refinement ran"
         lines.append(f"z{j}: the coefficient of {name} in z{j}' is {c:.4g} (scale gauge, {held})")
+    held = {tuple(h[:2]): h for h in ((model.refinement_ or {}).get("mixing_held") or [])} if refined else {}
+    names = model.structure_.state_names
     for j in range(len(drivers)):
         for i in range(p):
-            if _mixing_is_free(strategy, model, j, i):
+            if (j, i) in held:
+                _, _, t, r = held[(j, i)]
+                c = float(model.coef_[r, t])
+                lines.append(f"z{j}: the mixing z{j} -> z{j} + k y{i} (same outputs within this library) is fixed by "
+                             f"holding the coefficient of y{i} in {names[model.structure_.learned[r]]}' at {c:.4g} "
+                             "(mixing gauge, held in the refinement)")
+            elif _mixing_is_free(strategy, model, j, i):
                 lines.append(f"z{j}: z{j} -> z{j} + k y{i} gives the same outputs for any k within this library; "
                              "the gauge leaves this mixing free")
     return lines
 
 
-def _mixing_is_free(strategy, model, j, i, n_points=None, rtol=1e-8):
-    """Whether ``z_j -> z_j + k y_i`` maps the fitted model onto another of its library, gauge terms unchanged.
+def _mixing_coef(strategy, rhs, lib, s, states, n_inputs, j, i, rtol=1e-8, k=None):
+    """``(k, coef, new)``: the learned block ``coef`` (n_terms, n_learned) of ``rhs`` and of its image under ``z_j -> z_j + k y_i``.
 
-    Checked numerically: the transformed right-hand side ``T f(T^-1 x, u)`` at
-    random points is regressed on the library's features there; the mixing is
-    free when it is reproduced exactly (relative residual ``rtol``) with every
-    latent row's driver coefficient unchanged.
+    The image ``T f(T^-1 x, u)`` at random points near ``states`` is regressed
+    on the library's features there; ``new`` is None when the library does
+    not reproduce it exactly (relative residual ``rtol``).
     """
-    s, lib = model.structure_, model.library_
     terms = getattr(lib, "terms_", None)
     if terms is None:
-        return False
-    n, m = s.n_states, int(model.n_features_in_)
+        return None
+    n = s.n_states
     p = len(s.output_index)
     cz = p * int(strategy.order) + j
     rng = np.random.default_rng(0)
-    states = np.asarray(model.states_ if not isinstance(model.states_, list) else model.states_[0], dtype=float)
+    states = np.asarray(states, dtype=float)
     states = states[np.all(np.isfinite(states), axis=1)]
-    n_points = n_points or 4 * len(terms) + 10
+    n_points = 4 * len(terms) + 10
     x = states[rng.integers(0, len(states), n_points)] if len(states) else np.zeros((n_points, n))
     x = x + rng.standard_normal(x.shape) * (np.std(states, axis=0) + 1.0) * 0.1 if len(states) else x
-    u = rng.standard_normal((n_points, m))
-    k = 0.1 * (np.std(x[:, cz]) + 1.0) / (np.std(x[:, i]) + 1.0)
+    u = rng.standard_normal((n_points, n_inputs))
+    if k is None:
+        k = 0.1 * (np.std(x[:, cz]) + 1.0) / (np.std(x[:, i]) + 1.0)
     back = x.copy()
     back[:, cz] -= k * x[:, i]  # T^-1 x: the original coordinates
     with np.errstate(all="ignore"):
-        f = np.array([np.asarray(model.rhs_(xb, ub), dtype=float) for xb, ub in zip(back, u)])
+        f0 = np.array([np.asarray(rhs(xb, ub), dtype=float) for xb, ub in zip(x, u)])
+        f = np.array([np.asarray(rhs(xb, ub), dtype=float) for xb, ub in zip(back, u)])
         f[:, cz] += k * f[:, i]  # T f
         theta = lib.transform(np.c_[x, u])
-    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(theta))):
-        return False
-    target = f[:, list(s.learned)]
-    coef, *_ = np.linalg.lstsq(theta, target, rcond=None)
-    if np.max(np.abs(theta @ coef - target)) > rtol * max(np.max(np.abs(target)), 1.0):
-        return False
+    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(f0)) and np.all(np.isfinite(theta))):
+        return None
+    learned = list(s.learned)
+    coef = np.linalg.lstsq(theta, f0[:, learned], rcond=None)[0]
+    target = f[:, learned]
+    new = np.linalg.lstsq(theta, target, rcond=None)[0]
+    if np.max(np.abs(theta @ new - target)) > rtol * max(np.max(np.abs(target)), 1.0):
+        new = None
+    return k, coef, new
+
+
+def _drivers_unchanged(strategy, terms, s, coef, new):
+    p = len(s.output_index)
+    terms = [tuple(t) for t in terms]
     for jj, col in enumerate(strategy._drivers(p)):
         term = ((col, POW, 1.0, 0.0),)
-        if term in [tuple(t) for t in terms]:
-            t, row = [tuple(t) for t in terms].index(term), s.learned.index(p * int(strategy.order) + jj)
-            if abs(coef[t, row] - model.coef_[row, t]) > 1e-6 * (1.0 + abs(model.coef_[row, t])):
+        if term in terms:
+            t, row = terms.index(term), s.learned.index(p * int(strategy.order) + jj)
+            if abs(new[t, row] - coef[t, row]) > 1e-6 * (1.0 + abs(coef[t, row])):
                 return False
     return True
+
+
+def _mixing_is_free(strategy, model, j, i):
+    """Whether ``z_j -> z_j + k y_i`` maps the fitted model onto another of its library, gauge terms unchanged."""
+    states = model.states_ if not isinstance(model.states_, list) else model.states_[0]
+    out = _mixing_coef(strategy, model.rhs_, model.library_, model.structure_, states, int(model.n_features_in_), j, i)
+    if out is None or out[2] is None:
+        return False
+    return _drivers_unchanged(strategy, model.library_.terms_, model.structure_, out[1], out[2])
+
+
+def canonical_mixing(strategy, cand, x0, n_inputs):
+    """The refined candidate's image under the mixing that removes ``y_i`` from ``y_i'``, or None.
+
+    When ``z_j -> z_j + k y_i`` maps the model onto another of its library
+    (the scale gauge unchanged), the outputs do not fix ``k``. The canonical
+    choice is the ``k`` that makes the coefficient of the linear term ``y_i``
+    in ``y_i'`` zero (``a - b k = 0``, with ``b`` the coefficient of ``z_j``
+    there). Returns ``(coef, states, x0, held)`` in the new coordinates
+    (coefficients below 1e-9 of their row's largest set to 0), with
+    ``held = [(j, i, term, row)]``; None when no mixing is free or it cannot
+    be fixed this way. ``order=1`` and the scale gauge only; one mixing per
+    call.
+    """
+    if strategy.scale != "driver" or int(strategy.order) != 1:
+        return None
+    s, lib = cand.structure, cand.library
+    terms = [tuple(t) for t in (getattr(lib, "terms_", None) or ())]
+    p = len(s.output_index)
+    states, x0 = np.array(cand.design.states, dtype=float), np.array(x0, dtype=float)
+    for i in range(p):
+        term = ((i, POW, 1.0, 0.0),)
+        if term not in terms:
+            continue
+        t, r = terms.index(term), list(s.learned).index(i)
+        for j in range(int(strategy.n_latent)):
+            out = _mixing_coef(strategy, cand.dynamics.rhs, lib, s, states, n_inputs, j, i)
+            if out is None or out[2] is None or not _drivers_unchanged(strategy, terms, s, out[1], out[2]):
+                continue
+            k1, base, image = out
+            slope = (base[t, r] - image[t, r]) / k1  # a(k) = a - b k
+            if abs(slope) <= 1e-9 * (1.0 + abs(base[t, r])) or base[t, r] == 0.0:
+                continue
+            k = base[t, r] / slope
+            out = _mixing_coef(strategy, cand.dynamics.rhs, lib, s, states, n_inputs, j, i, k=k)
+            if out is None or out[2] is None or abs(out[2][t, r]) > 1e-6 * (1.0 + abs(base[t, r])):
+                continue
+            image = out[2]
+            image[np.abs(image) < 1e-9 * np.max(np.abs(image), axis=0, keepdims=True)] = 0.0
+            image[t, r] = 0.0
+            cz = p + j
+            states[:, cz] += k * states[:, i]
+            x0[cz] += k * x0[i]
+            return image, states, x0, [(j, i, t, r)]  # one mixing at a time: the caller refines, then asks again
+    return None
 
 
 _DRIVERS = ("input", "velocity", "output")

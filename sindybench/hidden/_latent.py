@@ -396,7 +396,12 @@ def _fitted_gauge(strategy, model, drivers):
                 lines.append(f"z{j}: the mixing z{j} -> z{j} + k y{i} (same outputs within this library) is fixed by "
                              f"holding the coefficient of y{i} in {names[model.structure_.learned[r]]}' at {c:.4g} "
                              "(mixing gauge, held in the refinement)")
-            elif _mixing_is_free(strategy, model, j, i):
+                continue
+            free = _mixing_is_free(strategy, model, j, i)
+            if free == "support":
+                lines.append(f"z{j}: z{j} -> z{j} + k y{i} gives the same outputs within this library but adds "
+                             "terms for any k != 0: the model's support fixes this mixing (sparsity gauge)")
+            elif free:
                 lines.append(f"z{j}: z{j} -> z{j} + k y{i} gives the same outputs for any k within this library; "
                              "the gauge leaves this mixing free")
     return lines
@@ -455,12 +460,23 @@ def _drivers_unchanged(strategy, terms, s, coef, new):
 
 
 def _mixing_is_free(strategy, model, j, i):
-    """Whether ``z_j -> z_j + k y_i`` maps the fitted model onto another of its library, gauge terms unchanged."""
+    """Whether ``z_j -> z_j + k y_i`` maps the fitted model onto another of its library, gauge terms unchanged.
+
+    True: yes, within the model's support too (the mixing is free);
+    ``"support"``: only by adding terms (the support fixes it); False: no.
+    """
     states = model.states_ if not isinstance(model.states_, list) else model.states_[0]
     out = _mixing_coef(strategy, model.rhs_, model.library_, model.structure_, states, int(model.n_features_in_), j, i)
-    if out is None or out[2] is None:
+    if out is None or out[2] is None or not _drivers_unchanged(strategy, model.library_.terms_, model.structure_,
+                                                               out[1], out[2]):
         return False
-    return _drivers_unchanged(strategy, model.library_.terms_, model.structure_, out[1], out[2])
+    support = model.coef_.T != 0
+    return "support" if _adds_terms(out[2], support) else True
+
+
+def _adds_terms(image, support):
+    """Whether the learned block ``image`` has nonzero entries outside ``support``."""
+    return bool(np.any(np.abs(image[~support]) > 1e-6 * max(np.max(np.abs(image)), 1.0)))
 
 
 def canonical_mixing(strategy, cand, x0, n_inputs):
@@ -470,7 +486,9 @@ def canonical_mixing(strategy, cand, x0, n_inputs):
     (the scale gauge unchanged), the outputs do not fix ``k``. The canonical
     choice is the ``k`` that makes the coefficient of the linear term ``y_i``
     in ``y_i'`` zero (``a - b k = 0``, with ``b`` the coefficient of ``z_j``
-    there). Returns ``(coef, states, x0, held)`` in the new coordinates
+    there), kept only when it has no more terms than the refined model
+    (else the sparse support fixes ``k``, and :meth:`LatentHiddenState.gauge`
+    says so). Returns ``(coef, states, x0, held)`` in the new coordinates
     (coefficients below 1e-9 of their row's largest set to 0), with
     ``held = [(j, i, term, row)]``; None when no mixing is free or it cannot
     be fixed this way. ``order=1`` and the scale gauge only; one mixing per
@@ -502,6 +520,8 @@ def canonical_mixing(strategy, cand, x0, n_inputs):
             image = out[2]
             image[np.abs(image) < 1e-9 * np.max(np.abs(image), axis=0, keepdims=True)] = 0.0
             image[t, r] = 0.0
+            if np.count_nonzero(image) > np.count_nonzero(cand.coef):
+                continue  # the canonical point has more terms: the sparse support fixes k (gauge() says so)
             cz = p + j
             states[:, cz] += k * states[:, i]
             x0[cz] += k * x0[i]

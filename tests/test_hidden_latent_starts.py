@@ -119,3 +119,48 @@ def test_a_diverging_start_is_refined_by_prediction_error(rng, monkeypatch):
         model = _model(dt, len(u), "subspace", refine=OutputErrorRefinement(prune=0.05, max_nfev=30)).fit(u, y)
     assert model.refinement_["status"] >= 0
     assert _rmse(model, u, y) < 0.02
+
+
+def test_the_mixing_is_fixed_in_its_canonical_gauge(rng):
+    """Hidden-current motor: ``z -> z + k w`` is free; the fit removes ``w`` from ``w'`` and says so.
+
+    With ``z = i / 3`` (scale gauge) and ``z -> z - w / 12`` (mixing gauge) the truth reads
+    ``w' = 6 z``, ``z' = -11/12 w - 3.5 z + u``.
+    """
+    u, y, dt, _ = _motor(rng, n=1200)
+    model = _model(dt, len(u), "lag", n_trials=12, refine=OutputErrorRefinement(prune=0.05, max_nfev=200)).fit(u, y)
+    lib = model.library_.terms_
+    coef = dict(zip(["y0", "z0", "u0"], model.coef_[:, [lib.index(((c, 0, 1.0, 0.0),)) for c in range(3)]].T))
+    np.testing.assert_allclose(coef["y0"], [0.0, -11 / 12], atol=0.02)
+    np.testing.assert_allclose(coef["z0"], [6.0, -3.5], rtol=0.02)
+    assert np.count_nonzero(model.coef_) == 4  # the true support in this gauge
+    assert model.refinement_["mixing_held"] == [[0, 0, lib.index(((0, 0, 1.0, 0.0),)), 0]]
+    assert model.equations()[-1] == ("gauge: z0: the mixing z0 -> z0 + k y0 (same outputs within this library) is "
+                                     "fixed by holding the coefficient of y0 in y0' at 0 (mixing gauge, held in the "
+                                     "refinement)")
+
+
+def _van_der_pol(rng, n):
+    """A forced Van der Pol oscillator, ``y'' = (1 - y^2) y' - y + u``; the position is measured with 2 % noise."""
+
+    def truth(x, u):
+        return np.array([x[1], (1 - x[0] ** 2) * x[1] - x[0] + u[0]])
+
+    dt = 0.05
+    u = 0.5 * np.sin(0.7 * dt * np.arange(n))[:, None] + np.repeat(rng.uniform(-0.5, 0.5, n // 50 + 1), 50)[:n, None]
+    x = simulate(truth, [1.0, 0.0], u, dt, n_substeps=4)
+    return u, x[:, :1] + 0.02 * np.std(x[:, 0]) * rng.standard_normal((n, 1)), dt
+
+
+@pytest.mark.slow
+def test_van_der_pol_with_a_hidden_velocity_reaches_a_model_that_simulates(rng):
+    """The input lag alone does not simulate the oscillator well; ``start="auto"`` keeps a start that does."""
+    u, y, dt = _van_der_pol(rng, 1000)
+    model = HiddenStateSINDy(
+        hidden=LatentHiddenState(bounds={"tau": (0.05, 20.0, True)}, start="auto"), library=PolynomialLibrary(degree=3),
+        optimizer=STLS(threshold=1e-4), differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4,
+        validation_size=250, validation="full", n_trials=12, random_state=0,
+        refine=OutputErrorRefinement(prune=0.05, max_nfev=200), initial_state="fit").fit(u, y)
+    scores = {s["start"]: s["score"] for s in model.starts_}
+    assert min(scores.values()) < 0.1 * np.std(y) < scores["input lag"]
+    assert _rmse(model, u, y) < 0.1 * np.std(y)

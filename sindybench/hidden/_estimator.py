@@ -349,7 +349,10 @@ class HiddenStateSINDy(DynamicsEstimator):
         self
         """
         records = self._fit_is_records(X, y)
-        if getattr(self.hidden, "start", None) == "auto" and not records:  # several starts, the best kept
+        if getattr(self.hidden, "start", None) == "auto":  # several starts, the best kept
+            if records:
+                raise ValueError("start='auto' fits one record; got several. Fit each start (start='lag', "
+                                 "'subspace') and compare them, or pass one record.")
             return self._fit_starts(X, y, dt)
         X, y1 = check_records(X, y, y_kind="outputs") if records else _check_fit_data(X, y)
         dt, est_space = self._check_params(dt)

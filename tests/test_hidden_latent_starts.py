@@ -9,7 +9,7 @@ from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import LatentHiddenState
 from sindybench.hidden._subspace import moesp, singular_values
-from sindybench.libraries import PolynomialLibrary
+from sindybench.libraries import ConcatLibrary, IndicatorLibrary, PolynomialLibrary
 from sindybench.refine import OutputErrorRefinement, PredictionErrorRefinement
 from sindybench.simulate import SimulationError, simulate
 
@@ -140,14 +140,16 @@ def test_the_mixing_is_fixed_in_its_canonical_gauge(rng):
                                      "refinement)")
 
 
-def _van_der_pol(rng, n):
+def _van_der_pol(rng, n, steps=True):
     """A forced Van der Pol oscillator, ``y'' = (1 - y^2) y' - y + u``; the position is measured with 2 % noise."""
 
     def truth(x, u):
         return np.array([x[1], (1 - x[0] ** 2) * x[1] - x[0] + u[0]])
 
     dt = 0.05
-    u = 0.5 * np.sin(0.7 * dt * np.arange(n))[:, None] + np.repeat(rng.uniform(-0.5, 0.5, n // 50 + 1), 50)[:n, None]
+    u = 0.5 * np.sin(0.7 * dt * np.arange(n))[:, None]
+    if steps:
+        u = u + np.repeat(rng.uniform(-0.5, 0.5, n // 50 + 1), 50)[:n, None]
     x = simulate(truth, [1.0, 0.0], u, dt, n_substeps=4)
     return u, x[:, :1] + 0.02 * np.std(x[:, 0]) * rng.standard_normal((n, 1)), dt
 
@@ -164,3 +166,42 @@ def test_van_der_pol_with_a_hidden_velocity_reaches_a_model_that_simulates(rng):
     scores = {s["start"]: s["score"] for s in model.starts_}
     assert min(scores.values()) < 0.1 * np.std(y) < scores["input lag"]
     assert _rmse(model, u, y) < 0.1 * np.std(y)
+
+
+def test_thermal_lag_feeding_a_saturation(rng):
+    """``z' = u - 0.5 z`` (hidden), ``y' = 2 (min(z, 1) - y)``: every start scored; the kept one simulates.
+
+    The refinement does not reach the true indicator coefficients (``+2 [z0>=1] - 2 z0 [z0>=1]``):
+    a term switched by the latent state has no gradient across its switch. What holds: the kept
+    start is the best by validation, and its free run stays within a quarter of the output's spread.
+    """
+
+    def truth(x, u):
+        return np.array([2.0 * (min(x[1], 1.0) - x[0]), u[0] - 0.5 * x[1]])
+
+    dt, n = 0.1, 800
+    u = np.repeat(rng.uniform(0, 1, n // 40 + 1), 40)[:n, None]
+    y = simulate(truth, [0.0, 0.0], u, dt, n_substeps=4)[:, :1] + 0.005 * rng.standard_normal((n, 1))
+    library = ConcatLibrary([PolynomialLibrary(degree=1), IndicatorLibrary(variables=[1], lower=1.0, times=[1])])
+    model = HiddenStateSINDy(
+        hidden=LatentHiddenState(bounds={"tau": (0.1, 20.0, True)}, start="auto"), library=library,
+        optimizer=STLS(threshold=1e-3), differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4,
+        validation_size=n // 4, validation="full", n_trials=8, random_state=0,
+        refine=OutputErrorRefinement(prune=0.05, max_nfev=200), initial_state="fit").fit(u, y)
+    scores = [s["score"] for s in model.starts_]
+    assert all(np.isfinite(scores)) and scores[0] == min(scores)  # the input lag wins here
+    assert model.hidden_.driver == "input" and model.hidden_.start == "lag"
+    assert _rmse(model, u, y) < 0.25 * np.std(y)
+
+
+def test_van_der_pol_start_that_diverges_is_refined_by_prediction_error(rng):
+    """Quick version: the input lag (``tau=1``) of the oscillator diverges; prediction error refines it (no skip)."""
+    u, y, dt = _van_der_pol(rng, 800, steps=False)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message="refinement skipped")
+        model = HiddenStateSINDy(
+            hidden=LatentHiddenState(tau=1.0), library=PolynomialLibrary(degree=3), optimizer=STLS(threshold=0.05),
+            differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4, validation_size=200,
+            refine=OutputErrorRefinement(prune=0.05, max_nfev=30), initial_state="fit").fit(u, y)
+    assert model.refinement_["criterion"]["name"] == "prediction error"
+    assert model.refinement_["cost"] < model.refinement_["initial_cost"]

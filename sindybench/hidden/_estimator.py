@@ -196,6 +196,9 @@ class HiddenStateSINDy(DynamicsEstimator):
         Record of the refinement (costs before and after, simulations,
         status, refined physical parameters, pruned terms); None without
         ``refine``.
+    starts_ : list of dict
+        With ``LatentHiddenState(start="auto")`` only: each start's name,
+        validation score, CPU seconds and error (the best one is kept).
     scaling_ : dict or None
         With ``normalize``: ``{"mean": ..., "scale": ...}`` of the training
         states and inputs ``[x, u]``; None without.
@@ -353,7 +356,7 @@ class HiddenStateSINDy(DynamicsEstimator):
             if records:
                 raise ValueError("start='auto' fits one record; got several. Fit each start (start='lag', "
                                  "'subspace') and compare them, or pass one record.")
-            return self._fit_starts(X, y, dt)
+            return fit_starts(self, *_check_fit_data(X, y), dt)
         X, y1 = check_records(X, y, y_kind="outputs") if records else _check_fit_data(X, y)
         dt, est_space = self._check_params(dt)
         X = [self.delayed_inputs(X_r) for X_r in X] if records else self.delayed_inputs(X)
@@ -432,14 +435,6 @@ class HiddenStateSINDy(DynamicsEstimator):
         self._rebuild_model()
         if hasattr(hidden, "check_fit") and not records:
             hidden.check_fit(self, X, y1, dt)
-        return self
-
-    def _fit_starts(self, X, y, dt):
-        X, y = _check_fit_data(X, y)
-        best, record = fit_starts(self, X, y, dt)
-        best.hidden_.check_fit(best, best.delayed_inputs(X), y if y.ndim == 2 else y[:, None], best.dt_)
-        self.__dict__.update({k: v for k, v in vars(best).items() if k.endswith("_") or k.startswith("_")})
-        self.starts_ = record
         return self
 
     def _components(self, est_values):

@@ -24,7 +24,10 @@ cannot be regressed on, so its equation is found by simulation error:
 another model with the same outputs. ``scale="driver"`` fixes it by holding the
 coefficient of each latent row's driver (``u0`` or ``v0`` for ``z0``, ``z(j-1)``
 for ``zj``) at 1 during the refinement; ``scale="range"`` by the latent
-state's finite bounds. :meth:`LatentHiddenState.gauge` says which in words,
+state's finite bounds. A mixing ``z -> z + k y`` that leaves the outputs
+unchanged is moved, after the refinement, to the point where ``y_i'`` has no
+linear ``y_i`` term, and refined there (the mixing gauge).
+:meth:`LatentHiddenState.gauge` says which in words,
 and gauge-free quantities (the poles and the static gain of the linearized
 model at an operating point) come from
 :func:`sindybench.estimation.latent_invariants`.
@@ -241,9 +244,12 @@ class LatentHiddenState(HiddenStrategy):
             A model fitted with this strategy (``equations()`` passes it). Its
             coefficients are read: the driver's coefficient as fitted (or that
             the row has none, and the scale is then free), whether a refinement
-            held it, and whether a mixing ``z -> z + k y`` of a latent state
-            with an output leaves the outputs unchanged within the model's
-            library (a freedom the scale gauge does not fix).
+            held it, and how a mixing ``z -> z + k y`` of a latent state with
+            an output that leaves the outputs unchanged within the model's
+            library (a freedom the scale gauge does not fix) is fixed: by the
+            mixing gauge (the linear ``y_i`` term of ``y_i'`` held at 0, see
+            :func:`canonical_mixing`), by the sparse support (every ``k != 0``
+            adds terms), or not at all.
 
         Returns
         -------

@@ -57,9 +57,19 @@ def fit_starts(estimator, X, y, dt):
     a clone of ``estimator``; its score is the RMS error of the fitted
     model's free run over the validation block (the last
     ``validation_size`` samples of the record, simulated from the record's
-    start). Returns the best fitted clone and the record of every start
-    (name, score, seconds, error).
+    start). ``estimator`` takes the best clone's fitted state, with
+    ``starts_``: the record of every start (name, score, seconds, error).
+    Returns ``estimator``.
     """
+    best, record = _best_start(estimator, X, y, dt)
+    best.hidden_.check_fit(best, best.delayed_inputs(X), y if y.ndim == 2 else y[:, None], best.dt_)
+    estimator.__dict__.update({k: v for k, v in vars(best).items() if k.endswith("_") or k.startswith("_")})
+    estimator.starts_ = record
+    return estimator
+
+
+def _best_start(estimator, X, y, dt):
+    """``(best fitted clone, record)`` of :func:`fit_starts`."""
     hidden = estimator.hidden
     best, record = None, []
     n = len(y)

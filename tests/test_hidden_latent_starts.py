@@ -83,6 +83,8 @@ def test_auto_keeps_the_best_start_by_validation(rng):
     assert kept <= scores[0]  # never worse than today's single start (the input lag) on validation
     assert model.get_params()["hidden__start"] == "auto"  # the parameter stays; the fitted strategy is the start's
     assert model.hidden_.start in ("lag", "subspace")
+    with pytest.raises(ValueError, match="start='auto' fits one record"):
+        _model(dt, len(u), "auto").fit([u, u], [y, y])
 
 
 def test_more_latent_states_than_the_data_support_warn(rng):

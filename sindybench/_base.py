@@ -401,7 +401,7 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
             raise ValueError(f"refine has n_segments={n_segments} (multiple shooting), which takes one record; got "
                              f"{n_records} records. Expected n_segments=1 with several records.")
 
-    def _run_refinement(self, dynamics, u, y, *, x0, coef=None, free=None, physical=None, make_rhs=None):
+    def _run_refinement(self, dynamics, u, y, *, x0, coef=None, free=None, physical=None, make_rhs=None, refine=None):
         """Refine ``dynamics`` on ``(u, y)`` with ``self.refine``; ``(result, None)`` or ``(None, record)``.
 
         ``coef`` defaults to ``dynamics.coef``, ``make_rhs`` to
@@ -414,7 +414,7 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
         if make_rhs is None and not dynamics.compiled:
             make_rhs = dynamics.rhs_for
         try:
-            result = self.refine.run(dynamics.terms, dynamics.coef if coef is None else coef, u, y, dynamics.dt,
+            result = (refine or self.refine).run(dynamics.terms, dynamics.coef if coef is None else coef, u, y, dynamics.dt,
                                      x0=x0, output_index=dynamics.output_index, free=free, physical=physical,
                                      make_rhs=make_rhs, **dynamics.settings)
         except SimulationError as exc:

@@ -79,11 +79,12 @@ def test_hidden_first_order_actuator_feeding_a_nonlinear_plant(rng):
     y = x[:, :1] + 0.002 * rng.standard_normal((n, 1))
     model = _fit(u, y, dt, PolynomialLibrary(degree=3), (0.05, 20.0, True), 0.05)
     assert _support(model) == [{"y0", "y0^3", "z0"}, {"z0", "u0"}]
-    # y0' has no u0: z0 -> z0 + k y0 keeps the gauge coefficient and stays cubic, and gauge() says so
+    # y0' has no u0: z0 -> z0 + k y0 keeps the gauge coefficient and stays cubic, but adds terms to z0' for
+    # any k != 0: the sparse support fixes k, and gauge() says so
     assert model.equations()[-2:] == [
         "gauge: z0: the coefficient of u0 in z0' is 1 (scale gauge, held in the refinement)",
-        "gauge: z0: z0 -> z0 + k y0 gives the same outputs for any k within this library; the gauge leaves this "
-        "mixing free"]
+        "gauge: z0: z0 -> z0 + k y0 gives the same outputs within this library but adds terms for any k != 0: the "
+        "model's support fixes this mixing (sparsity gauge)"]
     inv = latent_invariants(model, [0.5])
     y_eq = np.roots([1.0, 0.0, 1.0, -0.5]).real[np.isclose(np.roots([1.0, 0.0, 1.0, -0.5]).imag, 0)][0]
     np.testing.assert_allclose(np.sort(inv["poles"].real), _poles(truth, np.array([y_eq, 0.5]), [0.5]), rtol=0.05)

@@ -2,6 +2,7 @@
 
 import logging
 import numbers
+import warnings
 
 import numpy as np
 from sklearn.base import clone
@@ -31,6 +32,7 @@ from ._candidate import Candidate, candidate_initial_state, fit_candidate, fit_c
 from ._derivative import Derivative
 from ._objective import SEARCH_PENALTY, VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
+from ._latent_starts import fit_starts
 from ._refinement import refined_values, refinement_problem
 
 __all__ = ["HiddenStateSINDy"]
@@ -194,6 +196,9 @@ class HiddenStateSINDy(DynamicsEstimator):
         Record of the refinement (costs before and after, simulations,
         status, refined physical parameters, pruned terms); None without
         ``refine``.
+    starts_ : list of dict
+        With ``LatentHiddenState(start="auto")`` only: each start's name,
+        validation score, CPU seconds and error (the best one is kept).
     scaling_ : dict or None
         With ``normalize``: ``{"mean": ..., "scale": ...}`` of the training
         states and inputs ``[x, u]``; None without.
@@ -351,6 +356,11 @@ class HiddenStateSINDy(DynamicsEstimator):
         self
         """
         records = self._fit_is_records(X, y)
+        if getattr(self.hidden, "start", None) == "auto":  # several starts, the best kept
+            if records:
+                raise ValueError("start='auto' fits one record; got several. Fit each start (start='lag', "
+                                 "'subspace') and compare them, or pass one record.")
+            return fit_starts(self, *_check_fit_data(X, y), dt)
         X, y1 = check_records(X, y, y_kind="outputs") if records else _check_fit_data(X, y)
         dt, est_space = self._check_params(dt)
         X = [self.delayed_inputs(X_r) for X_r in X] if records else self.delayed_inputs(X)
@@ -427,6 +437,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         self.scaling_ = scaling
         self._y_1d = all(y_r.ndim == 1 for y_r in y) if records else np.asarray(y).ndim == 1
         self._rebuild_model()
+        if hasattr(hidden, "check_fit") and not records:
+            hidden.check_fit(self, X, y1, dt)
         return self
 
     def _components(self, est_values):
@@ -453,7 +465,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         return fit(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
                    self._simulation(dt), normalize=est_values.get("normalize", self.normalize))
 
-    def _refine(self, hidden, cand, X, y):
+    def _refine(self, hidden, cand, X, y, held=()):
         """The candidate refined by simulation error, its refined first state and the refinement record.
 
         A model whose simulation of the training record diverges cannot be
@@ -468,7 +480,15 @@ class HiddenStateSINDy(DynamicsEstimator):
                                      build=lambda s, coef: structure_dynamics(s, cand.library, coef, simulation))
         if cand.designs is not None:  # several records: one initial state each
             problem["x0"] = np.array([np.asarray(d.states[0], dtype=float) for d in cand.designs])
-        result, record = self._run_refinement(cand.dynamics, X, y, **problem)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            result, record = self._run_refinement(cand.dynamics, X, y, **problem)
+        fallback = getattr(hidden, "diverging_refinement", lambda refine: None)(self.refine)
+        if result is None and fallback is not None and cand.dynamics.compiled:  # the start diverges: prediction error
+            result, record = self._run_refinement(cand.dynamics, X, y, refine=fallback, **problem)
+            caught = [w for w in caught if "refinement skipped" not in str(w.message)]
+        for w in caught:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
         if result is None:
             return cand, None, record
         params, coef, x0 = refined_values(cand, result)
@@ -479,7 +499,20 @@ class HiddenStateSINDy(DynamicsEstimator):
                              dynamics=structure_dynamics(structure, cand.library, coef, simulation))
         logger.info("refinement: cost %.3g -> %.3g in %d simulations (%s)", result.initial_cost, result.cost,
                     result.nfev, result.message)
-        return cand, x0, result.summary()
+        summary = result.summary()
+        mixing = getattr(hidden, "canonical_mixing", None)
+        gauged = None if mixing is None or cand.designs is not None else mixing(cand, x0, n_inputs)
+        if gauged is not None and not held:  # a free mixing z -> z + k y: refined again in its canonical gauge
+            coef, states, x0_new, mixing_held = gauged
+            states[0] = x0_new
+            moved = cand._replace(coef=coef, design=cand.design._replace(states=states),
+                                  dynamics=structure_dynamics(cand.structure, cand.library, coef, simulation))
+            moved, x0_again, again = self._refine(hidden, moved, X, y, held=mixing_held)
+            if again.get("status", -1) >= 0 and again["cost"] <= summary["cost"] * (1 + 1e-3) + 1e-15:
+                return moved, x0_again, again
+        if held:
+            summary["mixing_held"] = [list(map(int, h)) for h in held]
+        return cand, x0, summary
 
     def _rebuild_model(self):
         """Assemble ``dynamics_``, ``_candidate_`` and the derived attributes from the plain fitted attributes.

@@ -24,22 +24,29 @@ cannot be regressed on, so its equation is found by simulation error:
 another model with the same outputs. ``scale="driver"`` fixes it by holding the
 coefficient of each latent row's driver (``u0`` or ``v0`` for ``z0``, ``z(j-1)``
 for ``zj``) at 1 during the refinement; ``scale="range"`` by the latent
-state's finite bounds. :meth:`LatentHiddenState.gauge` says which in words,
+state's finite bounds. A mixing ``z -> z + k y`` that leaves the outputs
+unchanged is moved, after the refinement, to the point where ``y_i'`` has no
+linear ``y_i`` term, and refined there (the mixing gauge).
+:meth:`LatentHiddenState.gauge` says which in words,
 and gauge-free quantities (the poles and the static gain of the linearized
 model at an operating point) come from
 :func:`sindybench.estimation.latent_invariants`.
 """
 
 import numbers
+import warnings
 
 import numpy as np
 from scipy.optimize import least_squares
+from sklearn.base import clone
 
 from .._limits import check_memory
 from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, PolynomialLibrary
+from ..refine import OutputErrorRefinement, PredictionErrorRefinement
 from ..simulate import TermsRHS, simulate
+from ._latent_starts import subspace_start, support_warnings
 from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term, with_defaults
 
 __all__ = ["LatentHiddenState"]
@@ -85,6 +92,17 @@ class LatentHiddenState(HiddenStrategy):
         With ``scale="range"``, a finite range is required.
     output_bounds : (float, float), optional
         Simulation bounds of the outputs (e.g. a sensor range).
+    start : {"lag", "subspace", "auto"}, default="lag"
+        The latent states' start. ``"lag"``: the lag chain of the driver
+        (``tau`` searched). ``"subspace"``: the states of a linear
+        state-space model of order ``n_outputs * order + n_latent`` fitted by
+        subspace identification (MOESP, no search), in the coordinates
+        orthogonal to the measured ones, scaled to the gauge. ``"auto"``:
+        :class:`~sindybench.HiddenStateSINDy` fits every start of
+        :meth:`starts` (the input lag, the output lag, the subspace model),
+        each with its own search and refinement, and keeps the one with the
+        smallest simulation error on the validation block
+        (``model.starts_`` records each).
 
     Notes
     -----
@@ -109,7 +127,7 @@ class LatentHiddenState(HiddenStrategy):
     _physical = ("tau", "gain")
 
     def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, bounds=None,
-                 latent_bounds=None, output_bounds=None):
+                 latent_bounds=None, output_bounds=None, start="lag"):
         self.n_latent = n_latent
         self.order = order
         self.driver = driver
@@ -119,6 +137,7 @@ class LatentHiddenState(HiddenStrategy):
         self.bounds = bounds
         self.latent_bounds = latent_bounds
         self.output_bounds = output_bounds
+        self.start = start
 
     def _validate(self):
         if isinstance(self.n_latent, bool) or not isinstance(self.n_latent, numbers.Integral) or self.n_latent < 1:
@@ -143,17 +162,23 @@ class LatentHiddenState(HiddenStrategy):
             raise ValueError(f"scale='range' fixes the latent scale by its bounds; expected finite latent_bounds, "
                              f"got {self.latent_bounds!r}.")
         check_bounds(self.output_bounds, 1, name="output_bounds")
+        if self.start not in _STARTS:
+            raise ValueError(f"start must be one of {_STARTS}; got {self.start!r}.")
         self.search_space()
 
     def search_space(self):
         bounds = with_defaults(self.bounds, {"tau": (1e-3, 1e3), "gain": (1e-3, 1e3)})
         names = ("tau", "gain") if self.scale == "range" else ("tau",)
+        if self.start == "subspace":
+            names = ()  # the subspace model sets the start: nothing to search
         return bounds_space(self, names, bounds, positive=True)
 
     def resolve_params(self, values=None):
         values = dict(values or {})
         if self.scale == "driver":
             values["gain"] = 1.0
+        if self.start == "subspace":  # unused by the start; the initial state's first guess only
+            values = {"tau": 1.0, "gain": 1.0, **values}
         params = {name: getattr(self, name) if getattr(self, name) is not None else values.get(name)
                   for name in self._physical}
         missing = [name for name, value in params.items() if value is None]
@@ -165,6 +190,49 @@ class LatentHiddenState(HiddenStrategy):
 
     def refinable(self, params):
         return ()  # tau and gain set the start; the latent rows are learned
+
+    def starts(self):
+        """The starts ``start="auto"`` tries: ``[(name, strategy), ...]``.
+
+        The lag of the driver (this strategy with ``start="lag"``), the lag
+        of the first output (``driver="output"``, which also moves the scale
+        gauge onto ``y0``; not repeated when the driver is already the
+        output), and the subspace model (``start="subspace"``).
+
+        Examples
+        --------
+        >>> [name for name, _ in LatentHiddenState(start="auto").starts()]
+        ['input lag', 'output lag', 'subspace']
+        """
+        own = clone(self).set_params(start="lag")
+        out = [(f"{self.driver} lag", own)]
+        if self.driver != "output":
+            out.append(("output lag", clone(own).set_params(driver="output")))
+        out.append(("subspace", clone(own).set_params(start="subspace")))
+        return out
+
+    def diverging_refinement(self, refine):
+        """The refinement used when ``refine`` cannot start because the start's simulation diverges.
+
+        An :class:`~sindybench.refine.OutputErrorRefinement` becomes a
+        :class:`~sindybench.refine.PredictionErrorRefinement` (one-step
+        predictions through the state estimator, which start from a
+        diverging model) with the same budget, pruning level and freedoms;
+        anything else: None (the start is kept, as for other strategies).
+        """
+        if not isinstance(refine, OutputErrorRefinement):
+            return None
+        return PredictionErrorRefinement(max_nfev=refine.max_nfev, prune=refine.prune, physical=refine.physical,
+                                         initial_state=refine.initial_state, max_samples=refine.max_samples)
+
+    def canonical_mixing(self, cand, x0, n_inputs):
+        """A refined candidate in the mixing gauge (see :func:`canonical_mixing`), or None."""
+        return canonical_mixing(self, cand, x0, n_inputs)
+
+    def check_fit(self, model, u, y, dt):
+        """Warn when ``n_latent`` looks larger than the data support (see :func:`support_warnings`)."""
+        for message in support_warnings(self, model, u, y, dt):
+            warnings.warn(message, UserWarning, stacklevel=3)
 
     def default_library(self):
         """Quadratic polynomial in ``(y, [v,] z, u)``."""
@@ -179,9 +247,12 @@ class LatentHiddenState(HiddenStrategy):
             A model fitted with this strategy (``equations()`` passes it). Its
             coefficients are read: the driver's coefficient as fitted (or that
             the row has none, and the scale is then free), whether a refinement
-            held it, and whether a mixing ``z -> z + k y`` of a latent state
-            with an output leaves the outputs unchanged within the model's
-            library (a freedom the scale gauge does not fix).
+            held it, and how a mixing ``z -> z + k y`` of a latent state with
+            an output that leaves the outputs unchanged within the model's
+            library (a freedom the scale gauge does not fix) is fixed: by the
+            mixing gauge (the linear ``y_i`` term of ``y_i'`` held at 0, see
+            :func:`canonical_mixing`), by the sparse support (every ``k != 0``
+            adds terms), or not at all.
 
         Returns
         -------
@@ -260,7 +331,10 @@ class LatentHiddenState(HiddenStrategy):
 
     def design(self, u, y, dt, *, derivative, params):
         states = self._measured(y, derivative)
-        z, z_dot = self._lags(self._drive(states, u, y.shape[1]), params, dt)
+        if self.start == "subspace":
+            z, z_dot = subspace_start(self, u, y, dt, self._drivers(y.shape[1]))
+        else:
+            z, z_dot = self._lags(self._drive(states, u, y.shape[1]), params, dt)
         return Design(states=np.c_[states, z], targets=np.c_[derivative(y, order=int(self.order)), z_dot])
 
     def refine_free(self, coef, terms, *, n_outputs, n_inputs):
@@ -321,57 +395,151 @@ def _fitted_gauge(strategy, model, drivers):
             continue
         held = "held in the refinement" if refined else "from the starting lag, not held: no refinement ran"
         lines.append(f"z{j}: the coefficient of {name} in z{j}' is {c:.4g} (scale gauge, {held})")
+    held = {tuple(h[:2]): h for h in ((model.refinement_ or {}).get("mixing_held") or [])} if refined else {}
+    names = model.structure_.state_names
     for j in range(len(drivers)):
         for i in range(p):
-            if _mixing_is_free(strategy, model, j, i):
+            if (j, i) in held:
+                _, _, t, r = held[(j, i)]
+                c = float(model.coef_[r, t])
+                lines.append(f"z{j}: the mixing z{j} -> z{j} + k y{i} (same outputs within this library) is fixed by "
+                             f"holding the coefficient of y{i} in {names[model.structure_.learned[r]]}' at {c:.4g} "
+                             "(mixing gauge, held in the refinement)")
+                continue
+            free = _mixing_is_free(strategy, model, j, i)
+            if free == "support":
+                lines.append(f"z{j}: z{j} -> z{j} + k y{i} gives the same outputs within this library but adds "
+                             "terms for any k != 0: the model's support fixes this mixing (sparsity gauge)")
+            elif free:
                 lines.append(f"z{j}: z{j} -> z{j} + k y{i} gives the same outputs for any k within this library; "
                              "the gauge leaves this mixing free")
     return lines
 
 
-def _mixing_is_free(strategy, model, j, i, n_points=None, rtol=1e-8):
-    """Whether ``z_j -> z_j + k y_i`` maps the fitted model onto another of its library, gauge terms unchanged.
+def _mixing_coef(strategy, rhs, lib, s, states, n_inputs, j, i, rtol=1e-8, k=None):
+    """``(k, coef, new)``: the learned block ``coef`` (n_terms, n_learned) of ``rhs`` and of its image under ``z_j -> z_j + k y_i``.
 
-    Checked numerically: the transformed right-hand side ``T f(T^-1 x, u)`` at
-    random points is regressed on the library's features there; the mixing is
-    free when it is reproduced exactly (relative residual ``rtol``) with every
-    latent row's driver coefficient unchanged.
+    The image ``T f(T^-1 x, u)`` at random points near ``states`` is regressed
+    on the library's features there; ``new`` is None when the library does
+    not reproduce it exactly (relative residual ``rtol``).
     """
-    s, lib = model.structure_, model.library_
     terms = getattr(lib, "terms_", None)
     if terms is None:
-        return False
-    n, m = s.n_states, int(model.n_features_in_)
+        return None
+    n = s.n_states
     p = len(s.output_index)
     cz = p * int(strategy.order) + j
-    rng = np.random.default_rng(0)  # generic points around the first state: the check is algebraic
-    x0 = np.asarray(model.x0_, dtype=float)
-    n_points = n_points or 4 * len(terms) + 10
-    x = x0 + rng.standard_normal((n_points, n)) * (1.0 + np.abs(x0))
-    u = rng.standard_normal((n_points, m))
-    k = 0.1 * (1.0 + abs(x0[cz])) / (1.0 + abs(x0[i]))
+    rng = np.random.default_rng(0)
+    states = np.asarray(states, dtype=float)
+    states = states[np.all(np.isfinite(states), axis=1)]
+    n_points = 4 * len(terms) + 10
+    x = states[rng.integers(0, len(states), n_points)] if len(states) else np.zeros((n_points, n))
+    x = x + rng.standard_normal(x.shape) * (np.std(states, axis=0) + 1.0) * 0.1 if len(states) else x
+    u = rng.standard_normal((n_points, n_inputs))
+    if k is None:
+        k = 0.1 * (np.std(x[:, cz]) + 1.0) / (np.std(x[:, i]) + 1.0)
     back = x.copy()
     back[:, cz] -= k * x[:, i]  # T^-1 x: the original coordinates
     with np.errstate(all="ignore"):
-        f = np.array([np.asarray(model.rhs_(xb, ub), dtype=float) for xb, ub in zip(back, u)])
+        f0 = np.array([np.asarray(rhs(xb, ub), dtype=float) for xb, ub in zip(x, u)])
+        f = np.array([np.asarray(rhs(xb, ub), dtype=float) for xb, ub in zip(back, u)])
         f[:, cz] += k * f[:, i]  # T f
         theta = lib.transform(np.c_[x, u])
-    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(theta))):
-        return False
-    target = f[:, list(s.learned)]
-    coef, *_ = np.linalg.lstsq(theta, target, rcond=None)
-    if np.max(np.abs(theta @ coef - target)) > rtol * max(np.max(np.abs(target)), 1.0):
-        return False
+    if not (np.all(np.isfinite(f)) and np.all(np.isfinite(f0)) and np.all(np.isfinite(theta))):
+        return None
+    learned = list(s.learned)
+    coef = np.linalg.lstsq(theta, f0[:, learned], rcond=None)[0]
+    target = f[:, learned]
+    new = np.linalg.lstsq(theta, target, rcond=None)[0]
+    if np.max(np.abs(theta @ new - target)) > rtol * max(np.max(np.abs(target)), 1.0):
+        new = None
+    return k, coef, new
+
+
+def _drivers_unchanged(strategy, terms, s, coef, new):
+    p = len(s.output_index)
+    terms = [tuple(t) for t in terms]
     for jj, col in enumerate(strategy._drivers(p)):
         term = ((col, POW, 1.0, 0.0),)
-        if term in [tuple(t) for t in terms]:
-            t, row = [tuple(t) for t in terms].index(term), s.learned.index(p * int(strategy.order) + jj)
-            if abs(coef[t, row] - model.coef_[row, t]) > 1e-6 * (1.0 + abs(model.coef_[row, t])):
+        if term in terms:
+            t, row = terms.index(term), s.learned.index(p * int(strategy.order) + jj)
+            if abs(new[t, row] - coef[t, row]) > 1e-6 * (1.0 + abs(coef[t, row])):
                 return False
     return True
 
 
+def _mixing_is_free(strategy, model, j, i):
+    """Whether ``z_j -> z_j + k y_i`` maps the fitted model onto another of its library, gauge terms unchanged.
+
+    True: yes, within the model's support too (the mixing is free);
+    ``"support"``: only by adding terms (the support fixes it); False: no.
+    """
+    states = model.states_ if not isinstance(model.states_, list) else model.states_[0]
+    out = _mixing_coef(strategy, model.rhs_, model.library_, model.structure_, states, int(model.n_features_in_), j, i)
+    if out is None or out[2] is None or not _drivers_unchanged(strategy, model.library_.terms_, model.structure_,
+                                                               out[1], out[2]):
+        return False
+    support = model.coef_.T != 0
+    return "support" if _adds_terms(out[2], support) else True
+
+
+def _adds_terms(image, support):
+    """Whether the learned block ``image`` has nonzero entries outside ``support``."""
+    return bool(np.any(np.abs(image[~support]) > 1e-6 * max(np.max(np.abs(image)), 1.0)))
+
+
+def canonical_mixing(strategy, cand, x0, n_inputs):
+    """The refined candidate's image under the mixing that removes ``y_i`` from ``y_i'``, or None.
+
+    When ``z_j -> z_j + k y_i`` maps the model onto another of its library
+    (the scale gauge unchanged), the outputs do not fix ``k``. The canonical
+    choice is the ``k`` that makes the coefficient of the linear term ``y_i``
+    in ``y_i'`` zero (``a - b k = 0``, with ``b`` the coefficient of ``z_j``
+    there), kept only when it has no more terms than the refined model
+    (else the sparse support fixes ``k``, and :meth:`LatentHiddenState.gauge`
+    says so). Returns ``(coef, states, x0, held)`` in the new coordinates
+    (coefficients below 1e-9 of their row's largest set to 0), with
+    ``held = [(j, i, term, row)]``; None when no mixing is free or it cannot
+    be fixed this way. ``order=1`` and the scale gauge only; one mixing per
+    call.
+    """
+    if strategy.scale != "driver" or int(strategy.order) != 1:
+        return None
+    s, lib = cand.structure, cand.library
+    terms = [tuple(t) for t in (getattr(lib, "terms_", None) or ())]
+    p = len(s.output_index)
+    states, x0 = np.array(cand.design.states, dtype=float), np.array(x0, dtype=float)
+    for i in range(p):
+        term = ((i, POW, 1.0, 0.0),)
+        if term not in terms:
+            continue
+        t, r = terms.index(term), list(s.learned).index(i)
+        for j in range(int(strategy.n_latent)):
+            out = _mixing_coef(strategy, cand.dynamics.rhs, lib, s, states, n_inputs, j, i)
+            if out is None or out[2] is None or not _drivers_unchanged(strategy, terms, s, out[1], out[2]):
+                continue
+            k1, base, image = out
+            slope = (base[t, r] - image[t, r]) / k1  # a(k) = a - b k
+            if abs(slope) <= 1e-9 * (1.0 + abs(base[t, r])) or base[t, r] == 0.0:
+                continue
+            k = base[t, r] / slope
+            out = _mixing_coef(strategy, cand.dynamics.rhs, lib, s, states, n_inputs, j, i, k=k)
+            if out is None or out[2] is None or abs(out[2][t, r]) > 1e-6 * (1.0 + abs(base[t, r])):
+                continue
+            image = out[2]
+            image[np.abs(image) < 1e-9 * np.max(np.abs(image), axis=0, keepdims=True)] = 0.0
+            image[t, r] = 0.0
+            if np.count_nonzero(image) > np.count_nonzero(cand.coef):
+                continue  # the canonical point has more terms: the sparse support fixes k (gauge() says so)
+            cz = p + j
+            states[:, cz] += k * states[:, i]
+            x0[cz] += k * x0[i]
+            return image, states, x0, [(j, i, t, r)]  # one mixing at a time: the caller refines, then asks again
+    return None
+
+
 _DRIVERS = ("input", "velocity", "output")
+_STARTS = ("lag", "subspace", "auto")
 _SCALES = ("driver", "range")
 
 

@@ -1,0 +1,150 @@
+"""A linear state-space start for latent states: subspace identification (MOESP) in numpy.
+
+Written here rather than taken from a package: the one small, maintained
+PyPI implementation found (``nfoursid`` 1.0.2) takes pandas DataFrames and
+requires matplotlib and pandas, two dependencies the core does not have, for
+what is an SVD and two least-squares solves (about 60 lines below).
+
+The method (Verhaegen's ordinary MOESP): the LQ factorisation of the block
+Hankel matrices of the future inputs and outputs removes the inputs'
+contribution; the left singular vectors of what remains span the extended
+observability matrix, from which ``C`` and ``A`` follow (shift invariance);
+``B`` and the initial state then are a linear least-squares fit of the
+outputs (``D = 0``: a sampled continuous-time plant is strictly proper).
+"""
+
+import numpy as np
+from scipy.linalg import logm, null_space
+
+__all__ = ["moesp", "singular_values", "subspace_states"]
+
+
+def _hankel(a, rows, cols):
+    """Block Hankel matrix (rows * a.shape[1], cols) of the signal ``a`` (n_samples, k)."""
+    return np.vstack([a[r:r + cols].T for r in range(rows)])
+
+
+def _projected_svd(u, y, n, block_rows=None):
+    """SVD ``(U, sv)`` of the outputs' block Hankel matrix with the future inputs projected out (LQ)."""
+    (N, p), m = y.shape, u.shape[1]
+    i = int(block_rows or max(2 * n, 10))
+    cols = N - i + 1
+    if cols < 2 * i * (m + p) or n >= i * p:
+        raise ValueError(f"a subspace fit of {n} states needs more samples; got {N}.")
+    H = np.vstack([_hankel(u, i, cols), _hankel(y, i, cols)]) / np.sqrt(cols)
+    L = np.linalg.qr(H.T, mode="r").T  # H = L Q
+    U, sv, _ = np.linalg.svd(L[i * m:, i * m:])
+    return U, sv
+
+
+def singular_values(u, y, *, block_rows=10):
+    """The singular values :func:`moesp` orders the states by (their decay: how many states the data support)."""
+    return _projected_svd(np.asarray(u, dtype=float), np.asarray(y, dtype=float), 1, block_rows)[1]
+
+
+def moesp(u, y, n_states, *, block_rows=None):
+    """Discrete-time ``(A, B, C, x0, sv)`` of order ``n_states`` fitted to ``(u, y)`` by MOESP.
+
+    Parameters
+    ----------
+    u : ndarray of shape (n_samples, n_inputs)
+    y : ndarray of shape (n_samples, n_outputs)
+    n_states : int
+    block_rows : int, optional
+        Block rows of the Hankel matrices; default ``max(2 n_states, 10)``.
+
+    Returns
+    -------
+    A, B, C, x0 : ndarray
+        ``x[k+1] = A x[k] + B u[k]``, ``y[k] = C x[k]``, ``x[0] = x0``.
+    sv : ndarray
+        The singular values of the projected output Hankel matrix (their
+        decay tells how many states the data support).
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal((400, 1))
+    >>> y = np.zeros((400, 1))
+    >>> x = 0.0
+    >>> for k in range(399):
+    ...     x = 0.9 * x + u[k, 0]
+    ...     y[k + 1, 0] = x
+    >>> A, B, C, x0, sv = moesp(u, y, 1)
+    >>> round(float(A[0, 0]), 3), round(float(C[0, 0] * B[0, 0]), 3)
+    (0.9, 1.0)
+    """
+    u, y = np.asarray(u, dtype=float), np.asarray(y, dtype=float)
+    n, (N, p), m = int(n_states), y.shape, u.shape[1]
+    U, sv = _projected_svd(u, y, n, block_rows)
+    gamma = U[:, :n] * np.sqrt(sv[:n])
+    C = gamma[:p]
+    A = np.linalg.lstsq(gamma[:-p], gamma[p:], rcond=None)[0]
+    # B and x0: y[k] = C A^k x0 + sum_j C A^(k-1-j) B u[j], linear in (x0, B)
+    cols_x = np.empty((N, p, n))
+    xk = np.eye(n)
+    for k in range(N):
+        cols_x[k] = C @ xk
+        xk = A @ xk
+    cols_b = np.zeros((N, p, n * m))
+    state = np.zeros((n, n * m))
+    for k in range(N):
+        cols_b[k] = C @ state
+        state = A @ state
+        state += np.kron(u[k], np.eye(n))  # the response to entry (r, c) of B is A^(.) e_r u_c
+    reg = np.concatenate([cols_x, cols_b], axis=2).reshape(N * p, n + n * m)
+    theta = np.linalg.lstsq(reg, y.reshape(-1), rcond=None)[0]
+    x0, B = theta[:n], theta[n:].reshape(m, n).T
+    return A, B, C, x0, sv
+
+
+def _continuous(A, B, dt):
+    """``(Ac, Bc)`` whose zero-order-hold sampling at ``dt`` is ``(A, B)`` (Euler when the logarithm is not real)."""
+    n, m = B.shape
+    M = np.zeros((n + m, n + m))
+    M[:n, :n], M[:n, n:], M[n:, n:] = A, B, np.eye(m)
+    with np.errstate(all="ignore"):
+        try:
+            L = logm(M) / dt
+        except (ValueError, np.linalg.LinAlgError):
+            L = None
+    if L is None or not np.all(np.isfinite(L)) or np.max(np.abs(np.imag(L))) > 1e-6 * (1 + np.max(np.abs(L))):
+        return (A - np.eye(n)) / dt, B / dt
+    L = np.real(L)
+    return L[:n, :n], L[:n, n:]
+
+
+def subspace_states(u, y, n_states, dt, *, n_measured_rows=1):
+    """A linear model's state trajectory split into measured coordinates and the rest.
+
+    Fits :func:`moesp` of order ``n_states``, simulates it on the record from
+    its fitted initial state, and returns the coordinates ``z = N x`` of the
+    state along the orthonormal complement ``N`` of the measured rows
+    (``C`` for ``n_measured_rows=1``; ``C`` and ``C Ac`` for 2, the outputs
+    and their velocities), with their exact derivatives ``N (Ac x + Bc u)``
+    and ``W``, the latent rows' linear coefficients on ``[measured, z, u]``
+    (so a gauge can scale them).
+
+    Returns
+    -------
+    z, z_dot : ndarray of shape (n_samples, n_latent)
+        ``n_latent = n_states - n_measured_rows * n_outputs``.
+    W : ndarray of shape (n_latent, n_states + n_inputs)
+        ``z' = W [measured; z; u]`` (``x = T^-1 [measured; z]``).
+    sv : ndarray
+        The singular values of :func:`moesp`.
+    """
+    A, B, C, x0, sv = moesp(u, y, n_states)
+    Ac, Bc = _continuous(A, B, dt)
+    rows = [C] if n_measured_rows == 1 else [C, C @ Ac]
+    Mrows = np.vstack(rows)
+    N = null_space(Mrows).T
+    T = np.vstack([Mrows, N])
+    x = np.empty((len(u), A.shape[0]))
+    x[0] = x0
+    for k in range(len(u) - 1):
+        x[k + 1] = A @ x[k] + B @ u[k]
+    z = x @ N.T
+    z_dot = (x @ Ac.T + u @ Bc.T) @ N.T
+    Tinv = np.linalg.pinv(T)
+    return z, z_dot, np.hstack([N @ Ac @ Tinv, N @ Bc]), sv

@@ -1,0 +1,209 @@
+"""LatentHiddenState's starts (lag, subspace, auto), its support warnings and its prediction-error fallback."""
+
+import warnings
+
+import numpy as np
+import pytest
+
+from sindybench import STLS, HiddenStateSINDy
+from sindybench.differentiation import SavitzkyGolay
+from sindybench.hidden import LatentHiddenState
+from sindybench.hidden._subspace import moesp, singular_values
+from sindybench.libraries import ConcatLibrary, IndicatorLibrary, PolynomialLibrary
+from sindybench.refine import OutputErrorRefinement, PredictionErrorRefinement
+from sindybench.simulate import SimulationError, simulate
+
+
+def _motor(rng, n=600, noise=0.005):
+    """A DC motor whose current is hidden: speed ``w' = -0.5 w + 2 i``, current ``i' = -3 i - 2 w + 3 u``."""
+
+    def truth(x, u):
+        return np.array([-0.5 * x[0] + 2.0 * x[1], -3.0 * x[1] - 2.0 * x[0] + 3.0 * u[0]])
+
+    dt = 0.05
+    u = np.repeat(rng.uniform(-1, 1, n // 30 + 1), 30)[:n, None]
+    x = simulate(truth, [0.0, 0.0], u, dt, n_substeps=2)
+    return u, x[:, :1] + noise * rng.standard_normal((n, 1)), dt, truth
+
+
+def _model(dt, n, start, n_latent=1, refine=None, n_trials=6):
+    return HiddenStateSINDy(
+        hidden=LatentHiddenState(n_latent=n_latent, bounds={"tau": (0.05, 20.0, True)}, start=start),
+        library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=1e-4),
+        differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4, validation_size=n // 4,
+        validation="full", n_trials=n_trials, random_state=0,
+        refine=refine or OutputErrorRefinement(prune=0.05, max_nfev=100), initial_state="fit")
+
+
+def _rmse(model, u, y):
+    return float(np.sqrt(np.mean((model.predict(u, y_init=y[:5]) - y) ** 2)))
+
+
+def test_moesp_recovers_a_second_order_system(rng):
+    """The poles and the Markov parameters of a known discrete system, from noise-free data."""
+    A = np.array([[0.9, 0.2], [-0.2, 0.8]])
+    B, C = np.array([[0.0], [1.0]]), np.array([[1.0, 0.0]])
+    u = rng.standard_normal((500, 1))
+    x, y = np.zeros(2), np.zeros((500, 1))
+    for k in range(500):
+        y[k] = C @ x
+        x = A @ x + B @ u[k]
+    A_, B_, C_, _, sv = moesp(u, y, 2)
+    np.testing.assert_allclose(np.sort_complex(np.linalg.eigvals(A_)), np.sort_complex(np.linalg.eigvals(A)),
+                               atol=1e-8)
+    for k in range(4):
+        np.testing.assert_allclose(C_ @ np.linalg.matrix_power(A_, k) @ B_, C @ np.linalg.matrix_power(A, k) @ B,
+                                   atol=1e-8)
+    assert sv[2] < 1e-8 * sv[0] < sv[1]  # two states: the third singular value is zero
+    with pytest.raises(ValueError, match="needs more samples"):
+        moesp(u[:30], y[:30], 2)
+
+
+def test_subspace_start_fits_the_hidden_current_motor(rng):
+    """No search: the subspace start alone gives a model that simulates the record to the noise level."""
+    u, y, dt, _ = _motor(rng)
+    model = _model(dt, len(u), "subspace").fit(u, y)
+    assert model.search_results_ == []  # nothing searched
+    assert _rmse(model, u, y) < 0.01  # noise 0.005, output std ~ 0.5
+    assert model.equations()[2].startswith("gauge: z0: the coefficient of u0 in z0' is")
+    with pytest.raises(ValueError, match="start must be one of"):
+        _model(dt, len(u), "best").fit(u, y)
+
+
+def test_auto_keeps_the_best_start_by_validation(rng):
+    """``start="auto"``: every start recorded; the kept one has the smallest validation score, never above the lag's."""
+    u, y, dt, _ = _motor(rng)
+    model = _model(dt, len(u), "auto").fit(u, y)
+    names = [s["start"] for s in model.starts_]
+    assert names == ["input lag", "output lag", "subspace"]
+    scores = [s["score"] for s in model.starts_]
+    n_val = len(u) // 4
+    kept = float(np.sqrt(np.mean((model.predict(u, y_init=y[:5])[-n_val:] - y[-n_val:]) ** 2)))
+    assert kept == pytest.approx(min(scores), rel=1e-9)
+    assert kept <= scores[0]  # never worse than today's single start (the input lag) on validation
+    assert model.get_params()["hidden__start"] == "auto"  # the parameter stays; the fitted strategy is the start's
+    assert model.hidden_.start in ("lag", "subspace")
+    with pytest.raises(ValueError, match="start='auto' fits one record"):
+        _model(dt, len(u), "auto").fit([u, u], [y, y])
+
+
+def test_more_latent_states_than_the_data_support_warn(rng):
+    """A noise-free first-order plant given two latent states: the subspace singular values say so."""
+
+    def truth(x, u):
+        return np.array([-x[0] + u[0]])
+
+    dt, n = 0.05, 600
+    u = np.repeat(rng.uniform(-1, 1, n // 30 + 1), 30)[:n, None]
+    y = simulate(truth, [0.0], u, dt, n_substeps=2)
+    assert singular_values(u, y)[1] < 1e-3 * singular_values(u, y)[0]
+    with pytest.warns(UserWarning, match="n_latent=2 may be more than the data support"):
+        _model(dt, n, "lag", n_latent=2, n_trials=3, refine=OutputErrorRefinement(max_nfev=5)).fit(u, y)
+    u2, y2, dt2, _ = _motor(rng)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", UserWarning)  # one latent state for a second-order plant: no warning
+        LatentHiddenState().check_fit(_model(dt2, len(u2), "subspace").fit(u2, y2), u2, y2, dt2)
+
+
+def test_a_diverging_start_is_refined_by_prediction_error(rng, monkeypatch):
+    """When the output-error refinement cannot start (the start diverges), prediction error refines it."""
+    assert isinstance(LatentHiddenState().diverging_refinement(OutputErrorRefinement(prune=0.02)),
+                      PredictionErrorRefinement)
+    assert LatentHiddenState().diverging_refinement(PredictionErrorRefinement()) is None
+    u, y, dt, _ = _motor(rng)
+
+    def diverges(self, *args, **kwargs):
+        raise SimulationError("the starting model diverges", step=10)
+
+    monkeypatch.setattr(OutputErrorRefinement, "run", diverges)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message="refinement skipped")
+        model = _model(dt, len(u), "subspace", refine=OutputErrorRefinement(prune=0.05, max_nfev=30)).fit(u, y)
+    assert model.refinement_["status"] >= 0
+    assert _rmse(model, u, y) < 0.02
+
+
+def test_the_mixing_is_fixed_in_its_canonical_gauge(rng):
+    """Hidden-current motor: ``z -> z + k w`` is free; the fit removes ``w`` from ``w'`` and says so.
+
+    With ``z = i / 3`` (scale gauge) and ``z -> z - w / 12`` (mixing gauge) the truth reads
+    ``w' = 6 z``, ``z' = -11/12 w - 3.5 z + u``.
+    """
+    u, y, dt, _ = _motor(rng, n=1200)
+    model = _model(dt, len(u), "lag", n_trials=12, refine=OutputErrorRefinement(prune=0.05, max_nfev=200)).fit(u, y)
+    lib = model.library_.terms_
+    coef = dict(zip(["y0", "z0", "u0"], model.coef_[:, [lib.index(((c, 0, 1.0, 0.0),)) for c in range(3)]].T))
+    np.testing.assert_allclose(coef["y0"], [0.0, -11 / 12], atol=0.02)
+    np.testing.assert_allclose(coef["z0"], [6.0, -3.5], rtol=0.02)
+    assert np.count_nonzero(model.coef_) == 4  # the true support in this gauge
+    assert model.refinement_["mixing_held"] == [[0, 0, lib.index(((0, 0, 1.0, 0.0),)), 0]]
+    assert model.equations()[-1] == ("gauge: z0: the mixing z0 -> z0 + k y0 (same outputs within this library) is "
+                                     "fixed by holding the coefficient of y0 in y0' at 0 (mixing gauge, held in the "
+                                     "refinement)")
+
+
+def _van_der_pol(rng, n, steps=True):
+    """A forced Van der Pol oscillator, ``y'' = (1 - y^2) y' - y + u``; the position is measured with 2 % noise."""
+
+    def truth(x, u):
+        return np.array([x[1], (1 - x[0] ** 2) * x[1] - x[0] + u[0]])
+
+    dt = 0.05
+    u = 0.5 * np.sin(0.7 * dt * np.arange(n))[:, None]
+    if steps:
+        u = u + np.repeat(rng.uniform(-0.5, 0.5, n // 50 + 1), 50)[:n, None]
+    x = simulate(truth, [1.0, 0.0], u, dt, n_substeps=4)
+    return u, x[:, :1] + 0.02 * np.std(x[:, 0]) * rng.standard_normal((n, 1)), dt
+
+
+@pytest.mark.slow
+def test_van_der_pol_with_a_hidden_velocity_reaches_a_model_that_simulates(rng):
+    """The input lag alone does not simulate the oscillator well; ``start="auto"`` keeps a start that does."""
+    u, y, dt = _van_der_pol(rng, 1000)
+    model = HiddenStateSINDy(
+        hidden=LatentHiddenState(bounds={"tau": (0.05, 20.0, True)}, start="auto"), library=PolynomialLibrary(degree=3),
+        optimizer=STLS(threshold=1e-4), differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4,
+        validation_size=250, validation="full", n_trials=12, random_state=0,
+        refine=OutputErrorRefinement(prune=0.05, max_nfev=200), initial_state="fit").fit(u, y)
+    scores = {s["start"]: s["score"] for s in model.starts_}
+    assert min(scores.values()) < 0.1 * np.std(y) < scores["input lag"]
+    assert _rmse(model, u, y) < 0.1 * np.std(y)
+
+
+def test_thermal_lag_feeding_a_saturation(rng):
+    """``z' = u - 0.5 z`` (hidden), ``y' = 2 (min(z, 1) - y)``: every start scored; the kept one simulates.
+
+    The refinement does not reach the true indicator coefficients (``+2 [z0>=1] - 2 z0 [z0>=1]``):
+    a term switched by the latent state has no gradient across its switch. What holds: the kept
+    start is the best by validation, and its free run stays within a quarter of the output's spread.
+    """
+
+    def truth(x, u):
+        return np.array([2.0 * (min(x[1], 1.0) - x[0]), u[0] - 0.5 * x[1]])
+
+    dt, n = 0.1, 800
+    u = np.repeat(rng.uniform(0, 1, n // 40 + 1), 40)[:n, None]
+    y = simulate(truth, [0.0, 0.0], u, dt, n_substeps=4)[:, :1] + 0.005 * rng.standard_normal((n, 1))
+    library = ConcatLibrary([PolynomialLibrary(degree=1), IndicatorLibrary(variables=[1], lower=1.0, times=[1])])
+    model = HiddenStateSINDy(
+        hidden=LatentHiddenState(bounds={"tau": (0.1, 20.0, True)}, start="auto"), library=library,
+        optimizer=STLS(threshold=1e-3), differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4,
+        validation_size=n // 4, validation="full", n_trials=8, random_state=0,
+        refine=OutputErrorRefinement(prune=0.05, max_nfev=200), initial_state="fit").fit(u, y)
+    scores = [s["score"] for s in model.starts_]
+    assert all(np.isfinite(scores)) and scores[0] == min(scores)  # the input lag wins here
+    assert model.hidden_.driver == "input" and model.hidden_.start == "lag"
+    assert _rmse(model, u, y) < 0.25 * np.std(y)
+
+
+def test_van_der_pol_start_that_diverges_is_refined_by_prediction_error(rng):
+    """Quick version: the input lag (``tau=1``) of the oscillator diverges; prediction error refines it (no skip)."""
+    u, y, dt = _van_der_pol(rng, 800, steps=False)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message="refinement skipped")
+        model = HiddenStateSINDy(
+            hidden=LatentHiddenState(tau=1.0), library=PolynomialLibrary(degree=3), optimizer=STLS(threshold=0.05),
+            differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4, validation_size=200,
+            refine=OutputErrorRefinement(prune=0.05, max_nfev=30), initial_state="fit").fit(u, y)
+    assert model.refinement_["criterion"]["name"] == "prediction error"
+    assert model.refinement_["cost"] < model.refinement_["initial_cost"]

@@ -24,6 +24,7 @@ from ._preprocessing import delay_inputs
 from ._residual_tests import refinement_residual_test
 from ._uncertainty_methods import ModelChecksMixin, UncertaintyMixin
 from ._validation import (
+    check_array_like,
     check_bool,
     check_estimator_param,
     check_inputs_outputs,
@@ -33,6 +34,7 @@ from ._validation import (
     check_option,
     check_positive,
     check_record_lists,
+    check_records,
     check_signal,
     count_records,
     is_records,
@@ -155,12 +157,30 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
             raise ValueError(f"x0 has {x0.shape[0]} entries; expected {self.n_states_} (one per state).")
         return x0
 
-    @staticmethod
-    def _fit_is_records(X, y):
-        """Whether ``fit`` got several records (``y`` a list of arrays); records in ``X`` with one array ``y`` raise."""
+    def _check_fit_records(self, X, y, *, y_kind):
+        """The input check of ``fit``: ``(Xs, ys, y_1d, several)``, one record turned into a list of one.
+
+        ``Xs`` and ``ys`` are lists of checked 2-D arrays, one per record;
+        ``y_1d`` says whether every ``y`` was 1-D; ``several`` whether the user
+        gave a list of records (only the messages name ``y[i]`` then, and the
+        shapes the user sees are kept for one array). ``y_kind`` names the
+        columns of ``y`` (``"states"`` or ``"outputs"``). Records in ``X``
+        with one array ``y`` raise.
+        """
+        if y is None:
+            expected = "the measured states" if y_kind == "states" else "the outputs"
+            raise ValueError(f"{type(self).__name__} requires y to be passed, but the target y is None; expected "
+                             f"{expected}.")
         if count_records(X) and not is_records(y):
             check_record_lists(X, y)  # says that y must be a list of records too
-        return is_records(y)
+        if is_records(y):
+            Xs, ys = check_records(X, y, y_kind=y_kind)
+            return Xs, ys, all(y_r.ndim == 1 for y_r in y), True
+        check_array_like(X, "X")
+        check_array_like(y, "y")
+        y_1d = np.asarray(y).ndim == 1
+        X, y = check_inputs_outputs(X, y)
+        return [X], [y], y_1d, False
 
     def delayed_inputs(self, X):
         """The inputs the model sees: ``X`` delayed by ``input_delay`` samples (the first row held before it).

@@ -28,6 +28,7 @@ __all__ = [
     "check_time",
     "count_records",
     "is_records",
+    "record_name",
     "real_scalar",
     "records_hint",
     "shown",
@@ -165,6 +166,17 @@ def check_record_lists(X, y):
         if _ndim(X_i) and _ndim(y_i) and len(X_i) != len(y_i):  # None and scalars: check_records says what is wrong
             raise ValueError(f"record {i}: X[{i}] has {len(X_i)} samples and y[{i}] has {len(y_i)}; expected the "
                              "same number of samples.")
+
+
+def record_name(name, i, several):
+    """``name`` of record ``i`` in a message: ``"y[2]"`` with several records, ``"y"`` when the user gave one array.
+
+    Examples
+    --------
+    >>> record_name("y", 2, True), record_name("y", 0, False)
+    ('y[2]', 'y')
+    """
+    return f"{name}[{i}]" if several else name
 
 
 def check_records(X, y, *, y_kind="states"):

@@ -88,7 +88,10 @@ def _record_error(i, exc):
 
 
 def _check_score_records(X, y):
-    """The lists ``X`` and ``y`` of ``score`` on several records, each record checked (named ``X[i]``, ``y[i]``)."""
+    """The lists ``X`` and ``y`` of ``score``, each record checked (named ``X[i]``, ``y[i]``); one record a list of one."""
+    if not (is_records(y) or is_records(X)):
+        X, y = check_inputs_outputs(X, y)
+        return [X], [y]
     if not is_records(y):
         raise ValueError(f"X is a list of {len(X)} records, so y must be a list of {len(X)} output arrays (one per "
                          f"record); got {type(y).__name__}.")
@@ -299,9 +302,11 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
         check_is_fitted(self)
         if x0 is not None and y_init is not None:
             raise ValueError("give x0 or y_init, not both.")
-        if is_records(X) or is_records(y_init) or (X is None and is_records(x0)):
-            return self._predict_records(X, y_init, x0)
+        several = is_records(X) or is_records(y_init) or (X is None and is_records(x0))
         if x0 is None and y_init is None:
+            if several:
+                raise ValueError("predict on several records needs y_init or x0, a list with one entry per record; "
+                                 "x0_ is only the first training record's state.")
             warnings.warn(
                 "predict without y_init or x0 starts from the first training state x0_; "
                 "pass y_init (the first samples of the measured y) for new data.",
@@ -309,28 +314,26 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
                 stacklevel=2,
             )
             x0 = self.x0_
-        states = self.simulate(X, y_init=y_init, x0=x0, on_divergence="nan")
-        y_pred = warn_divergence(states[:, list(self.output_index_)], type(self).__name__)
-        return y_pred[:, 0] if getattr(self, "_y_1d", False) else y_pred
-
-    def _predict_records(self, X, y_init, x0):
-        """``predict`` of each record of the lists ``X`` and ``y_init`` (or ``x0``); a list."""
-        n_records = len(next(a for a in (X, y_init, x0) if isinstance(a, list)))
-        if x0 is None and y_init is None:
-            raise ValueError("predict on several records needs y_init or x0, a list with one entry per record; "
-                             "x0_ is only the first training record's state.")
-        X = _per_record(X, n_records, "X")
-        starts = _per_record(y_init if x0 is None else x0, n_records, "y_init" if x0 is None else "x0")
+        key = "y_init" if x0 is None else "x0"
+        start = y_init if x0 is None else x0
+        if several:  # one record is a list of one from here on
+            n_records = len(next(a for a in (X, y_init, x0) if isinstance(a, list)))
+            Xs, starts = _per_record(X, n_records, "X"), _per_record(start, n_records, key)
+        else:
+            Xs, starts = [X], [start]
         y_pred = []
-        for i, (X_i, s) in enumerate(zip(X, starts)):
-            if s is None:
-                raise ValueError(f"record {i}: {'y_init' if x0 is None else 'x0'}[{i}] is None; expected the start of "
-                                 "every record.")
+        for i, (X_i, s) in enumerate(zip(Xs, starts)):
             try:
-                y_pred.append(self.predict(X_i, **({"y_init": s} if x0 is None else {"x0": s})))
+                if s is None:
+                    raise ValueError(f"{key}[{i}] is None; expected the start of every record.")
+                states = self.simulate(X_i, **{key: s}, on_divergence="nan")
             except ValueError as exc:
+                if not several:
+                    raise
                 raise _record_error(i, exc) from exc
-        return y_pred
+            y_i = warn_divergence(states[:, list(self.output_index_)], type(self).__name__)
+            y_pred.append(y_i[:, 0] if getattr(self, "_y_1d", False) else y_i)
+        return y_pred if several else y_pred[0]
 
     def score(self, X, y, sample_weight=None):
         """R^2 of the open-loop simulation started from the start of ``y``.
@@ -353,11 +356,8 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
         """
         if sample_weight is not None:
             raise ValueError(f"sample_weight is not supported by {type(self).__name__}.score; expected None.")
-        if is_records(y) or is_records(X):
-            X, y = _check_score_records(X, y)
-        else:
-            X, y = check_inputs_outputs(X, y)
-        # with lists the scorer simulates each record from its own start and pools the samples
+        X, y = _check_score_records(X, y)
+        # the scorer simulates each record from its own start and pools the samples (one record: a list of one)
         return make_simulation_scorer("r2")(self, X, y)
 
     # ----------------------------------------------------------------- display

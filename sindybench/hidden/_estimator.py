@@ -441,12 +441,10 @@ class HiddenStateSINDy(DynamicsEstimator):
         n_outputs, n_inputs = y[0].shape[1], X[0].shape[1]
         problem = refinement_problem(cand, hidden, n_outputs, n_inputs,
                                      build=lambda s, coef: structure_dynamics(s, cand.library, coef, simulation))
-        problem["x0"] = np.array([np.asarray(d.states[0], dtype=float) for d in cand.designs])  # one per record
         result, record = self._run_refinement(cand.dynamics, X, y, **problem)
         if result is None:
             return cand, None, record
         params, coef, x0 = refined_values(cand, result)
-        x0 = result.initial_states if result.initial_states is not None else result.x0[None]  # (n_records, n_states)
         structure = hidden.structure(params, n_outputs=n_outputs, n_inputs=n_inputs)
         cand = cand._replace(params=params, structure=structure, coef=coef,
                              dynamics=structure_dynamics(structure, cand.library, coef, simulation))

@@ -37,6 +37,7 @@ from ._validation import (
     check_records,
     check_signal,
     count_records,
+    in_record,
     is_records,
 )
 from .io import SaveLoadMixin
@@ -80,11 +81,6 @@ SHARED_CONSTRAINTS = {
 }
 """The parameters both estimators share, with their checks (``bounds`` is checked in ``fit``: it needs the
 number of states)."""
-
-
-def _record_error(i, exc):
-    """``exc`` (a ValueError about one record) with the record's index in front."""
-    return ValueError(f"record {i}: {exc}")
 
 
 def _check_score_records(X, y):
@@ -323,14 +319,10 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
             Xs, starts = [X], [start]
         y_pred = []
         for i, (X_i, s) in enumerate(zip(Xs, starts)):
-            try:
+            with in_record(i, several):
                 if s is None:
                     raise ValueError(f"{key}[{i}] is None; expected the start of every record.")
                 states = self.simulate(X_i, **{key: s}, on_divergence="nan")
-            except ValueError as exc:
-                if not several:
-                    raise
-                raise _record_error(i, exc) from exc
             y_i = warn_divergence(states[:, list(self.output_index_)], type(self).__name__)
             y_pred.append(y_i[:, 0] if getattr(self, "_y_1d", False) else y_i)
         return y_pred if several else y_pred[0]

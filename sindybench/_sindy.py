@@ -19,6 +19,7 @@ from ._validation import (
     check_positive,
     check_signal,
     check_time,
+    in_record,
     record_name,
     uniform_step,
 )
@@ -307,12 +308,8 @@ class SINDy(DynamicsEstimator):
         if n_samples < 3:
             where = f"record {r}" if several else "y"
             raise ValueError(f"{where} has {n_samples} sample(s); expected at least 3 to estimate derivatives.")
-        try:
+        with in_record(r, several):
             x_dot = differentiation.derivative(y, dt=dt, t=t)
-        except ValueError as exc:
-            if not several:
-                raise
-            raise ValueError(f"record {r}: {exc}") from exc
         return check_signal(x_dot, f"derivative of {record_name('y', r, several)}", n_samples=n_samples)
 
     def _fit_stacked(self, differentiation, Xs, ys, derivatives, fitted_dt, y_1d):

@@ -4,6 +4,7 @@ Every check raises :class:`ValueError` naming the argument, what was given and
 what was expected, so that bad input never turns into a silent NaN.
 """
 
+import contextlib
 import numbers
 
 import numpy as np
@@ -27,6 +28,7 @@ __all__ = [
     "check_signal",
     "check_time",
     "count_records",
+    "in_record",
     "is_records",
     "record_name",
     "real_scalar",
@@ -177,6 +179,26 @@ def record_name(name, i, several):
     ('y[2]', 'y')
     """
     return f"{name}[{i}]" if several else name
+
+
+@contextlib.contextmanager
+def in_record(i, several):
+    """Put ``record i:`` in front of a ``ValueError`` raised inside, when the user gave several records.
+
+    Examples
+    --------
+    >>> with in_record(1, True):
+    ...     raise ValueError("y has 2 samples.")
+    Traceback (most recent call last):
+    ...
+    ValueError: record 1: y has 2 samples.
+    """
+    try:
+        yield
+    except ValueError as exc:
+        if not several:
+            raise
+        raise ValueError(f"record {i}: {exc}") from exc
 
 
 def check_records(X, y, *, y_kind="states"):

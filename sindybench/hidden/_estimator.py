@@ -12,7 +12,7 @@ from .._params import Constraint
 from .._preprocessing import operating_point
 from .._equations import EquationRow
 from ..optimizers import STLS
-from .._validation import check_bool, check_dt, check_integer, check_option
+from .._validation import check_bool, check_dt, check_integer, check_option, in_record
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name
@@ -345,10 +345,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         hidden = clone(self.hidden) if self.hidden is not None else _default_strategy()
         hidden._validate()
         for i, (X_r, y_r) in enumerate(zip(X, y)):
-            try:
+            with in_record(i, several):
                 hidden._validate_data(X_r, y_r)
-            except ValueError as exc:
-                raise ValueError(f"record {i}: {exc}" if several else str(exc)) from exc
         space = {_HIDDEN_PREFIX + k: dim for k, dim in hidden.search_space().items()}
         space.update(est_space)
         n = [y_r.shape[0] for y_r in y]

@@ -24,6 +24,7 @@ from ._preprocessing import delay_inputs
 from ._residual_tests import refinement_residual_test
 from ._uncertainty_methods import ModelChecksMixin, UncertaintyMixin
 from ._validation import (
+    check_array_like,
     check_bool,
     check_estimator_param,
     check_inputs_outputs,
@@ -33,8 +34,10 @@ from ._validation import (
     check_option,
     check_positive,
     check_record_lists,
+    check_records,
     check_signal,
     count_records,
+    in_record,
     is_records,
 )
 from .io import SaveLoadMixin
@@ -80,13 +83,11 @@ SHARED_CONSTRAINTS = {
 number of states)."""
 
 
-def _record_error(i, exc):
-    """``exc`` (a ValueError about one record) with the record's index in front."""
-    return ValueError(f"record {i}: {exc}")
-
-
 def _check_score_records(X, y):
-    """The lists ``X`` and ``y`` of ``score`` on several records, each record checked (named ``X[i]``, ``y[i]``)."""
+    """The lists ``X`` and ``y`` of ``score``, each record checked (named ``X[i]``, ``y[i]``); one record a list of one."""
+    if not (is_records(y) or is_records(X)):
+        X, y = check_inputs_outputs(X, y)
+        return [X], [y]
     if not is_records(y):
         raise ValueError(f"X is a list of {len(X)} records, so y must be a list of {len(X)} output arrays (one per "
                          f"record); got {type(y).__name__}.")
@@ -155,12 +156,30 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
             raise ValueError(f"x0 has {x0.shape[0]} entries; expected {self.n_states_} (one per state).")
         return x0
 
-    @staticmethod
-    def _fit_is_records(X, y):
-        """Whether ``fit`` got several records (``y`` a list of arrays); records in ``X`` with one array ``y`` raise."""
+    def _check_fit_records(self, X, y, *, y_kind):
+        """The input check of ``fit``: ``(Xs, ys, y_1d, several)``, one record turned into a list of one.
+
+        ``Xs`` and ``ys`` are lists of checked 2-D arrays, one per record;
+        ``y_1d`` says whether every ``y`` was 1-D; ``several`` whether the user
+        gave a list of records (only the messages name ``y[i]`` then, and the
+        shapes the user sees are kept for one array). ``y_kind`` names the
+        columns of ``y`` (``"states"`` or ``"outputs"``). Records in ``X``
+        with one array ``y`` raise.
+        """
+        if y is None:
+            expected = "the measured states" if y_kind == "states" else "the outputs"
+            raise ValueError(f"{type(self).__name__} requires y to be passed, but the target y is None; expected "
+                             f"{expected}.")
         if count_records(X) and not is_records(y):
             check_record_lists(X, y)  # says that y must be a list of records too
-        return is_records(y)
+        if is_records(y):
+            Xs, ys = check_records(X, y, y_kind=y_kind)
+            return Xs, ys, all(y_r.ndim == 1 for y_r in y), True
+        check_array_like(X, "X")
+        check_array_like(y, "y")
+        y_1d = np.asarray(y).ndim == 1
+        X, y = check_inputs_outputs(X, y)
+        return [X], [y], y_1d, False
 
     def delayed_inputs(self, X):
         """The inputs the model sees: ``X`` delayed by ``input_delay`` samples (the first row held before it).
@@ -279,9 +298,11 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
         check_is_fitted(self)
         if x0 is not None and y_init is not None:
             raise ValueError("give x0 or y_init, not both.")
-        if is_records(X) or is_records(y_init) or (X is None and is_records(x0)):
-            return self._predict_records(X, y_init, x0)
+        several = is_records(X) or is_records(y_init) or (X is None and is_records(x0))
         if x0 is None and y_init is None:
+            if several:
+                raise ValueError("predict on several records needs y_init or x0, a list with one entry per record; "
+                                 "x0_ is only the first training record's state.")
             warnings.warn(
                 "predict without y_init or x0 starts from the first training state x0_; "
                 "pass y_init (the first samples of the measured y) for new data.",
@@ -289,28 +310,22 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
                 stacklevel=2,
             )
             x0 = self.x0_
-        states = self.simulate(X, y_init=y_init, x0=x0, on_divergence="nan")
-        y_pred = warn_divergence(states[:, list(self.output_index_)], type(self).__name__)
-        return y_pred[:, 0] if getattr(self, "_y_1d", False) else y_pred
-
-    def _predict_records(self, X, y_init, x0):
-        """``predict`` of each record of the lists ``X`` and ``y_init`` (or ``x0``); a list."""
-        n_records = len(next(a for a in (X, y_init, x0) if isinstance(a, list)))
-        if x0 is None and y_init is None:
-            raise ValueError("predict on several records needs y_init or x0, a list with one entry per record; "
-                             "x0_ is only the first training record's state.")
-        X = _per_record(X, n_records, "X")
-        starts = _per_record(y_init if x0 is None else x0, n_records, "y_init" if x0 is None else "x0")
+        key = "y_init" if x0 is None else "x0"
+        start = y_init if x0 is None else x0
+        if several:  # one record is a list of one from here on
+            n_records = len(next(a for a in (X, y_init, x0) if isinstance(a, list)))
+            Xs, starts = _per_record(X, n_records, "X"), _per_record(start, n_records, key)
+        else:
+            Xs, starts = [X], [start]
         y_pred = []
-        for i, (X_i, s) in enumerate(zip(X, starts)):
-            if s is None:
-                raise ValueError(f"record {i}: {'y_init' if x0 is None else 'x0'}[{i}] is None; expected the start of "
-                                 "every record.")
-            try:
-                y_pred.append(self.predict(X_i, **({"y_init": s} if x0 is None else {"x0": s})))
-            except ValueError as exc:
-                raise _record_error(i, exc) from exc
-        return y_pred
+        for i, (X_i, s) in enumerate(zip(Xs, starts)):
+            with in_record(i, several):
+                if s is None:
+                    raise ValueError(f"{key}[{i}] is None; expected the start of every record.")
+                states = self.simulate(X_i, **{key: s}, on_divergence="nan")
+            y_i = warn_divergence(states[:, list(self.output_index_)], type(self).__name__)
+            y_pred.append(y_i[:, 0] if getattr(self, "_y_1d", False) else y_i)
+        return y_pred if several else y_pred[0]
 
     def score(self, X, y, sample_weight=None):
         """R^2 of the open-loop simulation started from the start of ``y``.
@@ -333,11 +348,8 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
         """
         if sample_weight is not None:
             raise ValueError(f"sample_weight is not supported by {type(self).__name__}.score; expected None.")
-        if is_records(y) or is_records(X):
-            X, y = _check_score_records(X, y)
-        else:
-            X, y = check_inputs_outputs(X, y)
-        # with lists the scorer simulates each record from its own start and pools the samples
+        X, y = _check_score_records(X, y)
+        # the scorer simulates each record from its own start and pools the samples (one record: a list of one)
         return make_simulation_scorer("r2")(self, X, y)
 
     # ----------------------------------------------------------------- display
@@ -402,7 +414,7 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
                              f"{n_records} records. Expected n_segments=1 with several records.")
 
     def _run_refinement(self, dynamics, u, y, *, x0, coef=None, free=None, physical=None, make_rhs=None, refine=None):
-        """Refine ``dynamics`` on ``(u, y)`` with ``self.refine``; ``(result, None)`` or ``(None, record)``.
+        """Refine ``dynamics`` on ``(u, y)`` with ``refine`` (default ``self.refine``); ``(result, None)`` or ``(None, record)``.
 
         ``coef`` defaults to ``dynamics.coef``, ``make_rhs`` to
         ``dynamics.rhs_for`` on the Python path (see
@@ -413,15 +425,16 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
         """
         if make_rhs is None and not dynamics.compiled:
             make_rhs = dynamics.rhs_for
+        refine = refine or self.refine
         try:
-            result = (refine or self.refine).run(dynamics.terms, dynamics.coef if coef is None else coef, u, y, dynamics.dt,
-                                     x0=x0, output_index=dynamics.output_index, free=free, physical=physical,
-                                     make_rhs=make_rhs, **dynamics.settings)
+            result = refine.run(dynamics.terms, dynamics.coef if coef is None else coef, u, y, dynamics.dt,
+                                x0=x0, output_index=dynamics.output_index, free=free, physical=physical,
+                                make_rhs=make_rhs, **dynamics.settings)
         except SimulationError as exc:
             warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=4)
             return None, {"status": -1, "message": f"skipped: {exc}"}
         if result.residuals is not None:  # recorded for standard_errors to warn on (see uncertainty)
-            used = [self.refine._head(u_r) for u_r in u] if isinstance(u, list) else self.refine._head(u)  # max_samples
+            used = [refine._head(u_r) for u_r in u]  # the samples refined (max_samples)
             result = result._replace(residual_test=refinement_residual_test(result.residuals, result.n_outputs, used))
         return result, None
 

@@ -224,12 +224,11 @@ def residual_test(residuals, inputs=None, *, max_lag=25, alpha=0.05):
 def refinement_residual_test(residuals, n_outputs, inputs, *, max_lag=25, alpha=0.05):
     """:func:`residual_test` of a refinement's output residuals (rows sample by sample), or None if too short.
 
-    ``inputs`` is the record's input array, or a list of them (several records,
-    their samples stacked in order as the residuals are).
+    ``inputs`` is the list of the records' input arrays (a list of one for
+    one record), their samples stacked in order as the residuals are.
     """
     e = np.asarray(residuals, dtype=float).reshape(-1, n_outputs)
-    if isinstance(inputs, list):
-        inputs = np.vstack(inputs) if inputs and all(a is not None for a in inputs) else None
+    inputs = np.vstack(inputs) if inputs and all(a is not None for a in inputs) else None
     u = None if inputs is None else np.asarray(inputs, dtype=float).reshape(e.shape[0], -1)
     if u is not None and u.shape[1] == 0:
         u = None

@@ -14,15 +14,13 @@ from ._equations import EquationRow
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
 from .optimizers import STLS
 from ._validation import (
-    check_array_like,
     check_bounds,
     check_dt,
-    check_inputs_outputs,
     check_positive,
-    check_records,
     check_signal,
     check_time,
-    is_records,
+    in_record,
+    record_name,
     uniform_step,
 )
 from .differentiation import FiniteDifference, as_differentiation
@@ -277,73 +275,46 @@ class SINDy(DynamicsEstimator):
         -------
         self
         """
-        if y is None:
-            raise ValueError(
-                "SINDy requires y to be passed, but the target y is None; expected the measured states."
-            )
-        if self._fit_is_records(X, y):
-            return self._fit_records(X, y, dt=dt, t=t, x_dot=x_dot)
-        check_array_like(X, "X")
-        check_array_like(y, "y")
-        y_1d = np.asarray(y).ndim == 1
-        X, y = check_inputs_outputs(X, y)
-        n_samples, n_states = y.shape
+        Xs, ys, y_1d, several = self._check_fit_records(X, y, y_kind="states")
+        n_records, n_states = len(ys), ys[0].shape[1]
+        self._check_refine_records(n_records)
+        if several and x_dot is not None and (not isinstance(x_dot, list) or len(x_dot) != n_records):
+            raise ValueError(f"with {n_records} records, x_dot must be a list of {n_records} arrays or None.")
+        if several and t is not None:
+            raise ValueError("several records need a uniform step dt; sample times t are not supported with lists.")
+        x_dots = x_dot if several and x_dot is not None else [x_dot] * n_records
         self._check_params(n_states)
-        X = self.delayed_inputs(X)
-        dt, t = self._resolve_time(dt, t, n_samples, self.dt)
+        Xs = [self.delayed_inputs(X_r) for X_r in Xs]
+        dt, t = self._resolve_time(dt, t, ys[0].shape[0], self.dt)
         if self.refine is not None and t is not None:
             raise ValueError("refine needs uniformly sampled data (dt); got sample times t.")
-        if n_samples < 3 and x_dot is None:
-            raise ValueError(f"y has {n_samples} sample(s); expected at least 3 to estimate derivatives.")
         differentiation = clone(as_differentiation(self.differentiation))
-        if x_dot is None:
-            x_dot = differentiation.derivative(y, dt=dt, t=t)
-            x_dot = check_signal(x_dot, "derivative of y", n_samples=n_samples)
-        else:
-            x_dot = check_signal(x_dot, "x_dot", n_samples=n_samples)
-            if x_dot.shape[1] != n_states:
-                raise ValueError(f"x_dot has {x_dot.shape[1]} columns; expected {n_states} (one per state in y).")
+        derivatives = [self._derivative(differentiation, y_r, x_dot_r, dt, t, r, several)
+                       for r, (y_r, x_dot_r) in enumerate(zip(ys, x_dots))]
         fitted_dt = dt if dt is not None else uniform_step(t)
-        return self._fit_stacked(differentiation, X, y, x_dot, fitted_dt, y_1d, refine_on=(X, y))
+        return self._fit_stacked(differentiation, Xs, ys, derivatives, fitted_dt, y_1d)
 
-    def _fit_records(self, X, y, *, dt, t, x_dot):
-        """``fit`` on several records: per-record derivatives, one regression on the stacked rows."""
-        n_records = len(y)
-        Xs, ys = check_records(X, y, y_kind="states")
-        self._check_refine_records(n_records)
-        if x_dot is not None and (not isinstance(x_dot, list) or len(x_dot) != n_records):
-            raise ValueError(f"with {n_records} records, x_dot must be a list of {n_records} arrays or None.")
-        if t is not None:
-            raise ValueError("several records need a uniform step dt; sample times t are not supported with lists.")
-        n_states = ys[0].shape[1]
-        self._check_params(n_states)
-        records = [(self.delayed_inputs(X_i), y_i) for X_i, y_i in zip(Xs, ys)]
-        y_1d = all(np.asarray(y_i).ndim == 1 for y_i in y)
-        dt, _ = self._resolve_time(dt, None, records[0][1].shape[0], self.dt)
-        differentiation = clone(as_differentiation(self.differentiation))
-        derivatives = []
-        for i, (X_i, y_i) in enumerate(records):
-            n_i = y_i.shape[0]
-            if x_dot is not None:
-                d_i = check_signal(x_dot[i], f"x_dot[{i}]", n_samples=n_i)
-                if d_i.shape[1] != n_states:
-                    raise ValueError(f"x_dot[{i}] has {d_i.shape[1]} columns; expected {n_states}.")
-            elif n_i < 3:
-                raise ValueError(f"record {i} has {n_i} sample(s); expected at least 3 to estimate derivatives.")
-            else:
-                try:
-                    d_i = differentiation.derivative(y_i, dt=dt, t=None)
-                except ValueError as exc:
-                    raise ValueError(f"record {i}: {exc}") from exc
-                d_i = check_signal(d_i, f"derivative of y[{i}]", n_samples=n_i)
-            derivatives.append(d_i)
-        X_all = np.vstack([X_i for X_i, _ in records])
-        y_all = np.vstack([y_i for _, y_i in records])
-        refine_on = ([X_i for X_i, _ in records], [y_i for _, y_i in records])
-        return self._fit_stacked(differentiation, X_all, y_all, np.vstack(derivatives), dt, y_1d, refine_on=refine_on)
+    @staticmethod
+    def _derivative(differentiation, y, x_dot, dt, t, r, several):
+        """The derivative of the record ``y`` (number ``r``): ``x_dot`` checked, or estimated by ``differentiation``."""
+        n_samples, n_states = y.shape
+        if x_dot is not None:
+            name = record_name("x_dot", r, several)
+            x_dot = check_signal(x_dot, name, n_samples=n_samples)
+            if x_dot.shape[1] != n_states:
+                raise ValueError(f"{name} has {x_dot.shape[1]} columns; expected {n_states} (one per state in "
+                                 f"{record_name('y', r, several)}).")
+            return x_dot
+        if n_samples < 3:
+            where = f"record {r}" if several else "y"
+            raise ValueError(f"{where} has {n_samples} sample(s); expected at least 3 to estimate derivatives.")
+        with in_record(r, several):
+            x_dot = differentiation.derivative(y, dt=dt, t=t)
+        return check_signal(x_dot, f"derivative of {record_name('y', r, several)}", n_samples=n_samples)
 
-    def _fit_stacked(self, differentiation, X, y, x_dot, fitted_dt, y_1d, refine_on):
-        """Regress ``x_dot`` on the library of the rows ``[y, X]``; ``x0_`` is ``y[0]`` (the first record's)."""
+    def _fit_stacked(self, differentiation, Xs, ys, derivatives, fitted_dt, y_1d):
+        """Regress the records' derivatives on the library of their stacked rows ``[y, X]``; ``x0_`` is ``ys[0][0]``."""
+        X, y, x_dot = np.vstack(Xs), np.vstack(ys), np.vstack(derivatives)
         n_states = y.shape[1]
         out_names = _check_names(self.output_names, n_states, "y", "output_names")
         in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
@@ -355,7 +326,7 @@ class SINDy(DynamicsEstimator):
         dynamics = self._assemble(library, coef, out_names, fitted_dt)
         x0, refinement = y[0].copy(), None
         if self.refine is not None:
-            coef, x0, refinement = self._refine(dynamics, *refine_on, coef, x0)
+            coef, x0, refinement = self._refine(dynamics, Xs, ys, coef, x0)
         coef_ = coef.T.copy()
         dynamics = self._assemble(library, coef_.T, out_names, fitted_dt)  # as _rebuild_model does
 
@@ -387,11 +358,10 @@ class SINDy(DynamicsEstimator):
     def _refine(self, dynamics, X, y, coef, x0):
         """``(coef, x0, record)`` refined by simulation error (see ``refine``); kept as given if it diverges.
 
-        With several records (lists ``X`` and ``y``), one initial state per
-        record; ``x0`` is the first record's.
+        ``X`` and ``y`` are lists of records, one initial state each; ``x0`` is the first record's.
         """
         lo, hi = check_bounds(self.bounds, dynamics.n_states)
-        starts = [np.clip(y_i[0], lo, hi) for y_i in y] if is_records(y) else np.clip(y[0], lo, hi)
+        starts = [np.clip(y_i[0], lo, hi) for y_i in y]
         result, record = self._run_refinement(dynamics, X, y, x0=starts)
         if result is None:
             return coef, x0, record

@@ -4,6 +4,7 @@ Every check raises :class:`ValueError` naming the argument, what was given and
 what was expected, so that bad input never turns into a silent NaN.
 """
 
+import contextlib
 import numbers
 
 import numpy as np
@@ -29,7 +30,9 @@ __all__ = [
     "check_signal",
     "check_time",
     "count_records",
+    "in_record",
     "is_records",
+    "record_name",
     "real_scalar",
     "records_hint",
     "uniform_step",
@@ -140,6 +143,37 @@ def check_record_lists(X, y):
         if _ndim(X_i) and _ndim(y_i) and len(X_i) != len(y_i):  # None and scalars: check_records says what is wrong
             raise ValueError(f"record {i}: X[{i}] has {len(X_i)} samples and y[{i}] has {len(y_i)}; expected the "
                              "same number of samples.")
+
+
+def record_name(name, i, several):
+    """``name`` of record ``i`` in a message: ``"y[2]"`` with several records, ``"y"`` when the user gave one array.
+
+    Examples
+    --------
+    >>> record_name("y", 2, True), record_name("y", 0, False)
+    ('y[2]', 'y')
+    """
+    return f"{name}[{i}]" if several else name
+
+
+@contextlib.contextmanager
+def in_record(i, several):
+    """Put ``record i:`` in front of a ``ValueError`` raised inside, when the user gave several records.
+
+    Examples
+    --------
+    >>> with in_record(1, True):
+    ...     raise ValueError("y has 2 samples.")
+    Traceback (most recent call last):
+    ...
+    ValueError: record 1: y has 2 samples.
+    """
+    try:
+        yield
+    except ValueError as exc:
+        if not several:
+            raise
+        raise ValueError(f"record {i}: {exc}") from exc
 
 
 def check_records(X, y, *, y_kind="states"):

@@ -200,20 +200,22 @@ class _SimulationScorer:
     def __call__(self, estimator, X, y, sample_weight=None):
         if sample_weight is not None:
             raise ValueError("sample_weight is not supported by the simulation scorers; expected None.")
-        if is_records(y) or is_records(X):
+        several = is_records(y) or is_records(X)
+        if several:
             check_record_lists(X, y)
         func, greater_is_better = _METRICS[self.name]
         with warnings.catch_warnings():  # a diverged simulation scores -inf, no warning
             warnings.simplefilter("ignore", DivergenceWarning)
-            y_pred = estimator.predict(X, y_init=y)
-        skip = self.skip
-        if is_records(y):  # several records, each simulated from its own start: the samples pooled
-            y_pred = np.vstack([np.asarray(p, dtype=float).reshape(len(r), -1)[skip:] for p, r in zip(y_pred, y)])
-            y = np.vstack([np.asarray(r, dtype=float).reshape(len(r), -1)[skip:] for r in y])
-            skip = 0
+            y_pred = estimator.predict(X, y_init=y)  # the shapes the estimator was given: any estimator scores
+        if not several:  # one record is a list of one from here on
+            y_pred, y = [y_pred], [check_signal(_real_array(y, "y_true"), "y_true")]
+        skip = check_integer(self.skip, "skip", low=0, high=min(len(r) for r in y) - 1)
+        # each record simulated from its own start: the samples pooled
+        y_pred = np.vstack([np.asarray(p, dtype=float).reshape(len(r), -1)[skip:] for p, r in zip(y_pred, y)])
+        y = np.vstack([np.asarray(r, dtype=float).reshape(len(r), -1)[skip:] for r in y])
         if not np.all(np.isfinite(y_pred)):
             return -np.inf
-        value = func(y, y_pred, skip=skip)
+        value = func(y, y_pred)
         return value if greater_is_better else -value
 
     def __repr__(self):

@@ -6,7 +6,7 @@ import pytest
 from sindybench import HiddenStateSINDy, STLS
 from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import BoucWenHiddenState, DerivativeHiddenState
-from sindybench.hidden._candidate import _RecordFilters, fit_candidate, fit_candidate_records
+from sindybench.hidden._candidate import _RecordFilters, fit_candidate
 from sindybench.hidden._derivative import Derivative
 from sindybench.hidden._objective import validation_error
 from sindybench.libraries import PolynomialLibrary
@@ -80,7 +80,7 @@ def test_the_search_pools_the_validation_blocks_of_the_records(records):
     (u1, y1), (u2, y2) = records
     us, ys, n_fits = [u1, u2], [y1, y2], [240, 240]  # validation_size=0.2 of each record
     derivative = Derivative(SavitzkyGolay(15, polyorder=3), DT)
-    cand = fit_candidate_records(DerivativeHiddenState(order=2), {}, PolynomialLibrary(degree=2), STLS(threshold=0.05),
+    cand = fit_candidate(DerivativeHiddenState(order=2), {}, PolynomialLibrary(degree=2), STLS(threshold=0.05),
                                  derivative, us, ys, n_fits, dict(dt=DT, n_substeps=1, input_hold="zoh", max_abs=1e6))
     hidden = DerivativeHiddenState(order=2)
     starts = [cand.designs[i].states[0] for i in range(2)]
@@ -90,10 +90,10 @@ def test_the_search_pools_the_validation_blocks_of_the_records(records):
     assert validation_error(hidden, cand, us, ys, n_fits, "full") == pytest.approx(full, rel=1e-12)
     assert validation_error(hidden, cand, us, ys, n_fits, "continued") == pytest.approx(continued, rel=1e-12)
     # "block": each record's block simulated from its own start
-    single = fit_candidate(hidden, {}, PolynomialLibrary(degree=2), STLS(threshold=0.05), derivative, u2, y2, 240,
+    single = fit_candidate(hidden, {}, PolynomialLibrary(degree=2), STLS(threshold=0.05), derivative, [u2], [y2], [240],
                            dict(dt=DT, n_substeps=1, input_hold="zoh", max_abs=1e6))
     assert 0 < validation_error(hidden, cand, us, ys, n_fits, "block") < 0.05
-    assert validation_error(hidden, single, u2, y2, 240, "block") > 0  # one record: the plain arrays still work
+    assert validation_error(hidden, single, [u2], [y2], [240], "block") > 0  # one record: a list of one
     model = _model(search_params={"optimizer__threshold": (1e-3, 0.3, True)}, n_trials=6, random_state=0)
     model.fit(us, ys)
     assert len(model.search_results_) == 6 and min(s for _, s in model.search_results_) < 0.05

@@ -227,3 +227,21 @@ def test_a_scalar_record_is_a_value_error_not_a_type_error(records):
     us, ys = [u1, u2], [y1]
     with pytest.raises(ValueError, match=r"y\[1\] is a scalar; expected an array"):
         tune(_model(), {"optimizer__threshold": LogUniform(1e-3, 1.0)}, us, [ys[0], np.array(1.0)], n_trials=2)
+
+
+def test_one_record_in_a_list_is_bit_for_bit_the_array(records):
+    (u, y), _ = records
+    kwargs = dict(library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=0.05), dt=DT,
+                  refine=OutputErrorRefinement(max_nfev=5))
+    a = SINDy(**kwargs).fit(u, y)
+    b = SINDy(**kwargs).fit([u], [y])
+    for name in ("coef_", "x0_"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    assert a.refinement_ == b.refinement_
+    pred = a.predict(u, y_init=y[:5])
+    assert isinstance(pred, np.ndarray) and pred.shape == y.shape  # one array in, one array out
+    np.testing.assert_array_equal(pred, a.predict([u], y_init=[y[:5]])[0])
+    scorer = make_simulation_scorer("rmse", skip=3)
+    assert a.score(u, y) == a.score([u], [y]) and scorer(a, u, y) == scorer(a, [u], [y])
+    with pytest.raises(ValueError, match=r"skip must be an integer in \[0, 299\]; got 300"):
+        make_simulation_scorer("rmse", skip=300)(a, u, y)

@@ -1,6 +1,6 @@
 """The functional core of :class:`~sindybench.HiddenStateSINDy`: one candidate model for given physical parameters.
 
-:func:`fit_candidate` runs the strategy's design, the library and the sparse
+:func:`fit_candidate` runs the strategy's design on each record, the library and the sparse
 optimizer (:func:`~sindybench._regression.fit_sparse`, the regression step of
 ``SINDy`` too) and assembles the candidate's :class:`~sindybench.dynamics.Dynamics`;
 :func:`candidate_initial_state` starts a simulation of new data from its
@@ -18,15 +18,14 @@ from ._base import Design, ModelView, Structure
 from ._derivative import Derivative
 from ._refinement import initial_state
 
-__all__ = ["Candidate", "candidate_initial_state", "fit_candidate", "fit_candidate_records", "structure_dynamics"]
+__all__ = ["Candidate", "candidate_initial_state", "fit_candidate", "structure_dynamics"]
 
 
 class Candidate(NamedTuple):
     """One fitted model for given physical parameters.
 
-    ``coef`` has shape (n_library_terms, n_learned). ``design`` is the
-    (first) record's; ``designs`` holds every record's when the candidate
-    was fitted on several records (None for one record).
+    ``coef`` has shape (n_library_terms, n_learned). ``designs`` holds every
+    training record's design (one for one record); ``design`` is the first.
     """
 
     params: dict
@@ -36,9 +35,13 @@ class Candidate(NamedTuple):
     differentiation: object
     coef: np.ndarray
     derivative: Derivative
-    design: Design
+    designs: tuple
     dynamics: Dynamics
-    designs: tuple = None
+
+    @property
+    def design(self):
+        """The first record's :class:`~sindybench.hidden.Design`."""
+        return self.designs[0]
 
 
 def structure_dynamics(structure, library, coef, simulation):
@@ -55,8 +58,13 @@ def structure_dynamics(structure, library, coef, simulation):
                     state_names=s.state_names, bounds=s.bounds if bounds is None else bounds, **settings)
 
 
-def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, simulation, *, normalize=False):
-    """Fit the candidate of ``hidden`` with physical ``params`` on the first ``n_rows`` samples.
+def fit_candidate(hidden, params, library, optimizer, derivative, Xs, ys, n_rows, simulation, *, normalize=False):
+    """Fit the candidate of ``hidden`` with physical ``params`` on the first ``n_rows`` samples of each record.
+
+    The strategy's design (hidden-state reconstruction, ``Design.rows``,
+    feature filter) runs on each record alone, so nothing is differentiated,
+    filtered or reconstructed across the seam between two records; the
+    regression rows of all records are stacked into one regression.
 
     Parameters
     ----------
@@ -66,10 +74,12 @@ def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, 
     library, optimizer : unfitted clones
         Fitted here.
     derivative : Derivative
-    X : ndarray of shape (n_samples, n_inputs)
-    y : ndarray of shape (n_samples, n_outputs)
-    n_rows : int
-        The regression uses the first ``n_rows`` samples (and the strategy's ``Design.rows``).
+    Xs : list of ndarray of shape (n_samples_r, n_inputs)
+        One input array per record (a list of one for one record).
+    ys : list of ndarray of shape (n_samples_r, n_outputs)
+    n_rows : list of int
+        The regression uses the first ``n_rows[r]`` samples of record ``r``
+        (and the strategy's ``Design.rows``).
     simulation : dict
         ``dt``, ``n_substeps``, ``input_hold``, ``max_abs`` (and ``method``, ``bounds``) of the
         candidate's dynamics.
@@ -79,20 +89,6 @@ def fit_candidate(hidden, params, library, optimizer, derivative, X, y, n_rows, 
     Returns
     -------
     Candidate
-    """
-    return fit_candidate_records(hidden, params, library, optimizer, derivative, [X], [y], [n_rows],
-                                 simulation, normalize=normalize)._replace(designs=None)
-
-
-def fit_candidate_records(hidden, params, library, optimizer, derivative, Xs, ys, n_rows, simulation, *,
-                          normalize=False):
-    """:func:`fit_candidate` on several records: one design per record, one regression on the stacked rows.
-
-    ``Xs``, ``ys`` and ``n_rows`` hold one entry per record; the strategy's
-    design (hidden-state reconstruction, ``Design.rows``, feature filter)
-    runs on each record alone, so nothing is differentiated, filtered or
-    reconstructed across the seam between two records. With one record
-    (lists of one) it is :func:`fit_candidate`, except that ``designs`` is set.
     """
     structure = hidden.structure(params, n_outputs=ys[0].shape[1], n_inputs=Xs[0].shape[1])
     parts = []
@@ -113,8 +109,8 @@ def fit_candidate_records(hidden, params, library, optimizer, derivative, Xs, ys
                       np.vstack([p[2] for p in parts]), rows=np.concatenate([p[3] for p in parts]),
                       feature_filter=feature_filter, what="library output Theta([x, u])", normalize=normalize)
     return Candidate(params=params, structure=structure, library=library, optimizer=optimizer,
-                     differentiation=derivative.differentiation, coef=coef, derivative=derivative, design=designs[0],
-                     dynamics=structure_dynamics(structure, library, coef, simulation), designs=designs)
+                     differentiation=derivative.differentiation, coef=coef, derivative=derivative, designs=designs,
+                     dynamics=structure_dynamics(structure, library, coef, simulation))
 
 
 def _record_design(hidden, structure, params, derivative, X, y, n_rows, dt):

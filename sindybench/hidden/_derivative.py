@@ -27,8 +27,8 @@ class Derivative:
         self.pinned, self._memo = None, {}
 
     def pin(self, a):
-        """Memoize derivatives of ``a``, an array or a list of arrays (None stops and clears the memo)."""
-        self.pinned = None if a is None else [np.asarray(r, dtype=float) for r in (a if isinstance(a, list) else [a])]
+        """Memoize derivatives of the records ``a``, a list of arrays (None stops and clears the memo)."""
+        self.pinned = None if a is None else [np.asarray(r, dtype=float) for r in a]
         self._memo = {}
 
     def __call__(self, a, order=1):

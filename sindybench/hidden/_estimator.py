@@ -13,22 +13,14 @@ from .._params import Constraint
 from .._preprocessing import operating_point
 from .._equations import EquationRow
 from ..optimizers import STLS
-from .._validation import (
-    check_array_like,
-    check_bool,
-    check_dt,
-    check_inputs_outputs,
-    check_integer,
-    check_option,
-    check_records,
-)
+from .._validation import check_bool, check_dt, check_integer, check_option, in_record
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name
 from ..search import check_search_space, minimize
 from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy
-from ._candidate import Candidate, candidate_initial_state, fit_candidate, fit_candidate_records, structure_dynamics
+from ._candidate import Candidate, candidate_initial_state, fit_candidate, structure_dynamics
 from ._derivative import Derivative
 from ._objective import SEARCH_PENALTY, VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
@@ -355,38 +347,34 @@ class HiddenStateSINDy(DynamicsEstimator):
         -------
         self
         """
-        records = self._fit_is_records(X, y)
+        X, y, y_1d, several = self._check_fit_records(X, y, y_kind="outputs")
         if getattr(self.hidden, "start", None) == "auto":  # several starts, the best kept
-            if records:
+            if several:
                 raise ValueError("start='auto' fits one record; got several. Fit each start (start='lag', "
                                  "'subspace') and compare them, or pass one record.")
-            return fit_starts(self, *_check_fit_data(X, y), dt)
-        X, y1 = check_records(X, y, y_kind="outputs") if records else _check_fit_data(X, y)
+            return fit_starts(self, X[0], y[0][:, 0] if y_1d else y[0], dt)
         dt, est_space = self._check_params(dt)
-        X = [self.delayed_inputs(X_r) for X_r in X] if records else self.delayed_inputs(X)
-        self._check_refine_records(len(y1) if records else 1)
+        X = [self.delayed_inputs(X_r) for X_r in X]
+        self._check_refine_records(len(y))
         hidden = clone(self.hidden) if self.hidden is not None else _default_strategy()
         hidden._validate()
-        for i, (X_r, y_r) in enumerate(zip(X, y1) if records else [(X, y1)]):
-            try:
+        for i, (X_r, y_r) in enumerate(zip(X, y)):
+            with in_record(i, several):
                 hidden._validate_data(X_r, y_r)
-            except ValueError as exc:
-                raise ValueError(f"record {i}: {exc}" if records else str(exc)) from exc
         space = {_HIDDEN_PREFIX + k: dim for k, dim in hidden.search_space().items()}
         space.update(est_space)
-        n = [y_r.shape[0] for y_r in y1] if records else y1.shape[0]
+        n = [y_r.shape[0] for y_r in y]
         best_params, search_results = {}, []
         n_rows = n
         # the outputs' derivatives do not depend on a trial unless the differentiation is searched
         derivative = None
         if not any(k.split("__")[0] == "differentiation" for k in space):
             derivative = Derivative(clone(as_differentiation(self.differentiation)), dt)
-            derivative.pin(y1)
+            derivative.pin(y)
         if space:
-            n_fit = [n_r - self._n_validation(n_r, record=i) for i, n_r in enumerate(n)] if records else \
-                n - self._n_validation(n)
-            objective = SearchObjective(lambda values: self._candidate(hidden, values, X, y1, dt, n_fit, derivative),
-                                        hidden, X, y1, n_fit, self.validation)
+            n_fit = [n_r - self._n_validation(n_r, record=i if several else None) for i, n_r in enumerate(n)]
+            objective = SearchObjective(lambda values: self._candidate(hidden, values, X, y, dt, n_fit, derivative),
+                                        hidden, X, y, n_fit, self.validation)
             with np.errstate(all="ignore"):
                 best_params, search_results = minimize(
                     objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=SEARCH_PENALTY,
@@ -399,29 +387,20 @@ class HiddenStateSINDy(DynamicsEstimator):
                     f"block; expected bounds of the searched parameters that contain a stable model.{first}"
                 )
             n_rows = n if self.refit else n_fit
-        cand = self._candidate(hidden, best_params, X, y1, dt, n_rows, derivative)
+        cand = self._candidate(hidden, best_params, X, y, dt, n_rows, derivative)
         cand.derivative.pin(None)
-        if records:  # the records' states stacked; x0_ is the first record's
-            states = np.vstack([np.asarray(d.states, dtype=float) for d in cand.designs])
-            x0 = np.asarray(cand.designs[0].states[0], dtype=float).copy()
-        else:
-            states = np.asarray(cand.design.states, dtype=float)
-            x0 = states[0].copy()
-        scaling = _scaling_record(states, X, records) if self.normalize else None
+        # the records' states stacked; x0_ is the first record's
+        states = np.vstack([np.asarray(d.states, dtype=float) for d in cand.designs])
+        x0 = np.asarray(cand.designs[0].states[0], dtype=float).copy()
+        scaling = _scaling_record(states, X) if self.normalize else None
         refinement = None
         if self.refine is not None:
-            if records:
-                head = ([X_r[:k] for X_r, k in zip(X, n_rows)], [y_r[:k] for y_r, k in zip(y1, n_rows)])
-            else:
-                head = (X[:n_rows], y1[:n_rows])
+            head = ([X_r[:k] for X_r, k in zip(X, n_rows)], [y_r[:k] for y_r, k in zip(y, n_rows)])
             cand, x0_refined, refinement = self._refine(hidden, cand, *head)
-            if x0_refined is not None and records:
+            if x0_refined is not None:  # the refined model's own trajectories replace the reconstruction
                 x0 = x0_refined[0]
                 states = np.vstack([cand.dynamics.simulate(X_r, x0_r, on_divergence="nan")
                                     for X_r, x0_r in zip(X, x0_refined)])
-            elif x0_refined is not None:  # the refined model's own trajectory replaces the reconstruction
-                x0 = x0_refined
-                states = cand.dynamics.simulate(X, x0, on_divergence="nan")
 
         self.best_params_, self.search_results_ = best_params, search_results
         self.hidden_ = hidden
@@ -432,13 +411,13 @@ class HiddenStateSINDy(DynamicsEstimator):
         self.states_ = states
         self.x0_ = x0
         self.dt_ = dt
-        self.n_features_in_ = (X[0] if records else X).shape[1]
+        self.n_features_in_ = X[0].shape[1]
         self.refinement_ = refinement
         self.scaling_ = scaling
-        self._y_1d = all(y_r.ndim == 1 for y_r in y) if records else np.asarray(y).ndim == 1
+        self._y_1d = y_1d
         self._rebuild_model()
-        if hasattr(hidden, "check_fit") and not records:
-            hidden.check_fit(self, X, y1, dt)
+        if hasattr(hidden, "check_fit") and not several:
+            hidden.check_fit(self, X[0], y[0], dt)
         return self
 
     def _components(self, est_values):
@@ -454,32 +433,28 @@ class HiddenStateSINDy(DynamicsEstimator):
                     method=self.integrator, bounds=self.bounds)
 
     def _candidate(self, hidden, values, X, y, dt, n_rows, derivative=None):
-        """The candidate of ``values``; ``X``, ``y`` and ``n_rows`` are lists for several records."""
+        """The candidate of ``values``; ``X``, ``y`` and ``n_rows`` are lists, one entry per record."""
         hvals = {k[len(_HIDDEN_PREFIX) :]: v for k, v in values.items() if k.startswith(_HIDDEN_PREFIX)}
         est_values = {k: v for k, v in values.items() if not k.startswith(_HIDDEN_PREFIX)}
         library, optimizer, differentiation = self._components(est_values)
         library = clone(as_library(library if library is not None else hidden.default_library()))
         if derivative is None:
             derivative = Derivative(differentiation, dt)
-        fit = fit_candidate_records if isinstance(y, list) else fit_candidate
-        return fit(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
-                   self._simulation(dt), normalize=est_values.get("normalize", self.normalize))
+        return fit_candidate(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
+                             self._simulation(dt), normalize=est_values.get("normalize", self.normalize))
 
     def _refine(self, hidden, cand, X, y, held=()):
         """The candidate refined by simulation error, its refined first state and the refinement record.
 
         A model whose simulation of the training record diverges cannot be
         refined: it is kept as fitted by equation error (first state None),
-        with a warning. With several records (lists ``X`` and ``y``) the
-        refined first states are an array (n_records, n_states).
+        with a warning. ``X`` and ``y`` are lists of records; the refined
+        first states are an array (n_records, n_states).
         """
         simulation = self._simulation(cand.dynamics.dt)
-        first_X, first_y = (X[0], y[0]) if isinstance(y, list) else (X, y)
-        n_outputs, n_inputs = first_y.shape[1], first_X.shape[1]
+        n_outputs, n_inputs = y[0].shape[1], X[0].shape[1]
         problem = refinement_problem(cand, hidden, n_outputs, n_inputs,
                                      build=lambda s, coef: structure_dynamics(s, cand.library, coef, simulation))
-        if cand.designs is not None:  # several records: one initial state each
-            problem["x0"] = np.array([np.asarray(d.states[0], dtype=float) for d in cand.designs])
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             result, record = self._run_refinement(cand.dynamics, X, y, **problem)
@@ -492,8 +467,6 @@ class HiddenStateSINDy(DynamicsEstimator):
         if result is None:
             return cand, None, record
         params, coef, x0 = refined_values(cand, result)
-        if cand.designs is not None:  # several records (one record in a list too): (n_records, n_states)
-            x0 = result.initial_states if result.initial_states is not None else result.x0[None]
         structure = hidden.structure(params, n_outputs=n_outputs, n_inputs=n_inputs)
         cand = cand._replace(params=params, structure=structure, coef=coef,
                              dynamics=structure_dynamics(structure, cand.library, coef, simulation))
@@ -501,11 +474,11 @@ class HiddenStateSINDy(DynamicsEstimator):
                     result.nfev, result.message)
         summary = result.summary()
         mixing = getattr(hidden, "canonical_mixing", None)
-        gauged = None if mixing is None or cand.designs is not None else mixing(cand, x0, n_inputs)
+        gauged = None if mixing is None or len(cand.designs) > 1 else mixing(cand, x0[0], n_inputs)
         if gauged is not None and not held:  # a free mixing z -> z + k y: refined again in its canonical gauge
             coef, states, x0_new, mixing_held = gauged
             states[0] = x0_new
-            moved = cand._replace(coef=coef, design=cand.design._replace(states=states),
+            moved = cand._replace(coef=coef, designs=(cand.design._replace(states=states),),
                                   dynamics=structure_dynamics(cand.structure, cand.library, coef, simulation))
             moved, x0_again, again = self._refine(hidden, moved, X, y, held=mixing_held)
             if again.get("status", -1) >= 0 and again["cost"] <= summary["cost"] * (1 + 1e-3) + 1e-15:
@@ -530,7 +503,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         self._candidate_ = Candidate(
             params=self.params_, structure=s, library=self.library_, optimizer=self.optimizer_,
             differentiation=self.differentiation_, coef=coef, derivative=Derivative(self.differentiation_, self.dt_),
-            design=design, dynamics=self.dynamics_,
+            designs=(design,), dynamics=self.dynamics_,
         )
         hidden_idx = [i for i in range(s.n_states) if i not in s.output_index]
         self.hidden_states_ = self.states_[:, hidden_idx]
@@ -569,10 +542,9 @@ class HiddenStateSINDy(DynamicsEstimator):
         return rows
 
 
-def _scaling_record(states, X, records):
+def _scaling_record(states, X):
     """``scaling_``: the operating point of the training ``[x, u]`` (every record's samples)."""
-    U = np.vstack(X) if records else X
-    mean, scale = operating_point(np.hstack([states, U]))
+    mean, scale = operating_point(np.hstack([states, np.vstack(X)]))
     return {"mean": mean.tolist(), "scale": scale.tolist()}
 
 
@@ -588,14 +560,6 @@ def _check_search_params(search_params):
         raise ValueError(f"search_params must be a dict name -> dimension (Uniform, LogUniform, IntRange, Categorical, "
                          f"Normal, LogNormal, or (low, high[, log]) or a list of choices); got {search_params!r}.")
     return check_search_space(search_params, name="search_params", convert=True)
-
-
-def _check_fit_data(X, y):
-    if y is None:
-        raise ValueError("HiddenStateSINDy requires y to be passed, but the target y is None; expected the outputs.")
-    check_array_like(X, "X")
-    check_array_like(y, "y")
-    return check_inputs_outputs(X, y)
 
 
 register_model(HiddenStateSINDy, to_dict=hidden_sindy_to_dict, from_dict=hidden_sindy_from_dict)

@@ -26,16 +26,13 @@ def validation_error(hidden, cand, X, y, n_fit, validation):
     from the first training state and score the block or everything.
     :data:`SEARCH_PENALTY` when the simulation diverges.
 
-    With several records (``X``, ``y`` and ``n_fit`` lists, one entry per
-    record), each record is simulated from its own start (its validation
+    ``X``, ``y`` and ``n_fit`` are lists, one entry per record (lists of one
+    for one record); each record is simulated from its own start (its validation
     block's, or its first training state ``cand.designs[i].states[0]``) and
     the scored samples of all records are pooled into one normalized RMSE.
     """
-    if not isinstance(y, list):
-        X, y, n_fit = [X], [y], [n_fit]
-    designs = cand.designs if cand.designs is not None else (cand.design,)
     y_true, y_pred = [], []
-    for X_r, y_r, n_r, design in zip(X, y, n_fit, designs):
+    for X_r, y_r, n_r, design in zip(X, y, n_fit, cand.designs):
         if validation == "block":
             X_r, y_r = X_r[n_r:], y_r[n_r:]
             x0 = candidate_initial_state(hidden, cand, X_r, y_r)
@@ -48,16 +45,13 @@ def validation_error(hidden, cand, X, y, n_fit, validation):
             y_sim, y_r = y_sim[n_r:], y_r[n_r:]
         y_true.append(y_r)
         y_pred.append(y_sim)
-    if len(y_true) == 1:
-        return nrmse(y_true[0], y_pred[0])
     return nrmse(np.vstack(y_true), np.vstack(y_pred))
 
 
 class SearchObjective:
     """``values -> validation error`` of the candidate ``fit(values)``; :data:`SEARCH_PENALTY` if it fails.
 
-    ``X``, ``y`` and ``n_fit`` are lists (one entry per record) for a
-    candidate fitted on several records (see :func:`validation_error`).
+    ``X``, ``y`` and ``n_fit`` are lists, one entry per record (see :func:`validation_error`).
     """
 
     def __init__(self, fit, hidden, X, y, n_fit, validation):

@@ -59,6 +59,8 @@ class _PythonModel:
 def refinement_problem(cand, hidden, n_outputs, n_inputs, *, build):
     """The refinement's layout of ``cand``: ``coef``, ``free``, ``physical``, ``make_rhs`` and ``x0``.
 
+    ``x0`` holds the first state of each training record, shape (n_records, n_states).
+
     The keyword arguments of ``DynamicsEstimator._run_refinement`` on
     ``cand.dynamics``. ``build(structure, coef) -> Dynamics`` assembles the
     estimator's model (for the Python path, whose fixed rows may depend on
@@ -83,14 +85,15 @@ def refinement_problem(cand, hidden, n_outputs, n_inputs, *, build):
     else:
         physical = None
         coef = coef + block(values)
-    x0 = np.asarray(cand.design.states[0], dtype=float)
+    x0 = np.array([np.asarray(d.states[0], dtype=float) for d in cand.designs])  # one start per record
     return dict(coef=coef, free=free, physical=physical, make_rhs=make_rhs, x0=x0)
 
 
 def refined_values(cand, result):
-    """``(params, coef, x0)`` of the candidate after the refinement ``result``."""
+    """``(params, coef, x0s)`` of the candidate after the refinement ``result``; ``x0s`` (n_records, n_states)."""
     learned = list(cand.structure.learned)
-    return {**cand.params, **result.physical}, result.coef[: cand.coef.shape[0], learned].copy(), result.x0
+    x0s = result.initial_states if result.initial_states is not None else result.x0[None]  # one record: no list kept
+    return {**cand.params, **result.physical}, result.coef[: cand.coef.shape[0], learned].copy(), x0s
 
 
 def refine_guess(fit, rhs, x0, X, y_init, dt, *, output_index, settings):

@@ -216,8 +216,9 @@ def predict_sensitivity(rhs, x0, u, y, dt, *, gain, horizon=1, directions=None, 
                                     input_hold=input_hold, bounds=bounds, max_abs=max_abs)
     n = rhs.n_states
     oidx = np.asarray(output_index, dtype=np.int64)
-    y = np.ascontiguousarray(y, dtype=float).reshape(u.shape[0], oidx.size)
-    gain = np.ascontiguousarray(gain, dtype=float).reshape(n, oidx.size)
+    # own writable copies: a read-only array (a memory map) would compile the kernels a second time
+    y = np.array(y, dtype=float, order="C").reshape(u.shape[0], oidx.size)
+    gain = np.array(gain, dtype=float, order="C").reshape(n, oidx.size)
     if not sensitivities:
         out_x = np.zeros((u.shape[0], n))
         with np.errstate(all="ignore"):

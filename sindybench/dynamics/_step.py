@@ -37,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ._kernels import sensitivity_work, step_sensitivity, step_state
+from ._kernels import run_sensitivity_into, run_state_into, sensitivity_work
 from ._simulate import SimulationError, TermsRHS, simulation_settings
 from ._terms import terms_to_arrays
 
@@ -156,7 +156,7 @@ def step_workspace(m, n_inputs):
     """Work arrays of :func:`step_into` for a loop over samples (allocated once, numba-callable)."""
     n = m.lo.shape[0]
     return (np.empty((2, n_inputs)), np.empty(n + n_inputs), np.empty(m.model[0].shape[0] - 1),
-            np.zeros((m.offsets.shape[0], n)))
+            np.zeros((m.offsets.shape[0], n)), np.empty(1), np.empty((2, n)))
 
 
 @njit(cache=True)
@@ -165,10 +165,12 @@ def step_into(m, x, u0, u1, dt, work):
 
     ``work`` from :func:`step_workspace`; :func:`step_kernel` is this on a copy of ``x``.
     """
-    u, z, theta, K = work
+    u, z, theta, K, h, out = work
     _set_inputs(u, u0, u1)
-    return step_state(x, u, 0, 1 if m.linear else 0, dt, m.n_sub, m.offsets, m.weights, m.lo, m.hi, m.max_abs,
-                      m.model, m.user, z, theta, K)
+    h[0] = dt
+    # the free run's own loop over two samples: one compiled integrator for simulate, step and k-step
+    return run_state_into(x, u, h, m.n_sub, m.offsets, m.weights, m.linear, m.lo, m.hi, m.max_abs, m.model, m.user,
+                          z, theta, K, out) >= 0
 
 
 @njit(cache=True)
@@ -190,7 +192,8 @@ def jacobian_workspace(m, n_inputs):
     ppar = np.zeros(q + 1, dtype=np.int64)
     for p in range(n_par + 1):
         ppar[n + p] = m.par[0][p]
-    return np.empty((2, n_inputs)), np.empty((n, q)), z, work, (ppar, m.par[1], m.par[2], m.par[3])
+    return (np.empty((2, n_inputs)), np.empty((n, q)), z, work, (ppar, m.par[1], m.par[2], m.par[3]), np.empty(1),
+            np.empty(0, dtype=np.int64), np.empty((2, n)), np.empty((2, 0, q)), np.empty((n, q)))
 
 
 @njit(cache=True)
@@ -201,14 +204,16 @@ def step_jacobian_into(m, x, u0, u1, dt, work, jac_x, jac_p):
     :func:`jacobian_workspace`). :func:`step_jacobian_kernel` is this on
     fresh arrays.
     """
-    u, S, z, sens, par = work
+    u, S, z, sens, par, h, oidx, out_x, out_s, s_end = work
     n = x.shape[0]
     _set_inputs(u, u0, u1)
+    h[0] = dt
     for i in range(n):
         for c in range(S.shape[1]):
             S[i, c] = 1.0 if i == c else 0.0
-    bad = step_sensitivity(x, S, u, 0, 1 if m.linear else 0, dt, m.n_sub, m.offsets, m.weights, m.lo, m.hi,
-                           m.max_abs, m.terms, m.coef, par, m.user, z, sens)
+    # the refinement's own loop over two samples: one compiled sensitivity integrator for refine, filter, linearize
+    bad = run_sensitivity_into(x, S, u, h, m.n_sub, m.offsets, m.weights, m.linear, m.lo, m.hi, m.max_abs, m.terms,
+                               m.coef, par, m.user, oidx, z, sens, out_x, out_s, s_end) >= 0
     for i in range(n):
         for c in range(n):
             jac_x[i, c] = S[i, c]

@@ -16,7 +16,9 @@ states, RK4, fitted on the estimation record):
 - ``filter``: ``extended_kalman_filter``; ``estimate_noise``; ``k_step``: ``predict_k_step``.
 
 ``--reference REV`` also runs every scenario on the package of revision ``REV`` (exported with
-``git archive`` into a temporary folder), in the same process tree, one after the other.
+``git archive`` into a temporary folder), scenario by scenario just before this tree's run (on a
+shared machine the load drifts: compare neighbours). Also printed: the whole child process's CPU
+(interpreter start and imports included), the measure of "a script's CPU time".
 Numba, BLAS and OpenMP run on one thread. Usage (from the repository root)::
 
     SINDYBENCH_DATA=../shared/data python benchmarks/bench_compile.py [--only quickstart,filter] [--reference main]
@@ -26,6 +28,7 @@ import argparse
 import json
 import os
 import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -86,31 +89,34 @@ def _script(name):
 
 
 def _run(tree, script, cache):
+    """CPU and wall seconds of the timed part, and the whole child's CPU (interpreter start and imports included)."""
     env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache), "PYTHONDONTWRITEBYTECODE": "1",
            "MPLBACKEND": "Agg", "SINDYBENCH_PROGRESS": "0"}
     for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
         env[name] = "1"
     if env.get("SINDYBENCH_DATA"):
         env["SINDYBENCH_DATA"] = str(Path(env["SINDYBENCH_DATA"]).resolve())
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     out = subprocess.run([sys.executable, "-c", script], env=env, cwd=tempfile.gettempdir(), capture_output=True,
                          text=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     if out.returncode:
         raise RuntimeError(out.stderr[-2000:])
     line = [x for x in out.stdout.splitlines() if x.startswith("BENCH ")][-1]
-    return json.loads(line[6:])
+    result = json.loads(line[6:])
+    result["process"] = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    return result
 
 
-def measure(tree, names):
-    rows = {}
-    for name in names:
-        with tempfile.TemporaryDirectory() as cache:
-            cold = _run(tree, _script(name), cache)
-            warm = _run(tree, _script(name), cache)
-        rows[name] = (cold, warm)
-        print(f"  {name:15s} cold {cold['cpu']:6.2f} s  warm {warm['cpu']:6.2f} s  compile {cold['cpu'] - warm['cpu']:6.2f}"
-              f" s  ratio {cold['cpu'] / warm['cpu']:5.2f}x   (wall {cold['wall']:6.2f} / {warm['wall']:6.2f} s)",
-              flush=True)
-    return rows
+def measure(tree, name, label):
+    with tempfile.TemporaryDirectory() as cache:
+        cold = _run(tree, _script(name), cache)
+        warm = _run(tree, _script(name), cache)
+    print(f"  {label:9s} {name:15s} cold {cold['cpu']:6.2f} s  warm {warm['cpu']:6.2f} s  compile "
+          f"{cold['cpu'] - warm['cpu']:6.2f} s  ratio {cold['cpu'] / warm['cpu']:6.2f}x  (whole process "
+          f"{cold['process']:6.2f} / {warm['process']:6.2f} s = {cold['process'] / warm['process']:5.2f}x; wall "
+          f"{cold['wall']:6.2f} / {warm['wall']:6.2f} s)", flush=True)
+    return cold, warm
 
 
 def _export(rev, folder):
@@ -129,19 +135,20 @@ def main():
     if unknown:
         parser.error(f"unknown scenarios {unknown}; expected some of {list(SCENARIOS)}")
     print("CPU seconds of each entry point (fresh NUMBA_CACHE_DIR = cold, then the same cache = warm)")
-    if args.reference:
-        with tempfile.TemporaryDirectory() as folder:
+    cur, ref = {}, {}
+    with tempfile.TemporaryDirectory() as folder:
+        if args.reference:
             _export(args.reference, folder)
-            print(f"reference {args.reference}:")
-            ref = measure(Path(folder), names)
-    print("this tree:")
-    cur = measure(ROOT, names)
+        for name in names:  # reference and this tree back to back, scenario by scenario
+            if args.reference:
+                ref[name] = measure(Path(folder), name, "reference")
+            cur[name] = measure(ROOT, name, "this tree")
     if args.reference:
-        print("compile seconds, this tree / reference:")
+        print(f"compile seconds (cold - warm CPU), this tree / reference {args.reference}:")
         for name in names:
             a = cur[name][0]["cpu"] - cur[name][1]["cpu"]
             b = ref[name][0]["cpu"] - ref[name][1]["cpu"]
-            print(f"  {name:15s} {a:6.2f} / {b:6.2f} s")
+            print(f"  {name:15s} {a:6.2f} / {b:6.2f} s = {a / b:5.2f}")
 
 
 if __name__ == "__main__":

@@ -164,3 +164,12 @@ def test_bounds_pairs_are_log_scaled_and_dimensions_kept():
     with pytest.raises(ValueError, match=r"bounds\['tau'\] = Uniform\(low=-1.0, high=1.0\) reaches -1.0; expected "
                                          r"positive values only \(tau > 0\)"):
         LatentHiddenState(bounds={"tau": Uniform(-1.0, 1.0)})._validate()
+
+
+def test_gauge_is_a_hook_of_every_strategy():
+    """The protocol's gauge hook: nothing to say by default, one line per latent state for the latent strategy."""
+    from sindybench.hidden import DerivativeHiddenState, HiddenStrategy
+
+    assert "gauge" in vars(HiddenStrategy) and DerivativeHiddenState().gauge() == ""
+    assert LatentHiddenState(n_latent=2).gauge().splitlines() == [
+        "z0: the coefficient of u0 in z0' is 1 (scale gauge)", "z1: the coefficient of z0 in z1' is 1 (scale gauge)"]

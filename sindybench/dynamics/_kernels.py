@@ -125,15 +125,18 @@ def step_state(x, u, k, k1, h, n_sub, offsets, weights, lo, hi, max_abs, model, 
     return False
 
 
-@njit(cache=True)
 def run_state(x0, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, model, user, out):
-    """Integrate into ``out``; return the first invalid step or -1."""
+    """Integrate into ``out``; return the first invalid step or -1.
+
+    Python: the work arrays come from NumPy, so that the one compiled loop is
+    :func:`run_state_into` (a compiled wrapper cost about 1 s more of compilation).
+    """
     n = x0.shape[0]
     z = np.empty(n + u.shape[1])
     theta = np.empty(model[0].shape[0] - 1)
     K = np.zeros((offsets.shape[0], n))
-    return run_state_into(x0.copy(), u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, model, user, z, theta, K,
-                          out)
+    x = np.array(x0, dtype=np.float64, order="C")  # a copy
+    return run_state_into(x, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, model, user, z, theta, K, out)
 
 
 @njit(cache=True)
@@ -286,14 +289,17 @@ def step_sensitivity(x, S, u, k, k1, h, n_sub, offsets, weights, lo, hi, max_abs
     return False
 
 
-@njit(cache=True)
 def run_sensitivity(x0, S0, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, terms, coef, par, user, oidx,
                     out_x, out_s, s_end):
-    """Integrate state and sensitivities; return the first invalid step or -1."""
-    z, work = sensitivity_work(x0.shape[0], u.shape[1], coef.shape[0], terms[1].shape[0], offsets.shape[0],
-                               S0.shape[1])
-    return run_sensitivity_into(x0.copy(), S0.copy(), u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, terms,
-                                coef, par, user, oidx, z, work, out_x, out_s, s_end)
+    """Integrate state and sensitivities; return the first invalid step or -1.
+
+    Python, as :func:`run_state`: the one compiled loop is :func:`run_sensitivity_into`.
+    """
+    z, work = sensitivity_work.py_func(x0.shape[0], u.shape[1], coef.shape[0], terms[1].shape[0], offsets.shape[0],
+                                       S0.shape[1])
+    x, S = np.array(x0, dtype=np.float64, order="C"), np.array(S0, dtype=np.float64, order="C")  # copies
+    return run_sensitivity_into(x, S, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, terms, coef, par, user,
+                                oidx, z, work, out_x, out_s, s_end)
 
 
 @njit(cache=True)

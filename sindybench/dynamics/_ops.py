@@ -11,11 +11,15 @@ sensitivity kernel. Each takes ``user``, the address of the compiled table of us
 (``gate``, ``STEP``) making it 0 outside its interval whatever the other factors are.
 """
 
+import inspect
+import textwrap
+
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
+from . import _optable
 from ._optable import ABS_POW, OPERATIONS, POW, SIGN, SQRT, STEP, power
 
 __all__ = [
@@ -92,17 +96,30 @@ def call_rows(typingctx, address, z, par, out):
     return sig, codegen
 
 
+def _branch(function, args):
+    """The body of a table entry's function, indented as one branch of the dispatch."""
+    names = list(inspect.signature(function).parameters)
+    if names != args:
+        raise TypeError(f"{function.__name__} must take ({', '.join(args)}); it takes ({', '.join(names)}).")
+    source = textwrap.dedent(inspect.getsource(function))
+    body = source[source.index(":\n", source.index(")")) + 2:]  # after the def line
+    return textwrap.indent(textwrap.dedent(body), "        ")
+
+
 def _dispatch(kind):
-    """``op_value(o, v, a, b, user)`` or ``op_derivative(o, v, value, a, b, user)``: one branch per entry of
-    :data:`OPERATIONS` calling its numba function, then the user table (generated: numba needs static branches)."""
-    args = "v, a, b" if kind == "value" else "v, value, a, b"
-    lines = [f"def op_{kind}(o, {args}, user):"]
-    names = {"call_user": call_user}
+    """``op_value(o, v, a, b, user)`` or ``op_derivative(o, v, value, a, b, user)``: for each entry of
+    :data:`OPERATIONS`, ``if o == code:`` and that entry's function body; then the user table.
+
+    Generated (numba needs static branches) from the entries' own code, so the kernels compile one
+    plain ``if`` chain: no extra layer of inlined calls, whose copies would cost compilation time.
+    """
+    args = ["v", "a", "b"] if kind == "value" else ["v", "value", "a", "b"]
+    lines = [f"def op_{kind}(o, {', '.join(args)}, user):"]
     for op in OPERATIONS:
-        names[f"F{op.code}"] = getattr(op, kind)
-        lines += [f"    if o == {op.code}:", f"        return F{op.code}({args})"]
+        lines += [f"    if o == {op.code}:", _branch(getattr(op, kind), args).rstrip()]
     lines.append(f"    return call_user(user, o, {0 if kind == 'value' else 1}, v)")
-    exec("\n".join(lines), names)  # noqa: S102 - generated from the fixed table above
+    names = {**vars(_optable), "call_user": call_user}
+    exec("\n".join(lines), names)  # noqa: S102 - generated from the table's own functions
     function = names[f"op_{kind}"]
     function.__doc__ = ("Value of the factor ``op(v)``." if kind == "value" else
                         "Derivative of the factor ``op(v)`` with respect to ``v``; ``value`` is :func:`op_value`'s.")
@@ -134,10 +151,8 @@ def apply_factor(value, o, fv):
 
 @njit(cache=True, inline="always")
 def apply_op(value, o, v, a, b, user):
-    """``apply_factor(value, o, op_value(o, v, a, b, user))``."""
-    if is_gate(o):
-        return value if op_value(o, v, a, b, user) != 0.0 else 0.0
-    return value * op_value(o, v, a, b, user)
+    """``apply_factor(value, o, op_value(o, v, a, b, user))`` (one copy of the dispatch: compiled once)."""
+    return apply_factor(value, o, op_value(o, v, a, b, user))
 
 
 @njit(cache=True)

@@ -16,10 +16,11 @@ STEP      ``1`` if ``a <= z <= b``, else 0   0                                  
                                                                                         ``[a<=z<=b]``
 ========  =================================  =========================================  ======================
 
-``value(v, a, b)`` and ``derivative(v, value, a, b)`` are numba functions: the compiled
-dispatch of :mod:`._ops` (``op_value``, ``op_derivative``) is written from this table, and
-every compiled user of the terms (features, simulator, sensitivities, one-step map) inlines
-it. ``text``, ``latex``, ``sympy`` and ``casadi`` write the factor for
+``value(v, a, b)`` and ``derivative(v, value, a, b)`` are plain functions of scalars in the
+subset of Python that numba compiles: the compiled dispatch of :mod:`._ops` (``op_value``,
+``op_derivative``) is written from this table, each function's body one branch (so the
+kernels compile exactly the code of one hand-written ``if`` chain), and every compiled user
+of the terms (features, simulator, sensitivities, one-step map) inlines it. ``text``, ``latex``, ``sympy`` and ``casadi`` write the factor for
 :func:`~sindybench.libraries.term_name`, :func:`~sindybench.libraries.term_latex`,
 :func:`~sindybench.libraries.term_sympy` and :func:`~sindybench.export.to_casadi`; the CasADi
 form is the simulator's value with the simulator's derivative (a ``SQRT`` clipped at ``a``
@@ -30,8 +31,8 @@ so that a product such as ``z |z|^0.5``, whose derivative is 0 there, gets 0 by 
 rule rather than ``0 * inf``. ``gate`` marks an indicator (``STEP``): outside its interval
 the product is 0 whatever the other factors are (``inf * 0`` is not NaN).
 
-**Adding a built-in operation** is one entry: two numba functions (value, derivative) and
-an :class:`Operation` with the next free code below :data:`~sindybench.dynamics.USER`,
+**Adding a built-in operation** is one entry: two functions (value, derivative; they may
+call :func:`power` and ``np``) and an :class:`Operation` with the next free code below :data:`~sindybench.dynamics.USER`,
 appended to :data:`OPERATIONS` (codes are stored in model files: never renumber one). Then
 give it a name in :mod:`sindybench.dynamics` and delete the ``__pycache__`` folders of
 ``sindybench/dynamics`` (numba's cache does not see a change in an inlined function).
@@ -53,9 +54,9 @@ class Operation(NamedTuple):
     ----------
     code : int
     name : str
-    value : numba function
-        ``value(v, a, b) -> float``.
-    derivative : numba function
+    value : function
+        ``value(v, a, b) -> float`` (numba-compilable; its body becomes a branch of ``op_value``).
+    derivative : function
         ``derivative(v, value, a, b) -> float``, ``value`` the factor's value at ``v``.
     text, latex : callable
         ``text(z, a, b) -> str`` with ``z`` the column's name (``latex``: its LaTeX).
@@ -125,23 +126,19 @@ def _constant_sqrt(c):
 
 
 # ------------------------------------------------------------------------------------------------ POW
-@njit(cache=True, inline="always")
 def _pow_value(v, a, b):
     return power(v, a)
 
 
-@njit(cache=True, inline="always")
 def _pow_derivative(v, value, a, b):
     return 0.0 if a == 0.0 else a * power(v, a - 1.0)
 
 
 # -------------------------------------------------------------------------------------------- ABS_POW
-@njit(cache=True, inline="always")
 def _abs_pow_value(v, a, b):
     return power(abs(v), a)
 
 
-@njit(cache=True, inline="always")
 def _abs_pow_derivative(v, value, a, b):
     if a == 0.0 or v == 0.0:
         return 0.0
@@ -149,12 +146,10 @@ def _abs_pow_derivative(v, value, a, b):
 
 
 # ----------------------------------------------------------------------------------------------- SQRT
-@njit(cache=True, inline="always")
 def _sqrt_value(v, a, b):
     return np.sqrt(min(max(v, a), b))
 
 
-@njit(cache=True, inline="always")
 def _sqrt_derivative(v, value, a, b):
     if a < v < b:
         return 0.5 / value  # value = sqrt(v) inside the clip
@@ -169,7 +164,6 @@ def _sqrt_casadi(ca, v, a, b):
 
 
 # ----------------------------------------------------------------------------------------------- SIGN
-@njit(cache=True, inline="always")
 def _sign_value(v, a, b):
     if v > 0.0:
         return 1.0
@@ -178,13 +172,11 @@ def _sign_value(v, a, b):
     return v  # sign(0) = 0 (with the sign of the zero), sign(nan) = nan
 
 
-@njit(cache=True, inline="always")
 def _zero_derivative(v, value, a, b):
     return 0.0
 
 
 # ----------------------------------------------------------------------------------------------- STEP
-@njit(cache=True, inline="always")
 def _step_value(v, a, b):
     return 1.0 if a <= v <= b else 0.0
 

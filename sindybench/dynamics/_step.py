@@ -37,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ._kernels import run_sensitivity_into, run_state_into, sensitivity_work
+from ._kernels import run_state_into, sensitivity_work, step_sensitivity
 from ._simulate import SimulationError, TermsRHS, simulation_settings
 from ._terms import terms_to_arrays
 
@@ -192,8 +192,7 @@ def jacobian_workspace(m, n_inputs):
     ppar = np.zeros(q + 1, dtype=np.int64)
     for p in range(n_par + 1):
         ppar[n + p] = m.par[0][p]
-    return (np.empty((2, n_inputs)), np.empty((n, q)), z, work, (ppar, m.par[1], m.par[2], m.par[3]), np.empty(1),
-            np.empty(0, dtype=np.int64), np.empty((2, n)), np.empty((2, 0, q)), np.empty((n, q)))
+    return np.empty((2, n_inputs)), np.empty((n, q)), z, work, (ppar, m.par[1], m.par[2], m.par[3])
 
 
 @njit(cache=True)
@@ -204,16 +203,16 @@ def step_jacobian_into(m, x, u0, u1, dt, work, jac_x, jac_p):
     :func:`jacobian_workspace`). :func:`step_jacobian_kernel` is this on
     fresh arrays.
     """
-    u, S, z, sens, par, h, oidx, out_x, out_s, s_end = work
+    u, S, z, sens, par = work
     n = x.shape[0]
     _set_inputs(u, u0, u1)
-    h[0] = dt
     for i in range(n):
         for c in range(S.shape[1]):
             S[i, c] = 1.0 if i == c else 0.0
-    # the refinement's own loop over two samples: one compiled sensitivity integrator for refine, filter, linearize
-    bad = run_sensitivity_into(x, S, u, h, m.n_sub, m.offsets, m.weights, m.linear, m.lo, m.hi, m.max_abs, m.terms,
-                               m.coef, par, m.user, oidx, z, sens, out_x, out_s, s_end) >= 0
+    # step_sensitivity inlined here, not reached through run_sensitivity_into (which would share its compilation
+    # with the refinement): the Kalman filter calls this once per sample, and that call cost 18 % of its time
+    bad = step_sensitivity(x, S, u, 0, 1 if m.linear else 0, dt, m.n_sub, m.offsets, m.weights, m.lo, m.hi,
+                           m.max_abs, m.terms, m.coef, par, m.user, z, sens)
     for i in range(n):
         for c in range(n):
             jac_x[i, c] = S[i, c]

@@ -19,7 +19,19 @@ states, RK4, fitted on the estimation record):
 ``git archive`` into a temporary folder), scenario by scenario just before this tree's run (on a
 shared machine the load drifts: compare neighbours). Also printed: the whole child process's CPU
 (interpreter start and imports included), the measure of "a script's CPU time".
-Numba, BLAS and OpenMP run on one thread. Usage (from the repository root)::
+Numba, BLAS and OpenMP run on one thread.
+
+Measured (``--reference df2cee8``, the code before issue 26 item 5; one run on the shared 2-core
+machine at a load of 5-9; compile = cold - warm CPU of the entry point)::
+
+    quickstart      7.76 / 8.58 s = 0.90   (cold / warm CPU 4.97x, before 5.30x; whole process 4.18x)
+    predict         2.45 / 2.68 s = 0.92
+    refine          7.82 / 8.05 s = 0.97
+    filter          9.54 / 13.77 s = 0.69
+    estimate_noise 12.92 / 15.43 s = 0.84
+    k_step         14.53 / 17.48 s = 0.83
+
+Usage (from the repository root)::
 
     SINDYBENCH_DATA=../shared/data python benchmarks/bench_compile.py [--only quickstart,filter] [--reference main]
 """

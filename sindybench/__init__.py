@@ -3,13 +3,13 @@
 from . import baselines, differentiation, uncertainty
 from ._divergence import DivergenceWarning
 from ._sindy import SINDy
+from ._version import __version__
 from .optimizers import STLS, GramCache, stls
 from .hidden import HiddenStateSINDy
 from .io import load_model
 from .identify import identify
 from .simulate import SimulationError
 
-__version__ = "0.1.0"
 
 __all__ = [
     "DivergenceWarning",

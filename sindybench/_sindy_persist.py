@@ -126,8 +126,11 @@ def _check_derived(model, n_states, n_inputs):
     """Names, feature names and dt follow from the parameters and the library: a file that says otherwise is refused."""
     from ._sindy import _check_names, check_distinct_names
 
-    expected = {"output_names": _check_names(model.output_names, n_states, "y", "output_names"),
-                "input_names": _check_names(model.input_names, n_inputs, "u", "input_names")}
+    try:
+        expected = {"output_names": _check_names(model.output_names, n_states, "y", "output_names"),
+                    "input_names": _check_names(model.input_names, n_inputs, "u", "input_names")}
+    except ValueError as exc:
+        raise ValueError(f"params: {exc}") from exc
     for name, value in expected.items():
         if getattr(model, name + "_") != value:
             raise ValueError(f"fitted.{name} = {getattr(model, name + '_')!r}, but params.{name} gives {value!r}; "

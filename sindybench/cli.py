@@ -31,7 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
+from ._version import __version__
 from .experiments import BENCHMARKS  # the one list of benchmark names
 from ._limits import shown
 

@@ -14,4 +14,5 @@ from .dynamics._simulate import (  # noqa: F401 - _HOLDS and _METHODS: the estim
     simulate,
 )
 
-__all__ = ["SimulationError", "TermsRHS", "make_rhs", "simulate"]
+# SimulationError is exported from the top-level package (sindybench.SimulationError), importable here too
+__all__ = ["TermsRHS", "make_rhs", "simulate"]

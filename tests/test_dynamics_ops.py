@@ -61,3 +61,44 @@ def test_unknown_operation_codes_are_rejected():
         check_terms([[[0, 7, 0, 0]]])
     with pytest.raises(ValueError, match="not a built-in operation .* nor a user operation registered"):
         check_terms([[[0, USER + 999, 0, 0]]])
+
+
+def test_the_table_holds_every_builtin_operation_once():
+    from sindybench.dynamics._optable import OPERATIONS
+    from sindybench.dynamics._ops import BUILTIN_OPS
+
+    assert [op.code for op in OPERATIONS] == list(range(len(OPERATIONS))) == list(BUILTIN_OPS)
+    assert [op.name for op in OPERATIONS] == ["POW", "ABS_POW", "SQRT", "SIGN", "STEP"]
+    assert len(OPERATIONS) < USER
+
+
+@pytest.mark.parametrize("factor", FACTORS, ids=lambda f: f"op{f[1]}a{f[2]}")
+def test_compiled_dispatch_is_the_table_entry(factor):
+    """op_value / op_derivative (written from the table) give each entry's own value and derivative."""
+    from sindybench.dynamics._user import operation
+
+    _, code, a, b = factor
+    entry = operation(code)
+    z = np.array([-1.3, -0.2, 0.0, 0.05, 0.3, 0.7, 1.2, 1.9, 2.6])
+    values = evaluate_terms([(factor,)], z[:, None])[:, 0]
+    slopes = evaluate_terms_jacobian([(factor,)], z[:, None])[:, 0, 0]
+    expect = [entry.value(v, a, b) for v in z]
+    assert np.array_equal(values, expect, equal_nan=True)
+    assert np.array_equal(slopes, [entry.derivative(v, f, a, b) for v, f in zip(z, expect)], equal_nan=True)
+
+
+def test_every_operation_has_its_written_forms():
+    sympy = pytest.importorskip("sympy")
+    from sindybench.dynamics._user import operation
+
+    z = sympy.Symbol("z")
+    written = {code: (operation(code).text("z", 0.5, 2.0), operation(code).latex("z", 0.5, 2.0),
+                      str(operation(code).sympy(sympy, z, 0.5, 2.0))) for code in (POW, ABS_POW, SQRT, SIGN, STEP)}
+    assert written[SQRT] == ("sqrt(z)", r"\sqrt{z}", "sqrt(z)")
+    assert written[STEP][0] == "[0.5<=z<=2]" and written[ABS_POW][0] == "|z|^0.5"
+    op = register_op(np.tanh)
+    assert (operation(op).text("v", 0, 0), str(operation(op).sympy(sympy, z, 0, 0))) == ("tanh(v)", "tanh(z)")
+    with pytest.raises(ValueError, match="unknown factor operation 7"):
+        operation(7)
+    with pytest.raises(ValueError, match="nor a user operation registered"):
+        operation(USER + 999)

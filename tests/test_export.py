@@ -85,12 +85,28 @@ def test_simulate_casadi_checks_shapes():
         simulate_casadi(cm, [np.nan, 0.0, 0.1], np.zeros((5, 1)))
 
 
-def test_a_user_operation_is_named_when_it_has_no_casadi_form():
-    # issue 30, item 19: to_casadi said "unknown factor operation 16."
+
+def test_user_operations_export_when_numpy_names_them_and_say_so_otherwise():
     from sindybench.dynamics import register_op
 
-    op = register_op(np.tanh)
-    rhs = TermsRHS.from_equations([{((0, POW, 1, 0),): -1.0, ((1, int(op), 0, 0),): 1.0}])
-    with pytest.raises(ValueError, match=rf"to_casadi: the model uses the user operation tanh\(z\) \(op code {int(op)}, "
-                                         r"registered with register_op or a CustomLibrary\), which has no CasADi form"):
-        to_casadi(ModelStep.from_rhs(rhs, 0.1, n_inputs=1))
+    tanh = register_op(np.tanh)
+    rhs = TermsRHS.from_equations([{((0, tanh, 0.0, 0.0),): -1.0, lin(1): 1.0}])
+    u = np.sin(np.linspace(0.0, 3.0, 40))[:, None]
+    x_ca = simulate_casadi(to_casadi(ModelStep.from_rhs(rhs, DT, n_inputs=1)), [0.3], u)
+    np.testing.assert_allclose(x_ca, simulate(rhs, [0.3], u, DT), rtol=1e-12, atol=1e-14)
+    smooth = register_op(lambda v: np.tanh(v / 0.02), name="tanh({}/0.02)")
+    rhs = TermsRHS.from_equations([{((0, smooth, 0.0, 0.0),): -1.0}])
+    with pytest.raises(ValueError, match=r"user operation 'tanh\(z/0.02\)' .* has no CasADi form"):
+        to_casadi(ModelStep.from_rhs(rhs, DT))
+
+
+def test_a_clipped_square_root_has_the_simulators_value_and_derivative():
+    """One clip for simulator and export: sqrt(clip(x, 0, 0.3)) is flat (derivative 0) at and outside its ends."""
+    rhs = TermsRHS.from_equations([{((0, SQRT, 0.0, 0.3),): 1.0}])
+    cm = to_casadi(ModelStep.from_rhs(rhs, DT))
+    xs = casadi.SX.sym("x", 1)
+    slope = casadi.Function("d", [xs], [casadi.jacobian(cm.rhs(xs, casadi.SX.sym("u", 0)), xs)])
+    for x, value, derivative in [(-0.1, 0.0, 0.0), (0.0, 0.0, 0.0), (0.04, 0.2, 2.5), (0.3, np.sqrt(0.3), 0.0),
+                                 (0.5, np.sqrt(0.3), 0.0)]:
+        assert float(cm.rhs([x], [])) == rhs([x], np.zeros(0))[0] == pytest.approx(value, rel=1e-15)
+        assert float(slope([x])) == pytest.approx(derivative, rel=1e-12)

@@ -191,3 +191,11 @@ def test_gauge_never_states_a_coefficient_the_model_does_not_have(rng):
 def test_gauge_of_an_invalid_strategy_is_an_error(params, match):
     with pytest.raises(ValueError, match=match):
         LatentHiddenState(**params).gauge()
+def test_gauge_is_a_hook_of_every_strategy():
+    """The protocol's gauge hook: nothing to say by default, one line per latent state for the latent strategy."""
+    from sindybench.hidden import DerivativeHiddenState, HiddenStrategy
+
+    assert "gauge" in vars(HiddenStrategy) and DerivativeHiddenState().gauge() == ""
+    assert LatentHiddenState(n_latent=2).gauge().splitlines() == [
+        "z0: the coefficient of u0 in z0' is held at 1 by the refinement (scale gauge)",
+        "z1: the coefficient of z0 in z1' is held at 1 by the refinement (scale gauge)"]

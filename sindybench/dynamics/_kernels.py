@@ -19,7 +19,8 @@ from numba.extending import overload
 
 from ._ops import apply_factor, apply_op, call_rows, op_derivative, op_value
 
-__all__ = ["run_sensitivity", "run_state", "sensitivity_work", "step_sensitivity", "step_state"]
+__all__ = ["run_sensitivity", "run_sensitivity_into", "run_state", "run_state_into", "sensitivity_work",
+           "step_sensitivity", "step_state"]
 
 
 # ------------------------------------------------------------------ state only
@@ -124,14 +125,29 @@ def step_state(x, u, k, k1, h, n_sub, offsets, weights, lo, hi, max_abs, model, 
     return False
 
 
-@njit(cache=True)
 def run_state(x0, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, model, user, out):
-    """Integrate into ``out``; return the first invalid step or -1."""
+    """Integrate into ``out``; return the first invalid step or -1.
+
+    Python: the work arrays come from NumPy, so that the one compiled loop is
+    :func:`run_state_into` (a compiled wrapper cost about 1 s more of compilation).
+    """
     n = x0.shape[0]
-    x = x0.copy()
     z = np.empty(n + u.shape[1])
     theta = np.empty(model[0].shape[0] - 1)
     K = np.zeros((offsets.shape[0], n))
+    x = np.array(x0, dtype=np.float64, order="C")  # a copy
+    return run_state_into(x, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, model, user, z, theta, K, out)
+
+
+@njit(cache=True)
+def run_state_into(x, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, model, user, z, theta, K, out):
+    """:func:`run_state` from ``x`` (advanced in place) with the work arrays given: no allocation.
+
+    The one compiled loop around :func:`step_state` (inlined here only): the free run, the
+    one-step map (:func:`~sindybench.dynamics.step_into`, two samples) and the k-step prediction
+    call it, so its compilation is paid once per process and model type.
+    """
+    n = x.shape[0]
     for i in range(n):
         out[0, i] = x[i]
     for k in range(out.shape[0] - 1):
@@ -273,15 +289,30 @@ def step_sensitivity(x, S, u, k, k1, h, n_sub, offsets, weights, lo, hi, max_abs
     return False
 
 
-@njit(cache=True)
 def run_sensitivity(x0, S0, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, terms, coef, par, user, oidx,
                     out_x, out_s, s_end):
-    """Integrate state and sensitivities; return the first invalid step or -1."""
-    n = x0.shape[0]
-    q = S0.shape[1]
-    z, work = sensitivity_work(n, u.shape[1], coef.shape[0], terms[1].shape[0], offsets.shape[0], q)
-    x = x0.copy()
-    S = S0.copy()
+    """Integrate state and sensitivities; return the first invalid step or -1.
+
+    Python, as :func:`run_state`: the one compiled loop is :func:`run_sensitivity_into`.
+    """
+    z, work = sensitivity_work.py_func(x0.shape[0], u.shape[1], coef.shape[0], terms[1].shape[0], offsets.shape[0],
+                                       S0.shape[1])
+    x, S = np.array(x0, dtype=np.float64, order="C"), np.array(S0, dtype=np.float64, order="C")  # copies
+    return run_sensitivity_into(x, S, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, terms, coef, par, user,
+                                oidx, z, work, out_x, out_s, s_end)
+
+
+@njit(cache=True)
+def run_sensitivity_into(x, S, u, h, n_sub, offsets, weights, linear, lo, hi, max_abs, terms, coef, par, user, oidx,
+                         z, work, out_x, out_s, s_end):
+    """:func:`run_sensitivity` from ``x`` and ``S`` (advanced in place), work arrays given: no allocation.
+
+    The refinement's compiled loop around :func:`step_sensitivity` (the one-step Jacobian,
+    :func:`~sindybench.dynamics.step_jacobian_into`, inlines the step itself: the Kalman filter
+    calls it once per sample, where a call to this loop cost 18 % of the filter's time).
+    """
+    n = x.shape[0]
+    q = S.shape[1]
     for i in range(n):
         out_x[0, i] = x[i]
     for r in range(oidx.shape[0]):

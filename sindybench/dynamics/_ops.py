@@ -1,36 +1,26 @@
-"""Term operations: each one's value and derivative, defined once and compiled by numba.
+"""The compiled dispatch of the term operations, and the kernels that evaluate terms.
 
-A *term* is a product of *factors* ``(col, op, a, b)``; a factor applies one
-operation ``op`` to column ``col`` of ``Z = [states, inputs]``. The operations
-and their derivatives with respect to the column:
-
-========  =================================  =========================================
-op        value                              derivative
-========  =================================  =========================================
-POW       ``z ** a``                         ``a z^(a-1)`` (0 for ``a = 0``)
-ABS_POW   ``|z| ** a``                       ``a |z|^(a-1) sign(z)``, 0 at ``z = 0``
-SQRT      ``sqrt(clip(z, a, b))``            ``1 / (2 sqrt(z))`` inside ``(a, b)``, else 0
-SIGN      ``sign(z)``                        0
-STEP      ``1`` if ``a <= z <= b``, else 0   0
-user      ``f(z)`` (a registered function)   the given derivative, a rule, or differences
-========  =================================  =========================================
-
-At ``z = 0`` the derivative of ``|z|^a`` is taken as 0 (``sign(0) = 0``, also
-for ``a < 1``), so that a product such as ``z |z|^0.5``, whose derivative is 0
-there, gets 0 by the product rule rather than ``0 * inf``.
-
-:func:`op_value`, :func:`op_derivative` and :func:`apply_factor` are numba
-functions, inlined into every compiled user of the terms: the NumPy
-evaluation (:func:`evaluate_terms`, :func:`evaluate_terms_jacobian`), the
-simulator and the sensitivity kernel. Each takes ``user``, the address of the
-compiled table of user operations (:func:`~sindybench.dynamics.user_table`),
-which they call for a code ``>= USER``.
+The operations themselves (value, derivative, text, LaTeX, SymPy and CasADi forms) are the
+entries of :data:`~._optable.OPERATIONS` (:mod:`._optable`). :func:`op_value` and
+:func:`op_derivative` are written from that table when this module is imported (numba needs
+one static branch per code), inline into every compiled user of the terms: the NumPy
+evaluation (:func:`evaluate_kernel`, :func:`evaluate_jacobian_kernel`), the simulator and the
+sensitivity kernel. Each takes ``user``, the address of the compiled table of user operations
+(:func:`~sindybench.dynamics.user_table`), which they call for a code ``>= USER``.
+:func:`apply_factor` and :func:`apply_op` multiply a factor into a product, an indicator
+(``gate``, ``STEP``) making it 0 outside its interval whatever the other factors are.
 """
+
+import inspect
+import textwrap
 
 import numpy as np
 from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
+
+from . import _optable
+from ._optable import ABS_POW, OPERATIONS, POW, SIGN, SQRT, STEP, power
 
 __all__ = [
     "ABS_POW",
@@ -53,8 +43,7 @@ __all__ = [
     "power",
 ]
 
-POW, ABS_POW, SQRT, SIGN, STEP = 0, 1, 2, 3, 4
-BUILTIN_OPS = (POW, ABS_POW, SQRT, SIGN, STEP)
+BUILTIN_OPS = tuple(op.code for op in OPERATIONS)
 USER = 16
 """First code of the user operations (:func:`~sindybench.dynamics.register_op`)."""
 
@@ -107,72 +96,63 @@ def call_rows(typingctx, address, z, par, out):
     return sig, codegen
 
 
-@njit(cache=True, inline="always")
-def power(v, p):
-    """``v ** p``, with the small integer powers as products (``v ** 0 = 1`` for every ``v``, NaN included)."""
-    if p == 1.0:
-        return v
-    if p == 0.0:
-        return 1.0
-    if p == 2.0:
-        return v * v
-    if p == 3.0:
-        return v * v * v
-    return v**p
+def _branch(function, args):
+    """The body of a table entry's function, indented as one branch of the dispatch."""
+    names = list(inspect.signature(function).parameters)
+    if names != args:
+        raise TypeError(f"{function.__name__} must take ({', '.join(args)}); it takes ({', '.join(names)}).")
+    source = textwrap.dedent(inspect.getsource(function))
+    body = source[source.index(":\n", source.index(")")) + 2:]  # after the def line
+    return textwrap.indent(textwrap.dedent(body), "        ")
 
 
-@njit(cache=True, inline="always")
-def op_value(o, v, a, b, user):
-    """Value of the factor ``op(v)``."""
-    if o == POW:
-        return power(v, a)
-    if o == ABS_POW:
-        return power(abs(v), a)
-    if o == SQRT:
-        return np.sqrt(min(max(v, a), b))
-    if o == SIGN:
-        if v > 0.0:
-            return 1.0
-        if v < 0.0:
-            return -1.0
-        return v  # sign(0) = 0 (with the sign of the zero), sign(nan) = nan
-    if o == STEP:
-        return 1.0 if a <= v <= b else 0.0
-    return call_user(user, o, 0, v)
+def _dispatch(kind):
+    """``op_value(o, v, a, b, user)`` or ``op_derivative(o, v, value, a, b, user)``: for each entry of
+    :data:`OPERATIONS`, ``if o == code:`` and that entry's function body; then the user table.
+
+    Generated (numba needs static branches) from the entries' own code, so the kernels compile one
+    plain ``if`` chain: no extra layer of inlined calls, whose copies would cost compilation time.
+    """
+    args = ["v", "a", "b"] if kind == "value" else ["v", "value", "a", "b"]
+    lines = [f"def op_{kind}(o, {', '.join(args)}, user):"]
+    for op in OPERATIONS:
+        lines += [f"    if o == {op.code}:", _branch(getattr(op, kind), args).rstrip()]
+    lines.append(f"    return call_user(user, o, {0 if kind == 'value' else 1}, v)")
+    names = {**vars(_optable), "call_user": call_user}
+    exec("\n".join(lines), names)  # noqa: S102 - generated from the table's own functions
+    function = names[f"op_{kind}"]
+    function.__doc__ = ("Value of the factor ``op(v)``." if kind == "value" else
+                        "Derivative of the factor ``op(v)`` with respect to ``v``; ``value`` is :func:`op_value`'s.")
+    return njit(inline="always")(function)  # inlined into cached kernels; never compiled on its own
+
+
+op_value = _dispatch("value")
+op_derivative = _dispatch("derivative")
+
+
+def _gate_test():
+    """``is_gate(o)``: True for the codes of the indicators (``Operation.gate``) of :data:`OPERATIONS`."""
+    codes = [op.code for op in OPERATIONS if op.gate]
+    names = {}
+    exec("def is_gate(o):\n    return " + (" or ".join(f"o == {c}" for c in codes) or "False"), names)  # noqa: S102
+    return njit(inline="always")(names["is_gate"])
+
+
+is_gate = _gate_test()
 
 
 @njit(cache=True, inline="always")
 def apply_factor(value, o, fv):
-    """``value`` times a factor of value ``fv``; outside a ``STEP`` the product is 0 whatever ``value`` is."""
-    if o == STEP:
+    """``value`` times a factor of value ``fv``; outside an indicator (``STEP``) the product is 0 whatever ``value`` is."""
+    if is_gate(o):
         return value if fv != 0.0 else 0.0
     return value * fv
 
 
 @njit(cache=True, inline="always")
 def apply_op(value, o, v, a, b, user):
-    """``apply_factor(value, o, op_value(o, v, a, b, user))`` without evaluating a ``STEP`` twice."""
-    if o == STEP:
-        return value if a <= v <= b else 0.0
-    return value * op_value(o, v, a, b, user)
-
-
-@njit(cache=True, inline="always")
-def op_derivative(o, v, value, a, b, user):
-    """Derivative of the factor ``op(v)`` with respect to ``v``; ``value`` is :func:`op_value`'s."""
-    if o == POW:
-        return 0.0 if a == 0.0 else a * power(v, a - 1.0)
-    if o == ABS_POW:
-        if a == 0.0 or v == 0.0:
-            return 0.0
-        return a * power(abs(v), a - 1.0) * (1.0 if v > 0.0 else -1.0)
-    if o == SQRT:
-        if a < v < b:
-            return 0.5 / value  # value = sqrt(v) inside the clip
-        return 0.0
-    if o == SIGN or o == STEP:
-        return 0.0
-    return call_user(user, o, 1, v)
+    """``apply_factor(value, o, op_value(o, v, a, b, user))`` (one copy of the dispatch: compiled once)."""
+    return apply_factor(value, o, op_value(o, v, a, b, user))
 
 
 @njit(cache=True)

@@ -37,7 +37,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from ._kernels import sensitivity_work, step_sensitivity, step_state
+from ._kernels import run_state_into, sensitivity_work, step_sensitivity
 from ._simulate import SimulationError, TermsRHS, simulation_settings
 from ._terms import terms_to_arrays
 
@@ -156,7 +156,7 @@ def step_workspace(m, n_inputs):
     """Work arrays of :func:`step_into` for a loop over samples (allocated once, numba-callable)."""
     n = m.lo.shape[0]
     return (np.empty((2, n_inputs)), np.empty(n + n_inputs), np.empty(m.model[0].shape[0] - 1),
-            np.zeros((m.offsets.shape[0], n)))
+            np.zeros((m.offsets.shape[0], n)), np.empty(1), np.empty((2, n)))
 
 
 @njit(cache=True)
@@ -165,10 +165,12 @@ def step_into(m, x, u0, u1, dt, work):
 
     ``work`` from :func:`step_workspace`; :func:`step_kernel` is this on a copy of ``x``.
     """
-    u, z, theta, K = work
+    u, z, theta, K, h, out = work
     _set_inputs(u, u0, u1)
-    return step_state(x, u, 0, 1 if m.linear else 0, dt, m.n_sub, m.offsets, m.weights, m.lo, m.hi, m.max_abs,
-                      m.model, m.user, z, theta, K)
+    h[0] = dt
+    # the free run's own loop over two samples: one compiled integrator for simulate, step and k-step
+    return run_state_into(x, u, h, m.n_sub, m.offsets, m.weights, m.linear, m.lo, m.hi, m.max_abs, m.model, m.user,
+                          z, theta, K, out) >= 0
 
 
 @njit(cache=True)
@@ -207,6 +209,8 @@ def step_jacobian_into(m, x, u0, u1, dt, work, jac_x, jac_p):
     for i in range(n):
         for c in range(S.shape[1]):
             S[i, c] = 1.0 if i == c else 0.0
+    # step_sensitivity inlined here, not reached through run_sensitivity_into (which would share its compilation
+    # with the refinement): the Kalman filter calls this once per sample, and that call cost 18 % of its time
     bad = step_sensitivity(x, S, u, 0, 1 if m.linear else 0, dt, m.n_sub, m.offsets, m.weights, m.lo, m.hi,
                            m.max_abs, m.terms, m.coef, par, m.user, z, sens)
     for i in range(n):

@@ -15,14 +15,21 @@ The compiled kernels reach the user functions through one table,
 rebuilt when an operation is added. Codes are valid in this process only: a
 ``UserOp`` pickles as its function and is registered again on unpickling;
 model files cannot store user operations.
+
+:func:`operation` gives the :class:`~._optable.Operation` of any code, built-in or user: a
+user operation is written with its ``name`` (text and LaTeX), as an undefined SymPy function
+of its Python name, and in CasADi when it is one of NumPy's ``sign``, ``tanh``, ``sin``,
+``cos``, ``exp``, ``arctan``, ``abs``; another function has no CasADi form, and
+:func:`~sindybench.export.to_casadi` says so by name.
 """
 
 import numpy as np
 from numba import cfunc, njit
 
-from ._ops import USER, USER_SIGNATURE, no_user_ops
+from ._ops import BUILTIN_OPS, USER, USER_SIGNATURE, no_user_ops
+from ._optable import Operation, builtin_operation
 
-__all__ = ["OpCompileError", "UserOp", "register_op", "user_op", "user_table"]
+__all__ = ["OpCompileError", "UserOp", "operation", "register_op", "user_op", "user_table"]
 
 
 class OpCompileError(ValueError):
@@ -47,6 +54,25 @@ class UserOp(int):
     def __reduce__(self):
         return (register_op, (self.function, self.derivative, self.name))
 
+    def operation(self):
+        """This operation's :class:`~._optable.Operation` (its compiled value and derivative: the user table)."""
+        return Operation(int(self), self.label("z"), None, None, text=lambda z, a, b: self.label(z),
+                         latex=lambda z, a, b: self.label(z), sympy=lambda sp, z, a, b: self._sympy(sp, z),
+                         casadi=lambda ca, v, a, b: self._casadi(ca, v))
+
+    def _sympy(self, sp, z):
+        return sp.Function(getattr(self.function, "__name__", "f").strip("<>"))(z)
+
+    def _casadi(self, ca, v):
+        known = _CASADI.get(self.function) if isinstance(self.function, np.ufunc) else None
+        if known is None:
+            raise ValueError(
+                f"the user operation {self.label('z')!r} (code {int(self)}) has no CasADi form: only NumPy's "
+                f"{', '.join(sorted(f.__name__ for f in _CASADI))} have one; write the term with built-in "
+                "operations (POW, ABS_POW, SQRT, SIGN, STEP) to export the model."
+            )
+        return getattr(ca, known)(v)
+
     def label(self, argument):
         """The factor written with ``argument`` (a column name), e.g. ``"tanh(v)"``."""
         if callable(self.name):
@@ -60,6 +86,9 @@ _OPS = {}  # (function, derivative, name) -> UserOp
 _BY_CODE = []  # UserOp by code - USER
 _COMPILED = []  # (value, derivative) compiled, by code - USER
 _TABLE = [no_user_ops, 0, None]  # the table's address, how many ops it covers, the cfunc (kept alive)
+
+_CASADI = {np.sign: "sign", np.tanh: "tanh", np.sin: "sin", np.cos: "cos", np.exp: "exp", np.arctan: "atan",
+           np.abs: "fabs", np.absolute: "fabs"}
 
 _RULES = {np.sign: "0.0 * v", np.tanh: "1.0 - np.tanh(v) ** 2", np.sin: "np.cos(v)", np.cos: "-np.sin(v)",
           np.exp: "np.exp(v)", np.arctan: "1.0 / (1.0 + v * v)", np.abs: "np.sign(v)",
@@ -169,6 +198,28 @@ def user_op(code):
         raise ValueError(f"operation {int(code)} is not a built-in operation (0-4) nor a user operation "
                          f"registered in this process ({USER}-{USER + len(_BY_CODE) - 1}).")
     return _BY_CODE[i]
+
+
+def operation(code):
+    """The :class:`~._optable.Operation` of ``code``: a built-in one, or a registered user operation's.
+
+    Raises
+    ------
+    ValueError
+        If ``code`` is neither.
+
+    Examples
+    --------
+    >>> operation(2).text("x1", 0.0, float("inf")), operation(register_op(np.tanh)).text("v", 0.0, 0.0)
+    ('sqrt(x1)', 'tanh(v)')
+    """
+    op = builtin_operation(code)
+    if op is not None:
+        return op
+    if int(code) < USER:
+        raise ValueError(f"unknown factor operation {int(code)!r}; expected one of {BUILTIN_OPS} or a user "
+                         f"operation (from {USER} on).")
+    return user_op(code).operation()
 
 
 def user_table():

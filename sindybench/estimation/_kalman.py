@@ -127,6 +127,22 @@ def _sandwich(A, P, tmp, out):
             out[j, i] = acc
 
 
+@njit(cache=True, inline="always")
+def _put1(out, k, value):
+    """``out[k] = value`` as a loop: numba's array assignment compiles a shape-error message (string
+    formatting) that took seconds of the filter's first compilation."""
+    for i in range(value.shape[0]):
+        out[k, i] = value[i]
+
+
+@njit(cache=True, inline="always")
+def _put2(out, k, value):
+    """``out[k] = value`` for a matrix ``value``, as loops (see :func:`_put1`)."""
+    for i in range(value.shape[0]):
+        for j in range(value.shape[1]):
+            out[k, i, j] = value[i, j]
+
+
 @njit(cache=True)
 def _filter(x0, P0, u, y, dt, Q, R, oidx, sm, xf, Pf, xp, Pp, F, innov, S_out):
     """Run the filter; return (first failing sample or -1, failure code, log-likelihood).
@@ -159,10 +175,10 @@ def _filter(x0, P0, u, y, dt, Q, R, oidx, sm, xf, Pf, xp, Pp, F, innov, S_out):
                 for j in range(n):
                     P[i, j] += Q[i, j]
             if F.shape[0]:  # the predictions are kept for the smoother only
-                F[k] = J
+                _put2(F, k, J)
         if xp.shape[0]:
-            xp[k] = x
-            Pp[k] = P
+            _put1(xp, k, x)
+            _put2(Pp, k, P)
         # update with y[k]: H picks the measured states
         for a in range(m):
             e[a] = y[k, a] - x[oidx[a]]
@@ -172,7 +188,9 @@ def _filter(x0, P0, u, y, dt, Q, R, oidx, sm, xf, Pf, xp, Pp, F, innov, S_out):
                 PHt[i, a] = P[i, oidx[a]]
         if not _cholesky(S, L):
             return k, 2, loglik
-        Kt[:, :] = PHt.T
+        for i in range(n):
+            for a in range(m):
+                Kt[a, i] = PHt[i, a]
         _cho_solve(L, Kt)  # Kt = S^-1 H P, the transposed gain
         for a in range(m):
             w[a, 0] = e[a]
@@ -205,10 +223,10 @@ def _filter(x0, P0, u, y, dt, Q, R, oidx, sm, xf, Pf, xp, Pp, F, innov, S_out):
                 P[i, j] += acc
                 if j != i:
                     P[j, i] += acc
-        xf[k] = x
-        Pf[k] = P
-        innov[k] = e
-        S_out[k] = S
+        _put1(xf, k, x)
+        _put2(Pf, k, P)
+        _put1(innov, k, e)
+        _put2(S_out, k, S)
     return -1, 0, loglik
 
 

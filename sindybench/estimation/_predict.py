@@ -4,7 +4,8 @@ import numpy as np
 from numba import njit
 
 from .._validation import check_integer, check_one_record, check_signal
-from ..dynamics import SimulationError, step_into, step_workspace
+from ..dynamics import SimulationError, step_workspace
+from ..dynamics._kernels import run_state_into
 from ..metrics import rmse
 from ._kalman import ONE_RECORD_ADVICE, check_record, extended_kalman_filter, rts_smoother
 from ._model_step import model_step
@@ -15,13 +16,22 @@ __all__ = ["k_step_rmse", "predict_k_step", "smooth_initial_state"]
 @njit(cache=True)
 def _k_step(xf, u, dt, k, sm, oidx, out):
     """``out[t] = x[t + k][oidx]`` simulated from ``xf[t]``; -1 or the first ``t`` whose run diverged."""
-    work = step_workspace(sm, u.shape[1])
-    x = np.empty(xf.shape[1])
+    _, z, theta, K, _, _ = step_workspace(sm, u.shape[1])
+    n = xf.shape[1]
+    x = np.empty(n)
+    window = np.empty((k + 1, u.shape[1]))
+    h = np.full(k, dt)
+    xs = np.empty((k + 1, n))
     for t in range(out.shape[0]):
-        x[:] = xf[t]
-        for i in range(k):
-            if step_into(sm, x, u[t + i], u[t + i + 1], dt, work):
-                return t
+        for i in range(n):  # loops, not x[:] = xf[t]: numba's shape check compiles string formatting
+            x[i] = xf[t, i]
+        for i in range(k + 1):
+            for j in range(u.shape[1]):
+                window[i, j] = u[t + i, j]
+        # the free run's compiled loop (shared with simulate and step): k samples from xf[t]
+        if run_state_into(x, window, h, sm.n_sub, sm.offsets, sm.weights, sm.linear, sm.lo, sm.hi, sm.max_abs,
+                          sm.model, sm.user, z, theta, K, xs) >= 0:
+            return t
         for a in range(oidx.shape[0]):
             out[t, a] = x[oidx[a]]
     return -1

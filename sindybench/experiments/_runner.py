@@ -16,7 +16,7 @@ import warnings
 import numpy as np
 from sklearn.exceptions import ConvergenceWarning
 
-from .. import __version__
+from .._version import __version__
 from .._json import jsonable
 from ._best import free_run_scores, k_step_scores, report_best_model, test_record
 from ._published import published

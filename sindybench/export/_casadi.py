@@ -9,8 +9,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .._validation import check_signal
-from ..dynamics import ABS_POW, POW, SIGN, SQRT, STEP, USER
-from ..dynamics._user import user_op
+from ..dynamics._user import operation
 from ..estimation import model_step
 
 __all__ = ["CasadiModel", "simulate_casadi", "to_casadi"]
@@ -45,30 +44,8 @@ class CasadiModel(NamedTuple):
 
 
 def _factor(ca, v, op, a, b):
-    """One factor as the simulator values it (:func:`sindybench.dynamics._ops.op_value`)."""
-    if op in (POW, ABS_POW):
-        w = ca.fabs(v) if op == ABS_POW else v
-        return w if a == 1.0 else w * w if a == 2.0 else w * w * w if a == 3.0 else w**a
-    if op == SQRT:  # a lower clip at 0 is raised to 1e-100: sqrt keeps a finite derivative there
-        return ca.sqrt(ca.fmin(ca.fmax(v, max(a, 1e-100)), b))
-    if op == STEP:
-        return ca.if_else(ca.logic_and(v >= a, v <= b), 1.0, 0.0)
-    if op == SIGN:
-        return ca.sign(v)
-    raise ValueError(_no_casadi_form(op))
-
-
-def _no_casadi_form(op):
-    """The message for a factor operation that has no CasADi form: a user operation (``register_op``)."""
-    if op >= USER:
-        try:
-            what = f"the user operation {user_op(op).label('z')} (op code {op}, registered with register_op or a " \
-                   "CustomLibrary)"
-        except ValueError:
-            what = f"the user operation of op code {op}, not registered in this process,"
-        return (f"to_casadi: the model uses {what}, which has no CasADi form; expected a model whose terms use "
-                "only the built-in operations (powers, abs powers, sqrt, sign, step): fit it with a built-in library.")
-    return f"to_casadi: unknown factor operation {op}; expected a built-in operation (powers, sqrt, sign, step)."
+    """One factor as the simulator values it: its operation's CasADi form (:mod:`sindybench.dynamics._optable`)."""
+    return operation(op).casadi(ca, v, a, b)
 
 
 def _rhs_expr(ca, terms, coef, z, n):
@@ -105,9 +82,13 @@ def to_casadi(model):
     operation (explicit Runge-Kutta stages, sub-steps, input hold, bounds:
     stage states clipped, outward derivatives at a bound zeroed, the state
     clipped after each sub-step), so a run of ``step`` matches the
-    simulator to rounding. Divergence (``max_abs``) is not checked. A square
-    root clipped at 0 is clipped at 1e-100 instead (its value changes by at
-    most 1e-50, its derivatives stay finite for the solvers).
+    simulator to rounding. Divergence (``max_abs``) is not checked. Each factor
+    is its operation's CasADi form from the one table of operations: the
+    simulator's value and derivative (a square root clipped at ``a`` is the
+    constant ``sqrt(a)`` at and below it, so its derivatives stay finite for the
+    solvers). A user operation is exported when it is one of NumPy's ``sign``,
+    ``tanh``, ``sin``, ``cos``, ``exp``, ``arctan``, ``abs``; another raises a
+    ``ValueError`` naming it.
 
     Parameters
     ----------
@@ -122,6 +103,8 @@ def to_casadi(model):
     ------
     ImportError
         When CasADi is not installed (``pip install "sindybench[casadi]"``).
+    ValueError
+        When a term uses a user operation without a CasADi form.
 
     Examples
     --------

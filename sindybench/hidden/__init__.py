@@ -5,16 +5,15 @@ from ._base import Design, HiddenStrategy, InitialFit, ModelView, Structure, lin
 from ._bouc_wen import BoucWenHiddenState
 from ._estimator import HiddenStateSINDy
 from ._latent import LatentHiddenState
-from ._objective import SEARCH_PENALTY
+from ..search import SEARCH_PENALTY  # noqa: F401 - its home is sindybench.search; kept importable here
 from ._parametric import ParametricHiddenState
 from ._tanks import TanksHiddenState
 
+# HiddenStateSINDy is exported from the top-level package (sindybench.HiddenStateSINDy), importable here too
 __all__ = [
-    "SEARCH_PENALTY",
     "BoucWenHiddenState",
     "DerivativeHiddenState",
     "Design",
-    "HiddenStateSINDy",
     "HiddenStrategy",
     "InitialFit",
     "LatentHiddenState",

@@ -48,13 +48,29 @@ only stores keyword arguments; physical guesses are constructor parameters,
     simulated outputs, exact sensitivities on the compiled path), in the search
     (validation scores) and in ``predict`` alike.
 
-Optionally override ``default_library()`` (the library used when the estimator's
-``library=None``), ``search_space()`` and ``resolve_params(values)`` (defaults
-below use ``_physical`` and ``bounds``), ``refinable(params)`` (the physical
-parameters that a simulation-error refinement may move), ``_validate()``
-(parameter checks, called at the start of ``fit``; raise ``ValueError``) and
-``_validate_data(u, y)`` (checks that need the training data, e.g. a call of a
-user function on the first sample; called right after ``_validate()``).
+The optional hooks, each with a default in :class:`HiddenStrategy` (this is every
+method ``HiddenStateSINDy`` calls on a strategy, besides scikit-learn's ``get_params``):
+
+``default_library()``
+    the library used when the estimator's ``library=None`` (default: polynomials of degree 2).
+``search_space()``, ``resolve_params(values)``
+    the searched physical parameters and all of them for one trial (defaults: the
+    ``_physical`` names that are ``None``, ranges from ``bounds``).
+``refinable(params)``
+    the physical parameters that a simulation-error refinement may move (default:
+    every ``_physical`` one).
+``refine_free(coef, terms, *, n_outputs, n_inputs)``
+    which learned coefficients that refinement frees (default: the nonzero ones;
+    the latent strategy keeps each row's gauge coefficient fixed).
+``gauge()``
+    for strategies whose hidden states have no unit of their own: how their scale is
+    fixed, in words, one line per state; the estimator adds the lines to
+    ``equations()`` (default: ``""``, nothing to say).
+``_validate()``
+    parameter checks, called at the start of ``fit`` (raise ``ValueError``).
+``_validate_data(u, y)``
+    checks that need the training data, e.g. a call of a user function on the
+    first sample; called right after ``_validate()``.
 
 ``derivative(a, order=1)`` is a callable bound to the estimator's fitted
 differentiation method and ``dt``: it returns the ``order``-th time derivative of
@@ -331,6 +347,14 @@ class HiddenStrategy(BaseEstimator):
         ``terms`` are the library's terms (None for a Python library).
         """
         return coef != 0
+
+    def gauge(self, model=None):
+        """How the scale of hidden states without units is fixed, one line per state (default: ``""``).
+
+        ``model``, a fitted estimator of this strategy, lets the answer state
+        what that fit holds (see :meth:`LatentHiddenState.gauge`).
+        """
+        return ""
 
     def structure(self, params, *, n_outputs, n_inputs):
         """The model structure for ``params`` (see :class:`Structure`)."""

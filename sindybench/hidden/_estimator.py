@@ -17,12 +17,12 @@ from .._validation import check_bool, check_dt, check_integer, check_option, in_
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name
-from ..search import check_search_space, minimize
+from ..search import SEARCH_PENALTY, check_search_space, minimize
 from ._augmentation import DerivativeHiddenState
 from ._base import Design, HiddenStrategy
 from ._candidate import Candidate, candidate_initial_state, fit_candidate, structure_dynamics
 from ._derivative import Derivative
-from ._objective import SEARCH_PENALTY, VALIDATIONS, SearchObjective
+from ._objective import VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
 from ._latent_starts import fit_starts
 from ._refinement import refined_values, refinement_problem

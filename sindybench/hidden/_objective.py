@@ -5,15 +5,13 @@ import logging
 import numpy as np
 
 from ..metrics import nrmse
+from ..search import SEARCH_PENALTY
 from ..simulate import SimulationError
 from ._candidate import candidate_initial_state
 
-__all__ = ["SEARCH_PENALTY", "SearchObjective", "validation_error"]
+__all__ = ["SearchObjective", "validation_error"]
 
 logger = logging.getLogger(__name__)
-
-SEARCH_PENALTY = 1e3
-"""Validation score of a diverged or failed candidate (scores are normalized RMSEs)."""
 
 VALIDATIONS = ("block", "continued", "full")
 

@@ -54,6 +54,7 @@ from ._values import (
     fitted_to_dict,
 )
 
+# load_model is exported from the top-level package (sindybench.load_model), importable here too
 __all__ = [
     "FORMAT_VERSION",
     "Fields",
@@ -68,7 +69,6 @@ __all__ = [
     "encode_value",
     "fitted_from_dict",
     "fitted_to_dict",
-    "load_model",
     "model_from_dict",
     "model_to_dict",
     "register_model",

@@ -9,6 +9,7 @@ import numpy as np  # noqa: F401  (used by the doctests)
 from sklearn.utils.validation import check_is_fitted
 
 from .._limits import shown
+from .._version import __version__
 from ._registry import _REGISTRY, _lookup, _registered
 from ._checks import check_plain
 from ._values import Fields, _construct, _encode_params
@@ -55,8 +56,6 @@ def model_to_dict(model):
     >>> model_from_dict(data).equations()
     ["y0' = -1.000 y0"]
     """
-    from .. import __version__
-
     name = type(model).__name__
     entry = _REGISTRY.get(name)
     if entry is None or entry.to_dict is None or type(model) is not entry.cls:

@@ -29,8 +29,9 @@ from ._terms import (
     terms_to_json,
 )
 
+# the op codes, check_terms, evaluate_terms(_jacobian) and terms_to_arrays are exported from
+# sindybench.dynamics and importable here too
 __all__ = [
-    "ABS_POW",
     "AbsProductLibrary",
     "BaseLibrary",
     "ConcatLibrary",
@@ -38,18 +39,11 @@ __all__ = [
     "ExternalLibrary",
     "FrictionLibrary",
     "IndicatorLibrary",
-    "POW",
     "PolynomialLibrary",
     "ProductLibrary",
-    "SIGN",
-    "SQRT",
-    "STEP",
     "SqrtLibrary",
     "TermsLibrary",
     "as_library",
-    "check_terms",
-    "evaluate_terms",
-    "evaluate_terms_jacobian",
     "fitted_library_from_dict",
     "fitted_library_to_dict",
     "library_from_spec",
@@ -59,6 +53,5 @@ __all__ = [
     "term_name",
     "term_sympy",
     "terms_from_json",
-    "terms_to_arrays",
     "terms_to_json",
 ]

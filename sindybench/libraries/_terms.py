@@ -22,11 +22,12 @@ STEP      ``1`` if ``a <= z <= b``, else 0   ``[z>=a]``, ``[z<=b]``, ``[a<=z<=b]
 ``STEP`` marks a regime, e.g. an overflowing tank (``[x1>=10]``: the level at
 the top of its bounded range) or a saturated actuator.
 
-The operations themselves, value and derivative, are defined once in
-:mod:`sindybench.dynamics` (``dynamics._ops``, compiled by numba); this module
-re-exports the op codes, :func:`check_terms`, :func:`terms_to_arrays`,
-:func:`evaluate_terms` and :func:`evaluate_terms_jacobian` from there and adds
-the names, LaTeX, SymPy and JSON forms. A user operation
+Every form of an operation (value, derivative, name, LaTeX, SymPy, CasADi) is one entry of
+the table in :mod:`sindybench.dynamics` (``dynamics._optable``); this module writes terms
+with those forms (:func:`sindybench.dynamics._user.operation` gives the entry of a code) and
+adds the JSON form. The op codes, :func:`check_terms`, :func:`terms_to_arrays`,
+:func:`evaluate_terms` and :func:`evaluate_terms_jacobian` are importable here and
+exported from :mod:`sindybench.dynamics`. A user operation
 (:func:`sindybench.dynamics.register_op`, made by
 :class:`~sindybench.libraries.CustomLibrary`) is written with its own name and
 cannot be stored as JSON.
@@ -40,9 +41,9 @@ import re
 
 import numpy as np
 
-from ..dynamics._ops import ABS_POW, BUILTIN_OPS, POW, SIGN, SQRT, STEP, USER
+from ..dynamics._ops import ABS_POW, POW, SIGN, SQRT, STEP, USER
 from ..dynamics._terms import check_terms, evaluate_terms, evaluate_terms_jacobian, terms_to_arrays
-from ..dynamics._user import user_op
+from ..dynamics._user import operation, user_op
 
 __all__ = [
     "ABS_POW",
@@ -62,38 +63,10 @@ __all__ = [
     "terms_to_json",
 ]
 
-_OPS = BUILTIN_OPS
-
-
-def _fmt_power(base, a):
-    return base if a == 1 else f"{base}^{a:g}"
-
 
 def _factor_name(factor, names):
     col, op, a, b = factor
-    z = names[col]
-    if op == POW:
-        return _fmt_power(z, a)
-    if op == ABS_POW:
-        return _fmt_power(f"|{z}|", a)
-    if op == SQRT:
-        return f"sqrt({z})"
-    if op == SIGN:
-        return f"sign({z})"
-    if op == STEP:
-        return _interval(z, a, b, ">=", "<=")
-    if op >= USER:
-        return user_op(op).label(z)
-    raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
-
-
-def _interval(z, a, b, ge, le):
-    """``[z>=a]``, ``[z<=b]`` or ``[a<=z<=b]`` with the given comparison signs."""
-    if np.isinf(b):
-        return f"[{z}{ge}{a:g}]"
-    if np.isinf(a):
-        return f"[{z}{le}{b:g}]"
-    return f"[{a:g}{le}{z}{le}{b:g}]"
+    return operation(op).text(names[col], a, b)
 
 
 def term_name(term, names):
@@ -153,21 +126,7 @@ def symbol_latex(name, *, dot=False):
 
 def _factor_latex(factor, symbols):
     col, op, a, b = factor
-    z = symbols[col]
-    power = "" if a == 1 else f"^{{{a:g}}}"
-    if op == POW:
-        return f"{{{z}}}{power}" if power and "'" in z else z + power  # y_0'^2 would be a double superscript
-    if op == ABS_POW:
-        return f"|{z}|{power}"
-    if op == SQRT:
-        return rf"\sqrt{{{z}}}"
-    if op == SIGN:
-        return rf"\operatorname{{sign}}({z})"
-    if op == STEP:
-        return _interval(z, a, b, r" \geq ", r" \leq ")
-    if op >= USER:
-        return user_op(op).label(z)
-    raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
+    return operation(op).latex(symbols[col], a, b)
 
 
 def term_latex(term, names):
@@ -207,23 +166,7 @@ def term_sympy(term, symbols):
 
     expr = sympy.Integer(1)
     for col, op, a, b in term:
-        z = symbols[col]
-        power = sympy.Integer(int(a)) if float(a).is_integer() else sympy.Float(a)
-        if op == POW:
-            expr *= z**power
-        elif op == ABS_POW:
-            expr *= sympy.Abs(z) ** power
-        elif op == SQRT:
-            expr *= sympy.sqrt(z)
-        elif op == SIGN:
-            expr *= sympy.sign(z)
-        elif op == STEP:
-            inside = sympy.And(*([z >= a] if np.isfinite(a) else []) + ([z <= b] if np.isfinite(b) else []))
-            expr *= sympy.Piecewise((1, inside), (0, True))
-        elif op >= USER:
-            expr *= sympy.Function(getattr(user_op(op).function, "__name__", "f").strip("<>"))(z)
-        else:
-            raise ValueError(f"unknown factor operation {op!r}; expected one of {_OPS}.")
+        expr *= operation(op).sympy(sympy, symbols[col], a, b)
     return expr
 
 

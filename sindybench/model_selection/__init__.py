@@ -8,17 +8,11 @@ from ._split import HoldoutSplit, LeaveOneRecordOut
 from ._storage import check_storage
 from ._tune import AllTrialsFailedError, tune
 
+# the search-space dimensions are exported from sindybench.search and importable here too
 __all__ = [
     "AllTrialsFailedError",
-    "Categorical",
     "HoldoutSplit",
-    "IntRange",
     "LeaveOneRecordOut",
-    "LogNormal",
-    "LogUniform",
-    "Normal",
-    "Uniform",
-    "as_dimension",
     "check_storage",
     "tune",
 ]

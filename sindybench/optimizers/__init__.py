@@ -40,9 +40,7 @@ STLS's work runs on (see :mod:`sindybench.optimizers._stls`).
 
 from ._stls import STLS, GramCache, clear_stls_cache, stls
 
+# STLS, stls and GramCache are exported from the top-level package (sindybench.STLS), importable here too
 __all__ = [
-    "GramCache",
-    "STLS",
     "clear_stls_cache",
-    "stls",
 ]

@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from ..hidden import SEARCH_PENALTY as _SEARCH_PENALTY  # the inner search's score of a failed candidate
+from ..search import SEARCH_PENALTY as _SEARCH_PENALTY  # the inner search's score of a failed candidate
 from ._common import _check_axes, _new_axes
 
 

@@ -11,7 +11,7 @@ sampler, :func:`sample_params` turns a space into a trial's values, and
 :func:`minimize` is the inner search (TPE, then bounded Nelder-Mead).
 """
 
-from ._minimize import minimize
+from ._minimize import SEARCH_PENALTY, minimize
 from ._space import (
     Categorical,
     Dimension,
@@ -27,6 +27,7 @@ from ._space import (
 from ._study import TrialSeededTPE, create_study, make_sampler
 
 __all__ = [
+    "SEARCH_PENALTY",
     "Categorical",
     "Dimension",
     "IntRange",

@@ -20,9 +20,13 @@ from .._validation import check_integer, check_positive
 from ._space import LogUniform, Uniform, check_search_space, sample_params
 from ._study import create_study
 
-__all__ = ["minimize"]
+__all__ = ["SEARCH_PENALTY", "minimize"]
 
 logger = logging.getLogger(__name__)
+
+SEARCH_PENALTY = 1e3
+"""Score of a failed or diverged evaluation in the inner search, and the cap of every score (scores are
+normalized RMSEs, so 1e3 is far worse than any model that simulates)."""
 
 
 class _Budget(Exception):
@@ -100,7 +104,7 @@ def _refine(evaluate, space, history, *, n_evals, n_starts, step):
             pass
 
 
-def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_local=0, n_starts=3, step=0.05,
+def minimize(objective, space, *, n_trials, random_state=None, penalty=SEARCH_PENALTY, n_local=0, n_starts=3, step=0.05,
              show_progress_bar=False):
     """Minimize ``objective(values)`` over ``space`` with Optuna's TPE sampler, then refine locally.
 
@@ -125,7 +129,7 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=1e3, n_lo
         Evaluations in all.
     random_state : int, RandomState or None, default=None
         Seeds the TPE sampler.
-    penalty : float, default=1e3
+    penalty : float, default=SEARCH_PENALTY
         Score of a failed evaluation (and the cap of every score).
     n_local : int, default=0
         Evaluations of the local refinement, ``0 <= n_local < n_trials``.

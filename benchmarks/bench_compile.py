@@ -1,0 +1,169 @@
+"""Compile time of each public entry point: a fresh numba cache against a warm one.
+
+Each scenario runs in its own Python process, twice with the same ``NUMBA_CACHE_DIR``: first
+with the folder empty (what a new machine, CI run or notebook kernel pays), then again with the
+cache the first run wrote (warm). Inside the process only the entry point itself is timed (CPU,
+``time.process_time``, and wall); what it needs first (loading the data, fitting the model) runs
+before the timer, so an entry point is charged with the compilation that it adds. Printed: cold
+and warm CPU seconds, their difference (the compilation) and their ratio.
+
+Scenarios (cascaded-tanks data; a ``SINDy`` model with polynomial and square-root terms, 2
+states, RK4, fitted on the estimation record):
+
+- ``quickstart``: the README's quickstart, as the README writes it (the whole script is timed);
+- ``fit``: ``SINDy(...).fit``; ``predict``: ``model.predict`` on the validation record;
+- ``refine``: ``SINDy(..., refine=OutputErrorRefinement()).fit``;
+- ``filter``: ``extended_kalman_filter``; ``estimate_noise``; ``k_step``: ``predict_k_step``.
+
+``--reference REV`` also runs every scenario on the package of revision ``REV`` (exported with
+``git archive`` into a temporary folder), scenario by scenario just before this tree's run (on a
+shared machine the load drifts: compare neighbours). Also printed: the whole child process's CPU
+(interpreter start and imports included), the measure of "a script's CPU time".
+Numba, BLAS and OpenMP run on one thread.
+
+Measured (``--reference df2cee8``, the code before issue 26 item 5; one run on the shared 2-core
+machine at a load of 5-9; compile = cold - warm CPU of the entry point)::
+
+    quickstart      7.76 / 8.58 s = 0.90   (cold / warm CPU 4.97x, before 5.30x; whole process 4.18x)
+    predict         2.45 / 2.68 s = 0.92
+    refine          7.82 / 8.05 s = 0.97
+    filter          9.54 / 13.77 s = 0.69
+    estimate_noise 12.92 / 15.43 s = 0.84
+    k_step         14.53 / 17.48 s = 0.83
+
+Usage (from the repository root)::
+
+    SINDYBENCH_DATA=../shared/data python benchmarks/bench_compile.py [--only quickstart,filter] [--reference main]
+"""
+
+import argparse
+import json
+import os
+import re
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = ("quickstart", "fit", "predict", "refine", "filter", "estimate_noise", "k_step")
+
+_SETUP = """
+import numpy as np
+from sindybench import STLS, SINDy
+from sindybench.datasets import load_cascaded_tanks
+from sindybench.libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary
+from sindybench.refine import OutputErrorRefinement
+from sindybench.estimation import estimate_noise, extended_kalman_filter, predict_k_step
+data = load_cascaded_tanks()
+u, y = data.train.u, np.hstack([data.train.y, data.train.y])  # two measured states (a toy second tank)
+uv, yv = data.validation.u, np.hstack([data.validation.y, data.validation.y])
+
+def make(**kw):
+    return SINDy(library=ConcatLibrary([PolynomialLibrary(degree=2), SqrtLibrary()]), optimizer=STLS(threshold=1e-4),
+                 dt=data.dt, n_substeps=2, bounds=([0.0, 0.0], [10.0, 10.0]), **kw)
+"""
+
+_STEPS = {
+    "fit": ("", "model = make().fit(u, y)"),
+    "predict": ("model = make().fit(u, y)", "model.predict(uv, y_init=yv[:1])"),
+    "refine": ("model = make().fit(u, y)", "make(refine=OutputErrorRefinement(max_nfev=3)).fit(u, y)"),
+    "filter": ("model = make().fit(u, y)", "extended_kalman_filter(model, u, y, Q=[1e-4, 1e-4], R=[1e-3, 1e-3])"),
+    "estimate_noise": ("model = make().fit(u, y)", "estimate_noise(model, u, y, max_iter=20)"),
+    "k_step": ("model = make().fit(u, y)", "predict_k_step(model, uv, yv, 5, Q=[1e-4, 1e-4], R=[1e-3, 1e-3])"),
+}
+
+_TIMER = """
+import time, json, warnings
+warnings.simplefilter("ignore")
+{setup}
+c0, w0 = time.process_time(), time.perf_counter()
+{body}
+print("BENCH " + json.dumps({{"cpu": time.process_time() - c0, "wall": time.perf_counter() - w0}}))
+"""
+
+
+def _quickstart():
+    text = (ROOT / "README.md").read_text()
+    block = re.search(r"## Quickstart.*?```python\n(.*?)```", text, re.S).group(1)
+    return "import time, json, warnings\nwarnings.simplefilter('ignore')\nc0, w0 = time.process_time(), " \
+           "time.perf_counter()\n" + block + \
+           "\nprint('BENCH ' + json.dumps({'cpu': time.process_time() - c0, 'wall': time.perf_counter() - w0}))\n"
+
+
+def _script(name):
+    if name == "quickstart":
+        return _quickstart()
+    before, body = _STEPS[name]
+    return _TIMER.format(setup=_SETUP + "\n" + before, body=body)
+
+
+def _run(tree, script, cache):
+    """CPU and wall seconds of the timed part, and the whole child's CPU (interpreter start and imports included)."""
+    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache), "PYTHONDONTWRITEBYTECODE": "1",
+           "MPLBACKEND": "Agg", "SINDYBENCH_PROGRESS": "0"}
+    for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        env[name] = "1"
+    if env.get("SINDYBENCH_DATA"):
+        env["SINDYBENCH_DATA"] = str(Path(env["SINDYBENCH_DATA"]).resolve())
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    out = subprocess.run([sys.executable, "-c", script], env=env, cwd=tempfile.gettempdir(), capture_output=True,
+                         text=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if out.returncode:
+        raise RuntimeError(out.stderr[-2000:])
+    line = [x for x in out.stdout.splitlines() if x.startswith("BENCH ")][-1]
+    result = json.loads(line[6:])
+    result["process"] = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    return result
+
+
+def measure(tree, name, label):
+    with tempfile.TemporaryDirectory() as cache:
+        cold = _run(tree, _script(name), cache)
+        warm = _run(tree, _script(name), cache)
+    print(f"  {label:9s} {name:15s} cold {cold['cpu']:6.2f} s  warm {warm['cpu']:6.2f} s  compile "
+          f"{cold['cpu'] - warm['cpu']:6.2f} s  ratio {cold['cpu'] / warm['cpu']:6.2f}x  (whole process "
+          f"{cold['process']:6.2f} / {warm['process']:6.2f} s = {cold['process'] / warm['process']:5.2f}x; wall "
+          f"{cold['wall']:6.2f} / {warm['wall']:6.2f} s)", flush=True)
+    return cold, warm
+
+
+def _export(rev, folder):
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", rev, "sindybench", "README.md"], check=True,
+                             capture_output=True)
+    subprocess.run(["tar", "-x", "-C", str(folder)], input=archive.stdout, check=True)
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", default=",".join(SCENARIOS), help="comma-separated scenarios")
+    parser.add_argument("--reference", default=None, help="also time this git revision (e.g. main)")
+    args = parser.parse_args()
+    names = [n for n in args.only.split(",") if n]
+    unknown = sorted(set(names) - set(SCENARIOS))
+    if unknown:
+        parser.error(f"unknown scenarios {unknown}; expected some of {list(SCENARIOS)}")
+    print("CPU seconds of each entry point (fresh NUMBA_CACHE_DIR = cold, then the same cache = warm)")
+    cur, ref = {}, {}
+    with tempfile.TemporaryDirectory() as folder:
+        if args.reference:
+            _export(args.reference, folder)
+        for name in names:  # reference and this tree back to back, scenario by scenario
+            if args.reference:
+                ref[name] = measure(Path(folder), name, "reference")
+            cur[name] = measure(ROOT, name, "this tree")
+    if args.reference:
+        print(f"compile seconds (cold - warm CPU), this tree / reference {args.reference}:")
+        for name in names:
+            a = cur[name][0]["cpu"] - cur[name][1]["cpu"]
+            b = ref[name][0]["cpu"] - ref[name][1]["cpu"]
+            print(f"  {name:15s} {a:6.2f} / {b:6.2f} s = {a / b:5.2f}")
+
+
+if __name__ == "__main__":
+    start = time.perf_counter()
+    main()
+    print(f"({time.perf_counter() - start:.0f} s)")

@@ -874,6 +874,8 @@ def test_docs_build_with_generated_figures(quick_run, notebooks, tmp_path):
     shutil.copytree(ROOT / "docs", tmp_path / "docs",
                     ignore=shutil.ignore_patterns("_build", "_generated", "generated", "notebooks", "jupyter_execute"))
     shutil.copytree(ROOT / "examples", tmp_path / "examples")
+    # the pages include source lines of the package (literalinclude ../sindybench/...)
+    shutil.copytree(ROOT / "sindybench", tmp_path / "sindybench", ignore=shutil.ignore_patterns("__pycache__"))
     shutil.copytree(quick_run, tmp_path / "docs" / "_generated")
     executed = tmp_path / "docs" / "_generated" / "notebooks"
     executed.mkdir()

@@ -7,7 +7,7 @@ from ._version import __version__
 from .optimizers import STLS, GramCache, stls
 from .hidden import HiddenStateSINDy
 from .io import load_model
-from .identify import identify
+from .identify import identify  # sindybench.identify(X, y, dt=...): listed in sindybench.identify.__all__
 from .simulate import SimulationError
 
 
@@ -21,7 +21,6 @@ __all__ = [
     "__version__",
     "baselines",
     "differentiation",
-    "identify",
     "load_model",
     "stls",
     "uncertainty",

@@ -20,5 +20,5 @@ __all__ = [
     "detect_saturation",
     "estimate_delay",
     "excitation_order",
+    "identify",
 ]
-# ``identify`` (the function) is listed in the top level's ``__all__`` (sindybench.identify), importable here too

@@ -30,16 +30,12 @@ from ._validation import (
     check_inputs_outputs,
     check_integer,
     check_model_inputs,
-    check_one_record,
     check_option,
     check_positive,
-    check_record_lists,
-    check_records,
     check_signal,
-    count_records,
-    in_record,
     is_records,
 )
+from ._records import check_one_record, check_record_lists, check_records, count_records, in_record
 from .io import SaveLoadMixin
 from .metrics import make_simulation_scorer
 from .simulate import _HOLDS, _METHODS, SimulationError

@@ -13,16 +13,8 @@ from ._preprocessing import operating_point
 from ._equations import EquationRow
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
 from .optimizers import STLS
-from ._validation import (
-    check_bounds,
-    check_dt,
-    check_positive,
-    check_signal,
-    check_time,
-    in_record,
-    record_name,
-    uniform_step,
-)
+from ._validation import check_bounds, check_dt, check_positive, check_signal, check_time, uniform_step
+from ._records import in_record, record_name
 from .differentiation import FiniteDifference, as_differentiation
 from .dynamics import assemble
 from .io import register_model

@@ -11,7 +11,8 @@ import warnings
 import numpy as np
 
 from ._divergence import DivergenceWarning
-from ._validation import check_integer, check_option, check_record_lists, check_signal, is_records
+from ._validation import check_integer, check_option, check_signal, is_records
+from ._records import check_record_lists
 
 __all__ = ["fit_index", "make_simulation_scorer", "nrmse", "r2", "rmse"]
 

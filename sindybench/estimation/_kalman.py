@@ -15,7 +15,8 @@ import numpy as np
 from numba import njit
 
 from .._limits import shown
-from .._validation import check_one_record, check_signal
+from .._validation import check_signal
+from .._records import check_one_record
 from ..dynamics import jacobian_workspace, step_jacobian_into
 from ._model_step import model_step
 

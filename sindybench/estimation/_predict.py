@@ -3,7 +3,8 @@
 import numpy as np
 from numba import njit
 
-from .._validation import check_integer, check_one_record, check_signal
+from .._validation import check_integer, check_signal
+from .._records import check_one_record
 from ..dynamics import SimulationError, step_workspace
 from ..dynamics._kernels import run_state_into
 from ..metrics import rmse

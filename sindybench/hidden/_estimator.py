@@ -13,7 +13,8 @@ from .._params import Constraint
 from .._preprocessing import operating_point
 from .._equations import EquationRow
 from ..optimizers import STLS
-from .._validation import check_bool, check_dt, check_integer, check_option, in_record
+from .._validation import check_bool, check_dt, check_integer, check_option
+from .._records import in_record
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name

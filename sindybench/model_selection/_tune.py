@@ -12,15 +12,8 @@ from sklearn.model_selection import KFold, TimeSeriesSplit
 
 from .._json import jsonable
 from .._progress import show_progress
-from .._validation import (
-    check_bool,
-    check_integer,
-    check_record_lists,
-    check_records,
-    count_records,
-    is_records,
-    records_hint,
-)
+from .._validation import check_bool, check_integer, is_records, records_hint
+from .._records import check_record_lists, check_records, count_records
 from ..metrics import make_simulation_scorer
 from ..search import check_search_space, create_study, sample_params
 from ._split import HoldoutSplit, LeaveOneRecordOut

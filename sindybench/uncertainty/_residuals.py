@@ -26,7 +26,8 @@ import numpy as np
 from scipy import stats
 
 from .._residual_tests import ResidualTest, correlation, residual_test
-from .._validation import check_integer, check_one_record, check_option, check_signal
+from .._validation import check_integer, check_option, check_signal
+from .._records import check_one_record
 
 __all__ = ["ResidualAnalysis", "k_step_prediction", "residual_analysis"]
 

@@ -21,8 +21,28 @@ def main(argv=None):
 
         return command(argv)
     except KeyboardInterrupt:
-        print("sindybench: interrupted; no output written.", file=sys.stderr)
-        return 130
+        return _interrupted()
+    except ImportError as exc:  # an interrupt inside a C extension's initialization arrives as its cause
+        if not _caused_by_interrupt(exc):
+            raise
+        return _interrupted()
+
+
+def _interrupted():
+    print("sindybench: interrupted; no output written.", file=sys.stderr)
+    return 130
+
+
+def _caused_by_interrupt(exc):
+    """Whether a ``KeyboardInterrupt`` stands in ``exc``'s chain of causes (SciPy's ``ImportError: initialization
+    failed`` of a module whose initialization was interrupted)."""
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -969,3 +969,42 @@ def test_cli_workers_share_a_postgresql_study_and_survive_a_kill(postgres_url, d
         results = json.loads((out / "cascaded-tanks" / "results.json").read_text())
         assert results["storage"] == postgres_url  # no password in this URL: shown as given
         assert all(m["status"] == "ok" for m in results["models"])
+
+
+def test_an_interrupted_extension_import_exits_130(monkeypatch, capsys):
+    # an interrupt inside a C extension's initialization surfaced as "ImportError: initialization failed" (its
+    # cause a KeyboardInterrupt): the launcher ended with status 1 and a traceback instead of 130
+    import builtins
+
+    import sindybench_launcher
+
+    real_import = builtins.__import__
+
+    def interrupted(name, *args, **kwargs):
+        if name == "sindybench.cli":
+            try:
+                raise KeyboardInterrupt
+            except KeyboardInterrupt as exc:
+                raise ImportError("initialization failed") from exc
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", interrupted)
+    assert sindybench_launcher.main(["--version"]) == 130
+    assert "interrupted" in capsys.readouterr().err
+
+
+def test_an_import_error_without_an_interrupt_is_raised(monkeypatch):
+    import builtins
+
+    import sindybench_launcher
+
+    real_import = builtins.__import__
+
+    def broken(name, *args, **kwargs):
+        if name == "sindybench.cli":
+            raise ImportError("no module named foo")
+        return real_import(name, *args, **kwargs)
+
+    monkeypatch.setattr(builtins, "__import__", broken)
+    with pytest.raises(ImportError, match="no module named foo"):
+        sindybench_launcher.main(["--version"])

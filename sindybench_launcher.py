@@ -22,7 +22,7 @@ def main(argv=None):
         return command(argv)
     except KeyboardInterrupt:
         return _interrupted()
-    except ImportError as exc:  # an interrupt inside a C extension's initialization arrives as its cause
+    except Exception as exc:  # an interrupt inside a C extension's initialization arrives as a cause
         if not _caused_by_interrupt(exc):
             raise
         return _interrupted()
@@ -34,8 +34,8 @@ def _interrupted():
 
 
 def _caused_by_interrupt(exc):
-    """Whether a ``KeyboardInterrupt`` stands in ``exc``'s chain of causes (SciPy's ``ImportError: initialization
-    failed`` of a module whose initialization was interrupted)."""
+    """Whether a ``KeyboardInterrupt`` stands in ``exc``'s chain of causes (for example SciPy's ``ImportError:
+    initialization failed`` of a module whose initialization was interrupted)."""
     seen = set()
     while exc is not None and id(exc) not in seen:
         if isinstance(exc, KeyboardInterrupt):

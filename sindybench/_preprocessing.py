@@ -25,7 +25,7 @@ import numpy as np
 
 from .dynamics import POW
 
-__all__ = ["delay_inputs", "feature_map", "operating_point"]
+__all__ = ["delay_inputs", "feature_map", "operating_point", "scaling_record"]
 
 
 def delay_inputs(X, delay):
@@ -70,6 +70,18 @@ def operating_point(Z):
     Z = np.asarray(Z, dtype=float)
     mean = Z.mean(axis=0) if Z.shape[0] else np.zeros(Z.shape[1])
     return mean, _spread(Z, mean)
+
+
+def scaling_record(Z):
+    """An estimator's ``scaling_``: the operating point of its regression's ``Z`` as JSON-able lists.
+
+    Examples
+    --------
+    >>> scaling_record(np.array([[1.0, 5.0], [3.0, 5.0]]))
+    {'mean': [2.0, 5.0], 'scale': [1.0, 1.0]}
+    """
+    mean, scale = operating_point(Z)
+    return {"mean": mean.tolist(), "scale": scale.tolist()}
 
 
 def _monomial(term):

@@ -9,7 +9,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from ._base import DynamicsEstimator
 from ._params import Constraint
-from ._preprocessing import operating_point
+from ._preprocessing import scaling_record
 from ._equations import EquationRow
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
 from .optimizers import STLS
@@ -33,12 +33,6 @@ def _check_names(names, n, prefix, name):
             isinstance(s, str) for s in names):
         raise ValueError(f"{name} must be a list of {n} strings; got {names!r}.")
     return list(names)
-
-
-def _scaling_record(Z):
-    """``scaling_``: the operating point of the regression's ``Z`` (mean and standard deviation per column)."""
-    mean, scale = operating_point(Z)
-    return {"mean": mean.tolist(), "scale": scale.tolist()}
 
 
 def check_distinct_names(out_names, in_names):
@@ -334,7 +328,7 @@ class SINDy(DynamicsEstimator):
         self.x0_ = x0
         self._y_1d = y_1d
         self.refinement_ = refinement
-        self.scaling_ = _scaling_record(Z) if self.normalize else None
+        self.scaling_ = scaling_record(Z) if self.normalize else None
         self.dynamics_ = dynamics
         return self
 

@@ -10,7 +10,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._base import DynamicsEstimator
 from .._params import Constraint
-from .._preprocessing import operating_point
+from .._preprocessing import scaling_record
 from .._equations import EquationRow
 from ..optimizers import STLS
 from .._validation import check_bool, check_dt, check_integer, check_option
@@ -393,7 +393,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         # the records' states stacked; x0_ is the first record's
         states = np.vstack([np.asarray(d.states, dtype=float) for d in cand.designs])
         x0 = np.asarray(cand.designs[0].states[0], dtype=float).copy()
-        scaling = _scaling_record(states, X) if self.normalize else None
+        scaling = scaling_record(np.hstack([states, np.vstack(X)])) if self.normalize else None  # [x, u], all records
         refinement = None
         if self.refine is not None:
             head = ([X_r[:k] for X_r, k in zip(X, n_rows)], [y_r[:k] for y_r, k in zip(y, n_rows)])
@@ -541,12 +541,6 @@ class HiddenStateSINDy(DynamicsEstimator):
                 rows.append(EquationRow(names[i], s.fixed_coef[:, i], fixed_names, list(s.fixed_terms), names,
                                         learned=False))
         return rows
-
-
-def _scaling_record(states, X):
-    """``scaling_``: the operating point of the training ``[x, u]`` (every record's samples)."""
-    mean, scale = operating_point(np.hstack([states, np.vstack(X)]))
-    return {"mean": mean.tolist(), "scale": scale.tolist()}
 
 
 def _default_strategy():

@@ -8,9 +8,12 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from .._progress import progress_bar
+from .._records import check_record_lists, check_records
 from .._validation import (check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option,
-                           check_positive)
-from ._search import evaluate, pareto_front, parsimonious_index, path_thresholds, stls_threshold, validation_blocks
+                           check_positive, is_records)
+from ._resume import CandidateStore, fingerprint
+from ._search import (describe_blocks, evaluate, pareto_front, parsimonious_index, path_thresholds, record_folds,
+                      segments, stls_threshold)
 from ._space import n_terms
 from ._space import FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
 
@@ -28,15 +31,28 @@ _MAX_SURVIVORS = 16
 
 
 def _parallel(n_jobs):
-    """``run(func, args_list)``: a plain loop for ``n_jobs`` None or 1, else joblib's ``Parallel`` (imported here)."""
+    """``run(func, args_list)``: the results in order as they finish, from a plain loop for ``n_jobs`` None or 1,
+    else from joblib's ``Parallel`` (imported here)."""
     if n_jobs in (None, 1):
-        return lambda func, calls: [func(*args) for args in calls]
+        return lambda func, calls: (func(*args) for args in calls)
     try:
         from joblib import Parallel, delayed
     except ImportError as exc:  # pragma: no cover - joblib comes with scikit-learn
         raise ImportError("n_jobs != 1 needs joblib: pip install sindybench[parallel] (or pip install joblib).") \
             from exc
-    return lambda func, calls: Parallel(n_jobs=n_jobs)(delayed(func)(*args) for args in calls)
+    return lambda func, calls: Parallel(n_jobs=n_jobs, return_as="generator")(delayed(func)(*args) for args in calls)
+
+
+def _stage(func, calls, get, put, parallel):
+    """``func(*call)`` of each call, in order: read back by ``get(*call)`` where stored, else computed (in
+    parallel) and recorded by ``put(call, result)`` as it finishes."""
+    stored = [get(*call) for call in calls]
+    computed = parallel(func, [call for call, result in zip(calls, stored) if result is None])
+    for call, result in zip(calls, stored):
+        if result is None:
+            result = next(computed)
+            put(call, result)
+        yield result
 
 
 class _Budget:
@@ -57,27 +73,64 @@ class _Budget:
 
 
 def _screen(struct, library, ctx):
-    """Stage 1 of one structure: the pruning path of its dense fit, each level scored on the last block."""
-    X, y, blocks = ctx["X"], ctx["y"], ctx["blocks"]
-    begin = blocks[-1][0]
-    lo = max(0, begin - ctx["window"])
+    """Stage 1 of one structure: the pruning path of its dense fit, each level scored on the last fold."""
+    X, y, folds = ctx["X"], ctx["y"], ctx["folds"]
+    train = [(r, max(lo, hi - ctx["window"]), hi) for r, lo, hi in folds[-1][0]]
     make = lambda t, n: make_estimator(struct, library, stls_threshold(t, n), ctx["dt"], ctx["settings"],  # noqa: E731
                                        random_state=ctx["random_state"])
     rows = []
     try:
-        dense = make(0.0, begin - lo).fit(X[lo:begin], y[lo:begin])
-        thresholds = path_thresholds(dense, X[lo:begin], y[lo:begin], ctx["levels"])
+        dense = make(0.0, sum(hi - lo for _, lo, hi in train)).fit(*segments(X, y, train))
+        thresholds = path_thresholds(dense, *segments(X, y, train), ctx["levels"])
     except Exception as exc:  # the structure cannot be fitted at all: one failed row
         return [dict(struct, threshold=0.0, refine=False, stage="screen", errors=[np.inf], n_terms=None,
-                     max_row_terms=None, fit_time=0.0, status=f"failed: {type(exc).__name__}: {exc}")]
+                     max_row_terms=None, fit_time=0.0, status=f"failed: {type(exc).__name__}: {exc}", path_length=1)]
     for t in thresholds:
         if ctx["deadline"] is not None and time.time() >= ctx["deadline"]:
             break
-        result = evaluate(lambda n, t=t: make(t, n), X, y, blocks[-1:], n_init=ctx["n_init"], scale=ctx["scale"],
+        result = evaluate(lambda n, t=t: make(t, n), X, y, folds[-1:], n_init=ctx["n_init"], scale=ctx["scale"],
                           train_window=ctx["window"])
         result.pop("model")
-        rows.append(dict(struct, threshold=t, refine=False, stage="screen", **result))
+        rows.append(dict(struct, threshold=t, refine=False, stage="screen", path_length=len(thresholds), **result))
     return rows
+
+
+def _screen_key(struct, ctx, k):
+    return CandidateStore.key(dict(struct, threshold=None, stage="screen"), levels=ctx["levels"], k=k)
+
+
+def _stored_screen(struct, library, ctx):
+    """The stored screen of ``struct`` (its whole path), or None."""
+    store = ctx["store"]
+    first = store.get(_screen_key(struct, ctx, 0))
+    if first is None:
+        return None
+    rows = [first] + [store.get(_screen_key(struct, ctx, k)) for k in range(1, first["path_length"])]
+    if any(r is None for r in rows):
+        return None
+    ctx["n_read"] += len(rows)
+    return rows
+
+
+def _store_screen(call, rows):
+    struct, _, ctx = call
+    for k, row in enumerate(rows):
+        ctx["store"].put(_screen_key(struct, ctx, k), row, path_length=row["path_length"])
+
+
+def _full_key(row, refinement):
+    return CandidateStore.key(dict(row, stage="refine" if refinement is not None else "blocks"))
+
+
+def _stored_full(row, library, ctx, refinement):
+    stored = ctx["store"].get(_full_key(row, refinement))
+    ctx["n_read"] += stored is not None
+    return stored
+
+
+def _store_full(call, result):
+    row, _, ctx, refinement = call
+    ctx["store"].put(_full_key(row, refinement), result)
 
 
 def _full(row, library, ctx, refinement):
@@ -85,7 +138,7 @@ def _full(row, library, ctx, refinement):
     struct = {k: row[k] for k in _STRUCTURE}
     make = lambda n: make_estimator(struct, library, stls_threshold(row["threshold"], n), ctx["dt"],  # noqa: E731
                                     ctx["settings"], refine=refinement, random_state=ctx["random_state"])
-    result = evaluate(make, ctx["X"], ctx["y"], ctx["blocks"], n_init=ctx["n_init"], scale=ctx["scale"])
+    result = evaluate(make, ctx["X"], ctx["y"], ctx["folds"], n_init=ctx["n_init"], scale=ctx["scale"])
     result.pop("model")
     refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
     return dict(struct, threshold=row["threshold"], refine=refined,
@@ -245,11 +298,10 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     """
 
     def __init__(self, *, dt=None, families=FAMILIES, libraries=LIBRARIES, derivatives=None, input_hold=None,
-                 input_delay=None, n_blocks=3, block_size=0.15, max_path=12, screen_keep=1 / 3, screen_window=8000,
-                 n_refine=4,
-                 max_terms=15,
-                 refinement=None, n_init=None, time_budget=None, max_candidates=None, random_state=None,
-                 n_jobs=None, show_progress_bar=True):
+                 input_delay=None, n_blocks=3, block_size=0.15, validation=None, max_path=12, screen_keep=1 / 3,
+                 screen_window=8000, n_refine=4, max_terms=15, refinement=None, n_init=None, time_budget=None,
+                 max_candidates=None, random_state=None, storage=None, study_name=None, n_jobs=None,
+                 show_progress_bar=True):
         self.dt = dt
         self.families = families
         self.libraries = libraries
@@ -258,6 +310,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self.input_delay = input_delay
         self.n_blocks = n_blocks
         self.block_size = block_size
+        self.validation = validation
         self.max_path = max_path
         self.screen_keep = screen_keep
         self.screen_window = screen_window
@@ -268,6 +321,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self.time_budget = time_budget
         self.max_candidates = max_candidates
         self.random_state = random_state
+        self.storage = storage
+        self.study_name = study_name
         self.n_jobs = n_jobs
         self.show_progress_bar = show_progress_bar
 
@@ -312,25 +367,38 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         if self.n_jobs is not None:
             check_integer(self.n_jobs, "n_jobs", low=None)
         check_bool(self.show_progress_bar, "show_progress_bar")
+        if self.validation is not None:
+            check_option(self.validation, "validation", ("blocks", "records"))
+        if self.study_name is not None and not isinstance(self.study_name, str):
+            raise ValueError(f"study_name must be None or a str; got {self.study_name!r}.")
+        if self.storage is not None:
+            from ..model_selection import check_storage
+
+            check_storage(self.storage)
         return dt
 
     @staticmethod
     def _check_data(X, y):
+        """Lists ``(X, y)`` of 2-D arrays, one per record (one array: a list of one), checked."""
         if y is None:
             raise ValueError("IdentifyCV requires y to be passed, but the target y is None; expected the outputs.")
-        if isinstance(y, list) and y and hasattr(y[0], "shape"):
-            raise ValueError("IdentifyCV takes one record (arrays X and y); several records are not supported yet.")
-        check_array_like(X, "X")
-        check_array_like(y, "y")
-        X, y = check_inputs_outputs(X, y)
-        if y.shape[0] < 2 * _MIN_TRAIN:
-            raise ValueError(f"y has {y.shape[0]} sample(s) (n_samples = {y.shape[0]}); identify needs at least "
+        if is_records(y) or (isinstance(X, list) and X and hasattr(X[0], "shape") and np.ndim(X[0]) == 2):
+            check_record_lists(X, y)
+            X, y = check_records(X, y, y_kind="outputs")
+        else:
+            check_array_like(X, "X")
+            check_array_like(y, "y")
+            X, y = check_inputs_outputs(X, y)
+            X, y = [X], [y]
+        n = sum(y_r.shape[0] for y_r in y)
+        if n < 2 * _MIN_TRAIN:
+            raise ValueError(f"y has {n} sample(s) (n_samples = {n}); identify needs at least "
                              f"{2 * _MIN_TRAIN} to train and validate a candidate.")
-        for j, col in enumerate(X.T):
+        for j, col in enumerate(np.vstack(X).T):
             if np.ptp(col) == 0:
                 raise ValueError(f"input column {j} is constant ({col[0]!r}); a constant input cannot be told apart "
                                  "from an offset. Expected inputs that vary (drop the constant column).")
-        for j, col in enumerate(y.T):
+        for j, col in enumerate(np.vstack(y).T):
             if np.ptp(col) == 0:
                 raise ValueError(f"output column {j} is constant ({col[0]!r}); expected outputs that vary.")
         return X, y
@@ -341,10 +409,10 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
 
         Parameters
         ----------
-        X : array-like of shape (n_samples, n_inputs)
-            Inputs ``u``.
-        y : array-like of shape (n_samples, n_outputs) or (n_samples,)
-            Measured outputs.
+        X : array-like of shape (n_samples, n_inputs), or list of them
+            Inputs ``u``; several records of one system as a list of arrays.
+        y : array-like of shape (n_samples, n_outputs) or (n_samples,), or list of them
+            Measured outputs (a list of arrays, one per record, with ``X`` a list as long).
         dt : float, optional
             Sampling interval (overrides the constructor's ``dt``).
 
@@ -353,21 +421,32 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self
         """
         dt = self._check_params(dt)
-        y_1d = y is not None and np.asarray(y).ndim == 1
+        several = is_records(y)
+        y_1d = not several and y is not None and np.asarray(y).ndim == 1
         X, y = self._check_data(X, y)
-        n = y.shape[0]
+        n = sum(y_r.shape[0] for y_r in y)
         n_init = self.n_init if self.n_init is not None else _N_INIT
-        blocks = validation_blocks(n, self.n_blocks, self.block_size, _MIN_TRAIN, min_block=n_init + 2)
-        settings = data_settings(X[: blocks[-1][0]], y[: blocks[-1][0]], dt)
-        structs = structures(X, y, dt, settings, families=self.families, libraries=self.libraries,
+        validation = self.validation or ("records" if several else "blocks")
+        folds = record_folds([y_r.shape[0] for y_r in y], self.n_blocks, self.block_size, _MIN_TRAIN,
+                             min_block=n_init + 2, validation=validation)
+        # what the data decides, from the longest training part of the last fold (one record: all before its block)
+        r, lo, hi = max(folds[-1][0], key=lambda part: part[2] - part[1])
+        settings = data_settings(X[r][lo:hi], y[r][lo:hi], dt)
+        X_train, y_train = segments(X, y, folds[-1][0])
+        X_all, y_all = np.vstack(X), np.vstack(y)
+        structs = structures(X_all, y_all, dt, settings, families=self.families, libraries=self.libraries,
                              derivatives=self.derivatives, input_hold=self.input_hold, input_delay=self.input_delay)
-        if self.input_hold is None and X.shape[1] > 0:  # the advice's hold first, the other one too: validation decides
+        if self.input_hold is None and X_all.shape[1] > 0:  # the advice's hold first, the other one too: validation decides
             other = {"zoh": "linear", "linear": "zoh"}
             structs += [(dict(s, input_hold=other[s["input_hold"]]), lib) for s, lib in structs]
         budget = _Budget(self.time_budget, self.max_candidates)
-        scale = np.std(y[: blocks[-1][0]], axis=0)
-        ctx = {"X": X, "y": y, "dt": dt, "settings": settings, "random_state": 0 if self.random_state is None else
-               self.random_state, "blocks": blocks, "n_init": n_init,
+        scale = np.std(np.vstack(y_train) if several else y_train, axis=0)
+        random_state = 0 if self.random_state is None else self.random_state
+        signature = {"data": fingerprint(X, y, dt), "validation": validation, "n_blocks": self.n_blocks,
+                     "block_size": self.block_size, "n_init": n_init, "screen_window": self.screen_window,
+                     "random_state": random_state, "refinement": repr(self.refinement)}
+        ctx = {"X": X, "y": y, "dt": dt, "settings": settings, "random_state": random_state, "folds": folds,
+               "n_init": n_init, "store": CandidateStore(self.storage, self.study_name, signature), "n_read": 0,
                "scale": np.where(scale > 0, scale, 1.0), "window": self.screen_window, "deadline": budget.deadline,
                # with a candidate budget, the screening's paths take at most half of it
                "levels": self.max_path if self.max_candidates is None else max(
@@ -379,7 +458,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             latent = [(s, lib) for s, lib in structs if s["family"] in LATENT_FAMILIES]
             structs = [(s, lib) for s, lib in structs if s["family"] not in LATENT_FAMILIES]
             todo = structs[: budget.take(len(structs))]
-            for (struct, library), screened in zip(todo, parallel(_screen, [(s, lib, ctx) for s, lib in todo])):
+            screens = _stage(_screen, [(s, lib, ctx) for s, lib in todo], _stored_screen, _store_screen, parallel)
+            for (struct, library), screened in zip(todo, screens):
                 rows.extend(screened)
                 libraries.extend([library] * len(screened))
                 bar.update()
@@ -401,7 +481,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             second += [(dict(s, threshold=0.0), lib) for s, lib in latent]
             second = second[: budget.take(len(second))]
             bar.total += len(second)
-            for (row, library), result in zip(second, parallel(_full, [(r, lib, ctx, None) for r, lib in second])):
+            results = _stage(_full, [(r, lib, ctx, None) for r, lib in second], _stored_full, _store_full, parallel)
+            for (row, library), result in zip(second, results):
                 rows.append(result)
                 libraries.append(library)
                 bar.update()
@@ -412,7 +493,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             if scored:
                 pick = scored[parsimonious_index([np.mean(rows[i]["errors"]) for i in scored],
                                                  [np.std(rows[i]["errors"]) for i in scored],
-                                                 [rows[i]["n_terms"] for i in scored], self.n_blocks)]
+                                                 [rows[i]["n_terms"] for i in scored], len(folds))]
                 front = [scored[k] for k in pareto_front([np.mean(rows[i]["errors"]) for i in scored],
                                                          [rows[i]["n_terms"] for i in scored])]
                 order = [pick] + front + scored  # the pick, then the front sparsest first, then the best
@@ -420,11 +501,13 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             third = scored[: budget.take(min(self.n_refine, len(scored)))]
             refinement = self._refinement(n)
             bar.total += len(third)
-            for i, result in zip(third, parallel(_full, [(rows[i], libraries[i], ctx, refinement) for i in third])):
+            results = _stage(_full, [(rows[i], libraries[i], ctx, refinement) for i in third], _stored_full,
+                             _store_full, parallel)
+            for i, result in zip(third, results):
                 rows.append(result)
                 libraries.append(libraries[i])
                 bar.update()
-        table = _table(rows, self.n_blocks)
+        table = _table(rows, len(folds))
         full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms for r in rows])
         mean = np.where(full, table["mean_validation_error"], np.inf)
         if not np.any(np.isfinite(mean)):
@@ -435,24 +518,34 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                              f"{reasons}); expected a record long and rich enough for at least one candidate, or a "
                              "larger time_budget / max_candidates / max_terms.")
         terms = [t if t is not None else 10**9 for t in table["n_terms"]]
-        best = parsimonious_index(mean, table["std_validation_error"], terms, self.n_blocks)
+        best = parsimonious_index(mean, table["std_validation_error"], terms, len(folds))
         front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}
                  for i in pareto_front(list(mean), terms)]
         chosen = {k: rows[best][k] for k in _STRUCTURE + ("threshold", "refine")}
         final = make_estimator(chosen, libraries[best], stls_threshold(chosen["threshold"], n), dt, settings,
                                refine=refinement if chosen["refine"] else None, random_state=ctx["random_state"])
-        final.fit(X, y[:, 0] if y_1d else y)
+        if several:
+            final.fit(X, y)
+        else:
+            final.fit(X[0], y[0][:, 0] if y_1d else y[0])
         chosen["n_terms"], chosen["max_row_terms"], _ = n_terms(final)
+        # one record: (start, stop) of each block; several: (record, start, stop) of each fold's blocks
+        blocks = [val[0][1:] for _, val in folds] if not several else [val for _, val in folds]
+        splits = [{"train": describe_blocks(train), "validation": describe_blocks(val)} for train, val in folds]
         self.settings_ = settings
         self.blocks_ = blocks
+        self.validation_ = validation
+        self.splits_ = splits
+        self.n_resumed_ = ctx["n_read"]
         self.cv_results_ = table
         self.best_index_ = int(best)
         self.best_params_ = chosen
         self.pareto_front_ = front
         final.identification_ = {"settings": chosen, "data": settings, "blocks": blocks, "cv_results": table,
-                                 "pareto_front": front, "best_index": int(best)}
+                                 "pareto_front": front, "best_index": int(best), "validation": validation,
+                                 "splits": splits}
         self.best_estimator_ = final
-        self.n_features_in_ = X.shape[1]
+        self.n_features_in_ = X[0].shape[1]
         return self
 
     def _refinement(self, n_samples):

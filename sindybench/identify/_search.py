@@ -16,7 +16,8 @@ import numpy as np
 
 from ..metrics import rmse
 
-__all__ = ["evaluate", "pareto_front", "parsimonious_index", "path_thresholds", "stls_threshold", "validation_blocks"]
+__all__ = ["describe_blocks", "evaluate", "pareto_front", "parsimonious_index", "path_thresholds", "record_folds",
+           "segments", "stls_threshold", "validation_blocks"]
 
 
 def validation_blocks(n_samples, n_blocks, block_size, min_train, min_block=10):
@@ -58,6 +59,55 @@ def validation_blocks(n_samples, n_blocks, block_size, min_train, min_block=10):
     return [(first + k * size, first + (k + 1) * size) for k in range(n_blocks)]
 
 
+def record_folds(lengths, n_blocks, block_size, min_train, *, min_block=10, validation="blocks"):
+    """The folds of one record or several: ``(train, validation)`` lists of ``(record, start, stop)``.
+
+    Parameters
+    ----------
+    lengths : list of int
+        Samples of each record.
+    n_blocks, block_size, min_train, min_block
+        As in :func:`validation_blocks`.
+    validation : {"blocks", "records"}, default="blocks"
+        ``"blocks"``: fold ``k`` validates the ``k``-th of the ``n_blocks``
+        forward-chaining blocks at the end of every record, trained on every
+        record before its block. ``"records"``: the last ``min(n_blocks,
+        n_records)`` records are left out in turn, each validated whole and
+        trained on all the other records (leave one record out).
+
+    Returns
+    -------
+    list of (list, list)
+
+    Examples
+    --------
+    >>> record_folds([1000], 2, 0.1, 100)
+    [([(0, 0, 800)], [(0, 800, 900)]), ([(0, 0, 900)], [(0, 900, 1000)])]
+    >>> record_folds([300, 200], 3, 0.1, 50, validation="records")
+    [([(1, 0, 200)], [(0, 0, 300)]), ([(0, 0, 300)], [(1, 0, 200)])]
+    """
+    if validation == "records":
+        if len(lengths) < 2:
+            raise ValueError(f"validation='records' needs several records; got {len(lengths)}. Expected a list of "
+                             "records, or validation='blocks'.")
+        for r, n in enumerate(lengths):
+            if n < min_block:
+                raise ValueError(f"record {r} has {n} samples, too few to validate a candidate on it whole; "
+                                 f"expected at least {min_block} (n_init + 2).")
+        left_out = range(len(lengths) - min(n_blocks, len(lengths)), len(lengths))
+        return [([(i, 0, n) for i, n in enumerate(lengths) if i != r], [(r, 0, lengths[r])]) for r in left_out]
+    blocks = []
+    for r, n in enumerate(lengths):
+        try:
+            blocks.append(validation_blocks(n, n_blocks, block_size, min_train, min_block=min_block))
+        except ValueError as exc:
+            if len(lengths) == 1:
+                raise
+            raise ValueError(f"record {r}: {exc}") from None
+    return [([(r, 0, b[k][0]) for r, b in enumerate(blocks)], [(r, *b[k]) for r, b in enumerate(blocks)])
+            for k in range(n_blocks)]
+
+
 def path_thresholds(estimator, X, y, max_levels):
     """The pruning path of a dense fit: levels between its terms' sorted RMS contributions.
 
@@ -74,6 +124,8 @@ def path_thresholds(estimator, X, y, max_levels):
         Increasing levels, starting with 0 (the dense fit).
     """
     states = getattr(estimator, "states_", None)
+    if isinstance(X, list):  # several records: their rows stacked, as the estimator stacks its states
+        X, y = np.vstack(X), np.vstack(y)
     Z = np.hstack([y if states is None else states, X])
     theta = np.asarray(estimator.library_.transform(Z), dtype=float)
     rms = np.sqrt(np.mean(theta**2, axis=0))
@@ -109,44 +161,57 @@ def stls_threshold(level, n_samples):
     return float(level) * float(np.sqrt(n_samples))
 
 
-def evaluate(make, X, y, blocks, *, n_init, scale, train_window=None):
-    """Fit ``make()`` before each block and score its simulation of the block.
+def segments(X, y, parts):
+    """The samples of ``parts`` (a list of ``(record, start, stop)``): arrays for one part, lists for several."""
+    Xs = [X[r][lo:hi] for r, lo, hi in parts]
+    ys = [y[r][lo:hi] for r, lo, hi in parts]
+    return (Xs[0], ys[0]) if len(parts) == 1 else (Xs, ys)
+
+
+def evaluate(make, X, y, folds, *, n_init, scale, train_window=None):
+    """Fit ``make()`` on each fold's training samples and score its simulation of the fold's validation blocks.
 
     Parameters
     ----------
     make : callable
         ``make(n_samples) -> unfitted estimator`` for ``n_samples`` training samples.
-    X, y : ndarray
-    blocks : list of (int, int)
+    X, y : list of ndarray
+        The records (one record is a list of one).
+    folds : list of (list, list)
+        ``(train, validation)`` of each fold, each a list of ``(record, start, stop)``
+        (see :func:`record_folds`); one training part is fitted as arrays, several as records.
     n_init : int
         First samples of a block that start its simulation.
     scale : ndarray of shape (n_outputs,)
-        The outputs' standard deviations over the record.
+        The outputs' standard deviations over the estimation data.
     train_window : int, optional
-        Fit on the last ``train_window`` samples before each block only (screening).
+        Fit on the last ``train_window`` samples of each training part only (screening).
 
     Returns
     -------
     dict
-        ``errors`` (RMSE over ``scale`` per block, inf where it failed),
-        ``n_terms``, ``max_row_terms`` (of the fit before the last block),
-        ``fit_time`` (seconds), ``status`` (``"ok"`` or the first failure's
-        reason) and ``model`` (the fit before the last block, or None).
+        ``errors`` (per fold, the RMSE over ``scale`` averaged over its
+        blocks, inf where it failed), ``n_terms``, ``max_row_terms`` (of
+        the fit of the last fold), ``fit_time`` (seconds), ``status``
+        (``"ok"`` or the first failure's reason) and ``model`` (the fit of
+        the last fold, or None).
     """
+    from ._space import n_terms
+
     errors, status, model, terms = [], "ok", None, (None, None)
     start = time.perf_counter()
-    for begin, end in blocks:
-        lo = 0 if train_window is None else max(0, begin - train_window)
+    for train, validation in folds:
+        if train_window is not None:
+            train = [(r, max(lo, hi - train_window), hi) for r, lo, hi in train]
         try:
             with warnings.catch_warnings(), np.errstate(all="ignore"):
                 warnings.simplefilter("ignore")
-                est = make(begin - lo).fit(X[lo:begin], y[lo:begin])
-                from ._space import n_terms
-
+                est = make(sum(hi - lo for _, lo, hi in train)).fit(*segments(X, y, train))
                 terms = n_terms(est)
                 if terms[2] == 0:
                     raise ValueError("a learned row has no terms left")
-                err = block_error(est, X[begin:end], y[begin:end], n_init, scale)
+                err = float(np.mean([block_error(est, X[r][lo:hi], y[r][lo:hi], n_init, scale)
+                                     for r, lo, hi in validation]))
         except Exception as exc:  # a failing candidate is recorded, never ends the search
             errors.append(np.inf)
             if status == "ok":
@@ -155,11 +220,24 @@ def evaluate(make, X, y, blocks, *, n_init, scale, train_window=None):
         if not np.isfinite(err):
             err = np.inf
             if status == "ok":
-                status = f"diverged on the validation block [{begin}, {end})"
+                status = f"diverged on the validation block {describe_blocks(validation)}"
         errors.append(float(err))
         model = est
     return {"errors": errors, "n_terms": terms[0], "max_row_terms": terms[1],
             "fit_time": time.perf_counter() - start, "status": status, "model": model}
+
+
+def describe_blocks(parts):
+    """``(record, start, stop)`` parts as text: ``[550, 700)`` for record 0 alone, else ``record 1 [0, 900)``.
+
+    Examples
+    --------
+    >>> describe_blocks([(0, 550, 700)]), describe_blocks([(0, 0, 90), (1, 10, 30)])
+    ('[550, 700)', 'record 0 [0, 90), record 1 [10, 30)')
+    """
+    if len(parts) == 1 and parts[0][0] == 0:
+        return f"[{parts[0][1]}, {parts[0][2]})"
+    return ", ".join(f"record {r} [{lo}, {hi})" for r, lo, hi in parts)
 
 
 def parsimonious_index(mean_errors, std_errors, n_terms, n_blocks):

@@ -211,9 +211,19 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         data advice's estimate (:func:`~sindybench.identify.estimate_delay`),
         confirmed on validation against no delay.
     n_blocks : int, default=3
-        Validation blocks at the end of the record.
+        Validation blocks at the end of the record (several records: of
+        each record, or the most records left out).
     block_size : float, default=0.15
         Length of each block, as a fraction of the record.
+    validation : {"blocks", "records"} or None, default=None
+        What a candidate is validated on. ``"blocks"``: ``n_blocks``
+        forward-chaining blocks at the end of the record; with several
+        records, fold ``k`` validates the ``k``-th block of every record,
+        trained on every record before its block. ``"records"`` (several
+        records only): the last ``min(n_blocks, n_records)`` records are
+        left out in turn, each validated whole and trained on the others.
+        None = ``"blocks"`` for one record, ``"records"`` for several. The
+        chosen model is refitted on every record.
     max_path : int, default=12
         Most thresholds on each structure's pruning path.
     screen_keep : float, default=1/3
@@ -245,6 +255,20 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     random_state : int or None, default=None
         Seed of the latent families' search of their start (None = 0: the
         search is reproducible); the other families are deterministic.
+    storage : None, str, path-like or optuna storage, default=None
+        Where the evaluated candidates are kept, so that a search that
+        stops (a budget, an interrupt, a crash) resumes: the forms
+        :func:`~sindybench.model_selection.tune` takes (``"sqlite:///search.db"``,
+        a database URL, a journal file ``"search.log"``, an Optuna storage).
+        Each candidate is one finished trial (its settings, stage, block
+        errors, terms, time and status as user attributes). A second ``fit``
+        with the same storage, study name, data and settings reads the
+        evaluated candidates back instead of fitting them again, and ends
+        with the result of an uninterrupted search; a study made on other
+        data or with other settings is refused (never changed). None =
+        nothing kept.
+    study_name : str or None, default=None
+        The study's name in ``storage``; None = ``"identify"``.
     n_jobs : int or None, default=None
         Parallel candidates (joblib); None = 1.
     show_progress_bar : bool, default=True
@@ -275,8 +299,17 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     settings_ : dict
         What the data decided before any fit: the data advice (``advice``),
         input delay and hold, bandwidth, derivative methods, proposed terms.
-    blocks_ : list of (int, int)
-        The validation blocks.
+    blocks_ : list
+        The validation blocks: ``(start, stop)`` of each for one record;
+        for several records, the ``(record, start, stop)`` blocks of each fold.
+    validation_ : str
+        ``"blocks"`` or ``"records"`` (see ``validation``).
+    splits_ : list of dict
+        Each fold's ``"train"`` and ``"validation"`` samples as text
+        (``"record 1 [0, 700)"``); ``split<k>_validation_error`` of
+        ``cv_results_`` is fold ``k``'s.
+    n_resumed_ : int
+        Candidates read back from ``storage`` instead of evaluated.
     n_features_in_ : int
 
     See Also
@@ -531,7 +564,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         chosen["n_terms"], chosen["max_row_terms"], _ = n_terms(final)
         # one record: (start, stop) of each block; several: (record, start, stop) of each fold's blocks
         blocks = [val[0][1:] for _, val in folds] if not several else [val for _, val in folds]
-        splits = [{"train": describe_blocks(train), "validation": describe_blocks(val)} for train, val in folds]
+        splits = [{"train": describe_blocks(train, several), "validation": describe_blocks(val, several)}
+                  for train, val in folds]
         self.settings_ = settings
         self.blocks_ = blocks
         self.validation_ = validation
@@ -621,14 +655,15 @@ def identify(X, y, *, dt, **kwargs):
 
     Parameters
     ----------
-    X : array-like of shape (n_samples, n_inputs)
-        Inputs.
-    y : array-like of shape (n_samples, n_outputs) or (n_samples,)
-        Measured outputs.
+    X : array-like of shape (n_samples, n_inputs), or list of them
+        Inputs; several records of one system as a list of arrays.
+    y : array-like of shape (n_samples, n_outputs) or (n_samples,), or list of them
+        Measured outputs (a list as long as ``X`` for several records).
     dt : float
         Sampling interval.
     **kwargs
-        Parameters of :class:`IdentifyCV` (``families``, ``time_budget``, ``n_jobs``, ...).
+        Parameters of :class:`IdentifyCV` (``families``, ``validation``, ``time_budget``, ``storage``,
+        ``study_name``, ``n_jobs``, ...).
 
     Returns
     -------

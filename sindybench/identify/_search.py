@@ -227,16 +227,22 @@ def evaluate(make, X, y, folds, *, n_init, scale, train_window=None):
             "fit_time": time.perf_counter() - start, "status": status, "model": model}
 
 
-def describe_blocks(parts):
-    """``(record, start, stop)`` parts as text: ``[550, 700)`` for record 0 alone, else ``record 1 [0, 900)``.
+def describe_blocks(parts, named=None):
+    """``(record, start, stop)`` parts as text: ``[550, 700)``, or with the record named ``record 1 [0, 900)``.
+
+    ``named`` None names the records unless the parts are one part of record 0.
 
     Examples
     --------
     >>> describe_blocks([(0, 550, 700)]), describe_blocks([(0, 0, 90), (1, 10, 30)])
     ('[550, 700)', 'record 0 [0, 90), record 1 [10, 30)')
+    >>> describe_blocks([(0, 550, 700)], named=True)
+    'record 0 [550, 700)'
     """
-    if len(parts) == 1 and parts[0][0] == 0:
-        return f"[{parts[0][1]}, {parts[0][2]})"
+    if named is None:
+        named = len(parts) > 1 or parts[0][0] != 0
+    if not named:
+        return ", ".join(f"[{lo}, {hi})" for _, lo, hi in parts)
     return ", ".join(f"record {r} [{lo}, {hi})" for r, lo, hi in parts)
 
 

@@ -72,3 +72,4 @@ def test_bad_records(records):
     nan[1][3] = np.nan
     with pytest.raises(ValueError, match="NaN"):
         IdentifyCV(dt=DT, **QUICK).fit(us, nan)
+

@@ -15,7 +15,7 @@ from ._resume import CandidateStore, fingerprint
 from ._search import (describe_blocks, evaluate, pareto_front, parsimonious_index, path_thresholds, record_folds,
                       segments, stls_threshold)
 from ._space import n_terms
-from ._space import FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
+from ._space import ALL_FAMILIES, FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
 
 __all__ = ["IdentifyCV", "identify"]
 
@@ -364,7 +364,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         dt = check_dt(dt if dt is not None else self.dt, allow_none=True)
         if dt is None:
             raise ValueError("dt is None; pass the sampling interval dt to IdentifyCV or to fit.")
-        for name, value, options in (("families", self.families, FAMILIES), ("libraries", self.libraries, LIBRARIES),
+        for name, value, options in (("families", self.families, ALL_FAMILIES), ("libraries", self.libraries, LIBRARIES),
                                      ("derivatives", self.derivatives, ("finite_difference", "savgol", "spectral"))):
             if value is None and name == "derivatives":
                 continue

@@ -31,8 +31,11 @@ logger = logging.getLogger(__name__)
 #: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3,
 #: and one latent state (one output only) at order 1 (driven by the input) and 2 (driven by the velocity)
 FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent")
-LATENT_FAMILIES = ("order1+latent", "order2+latent")
-_ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order1+latent": 1, "order2+latent": 2}
+#: every family a search may name: the default ones, and two latent states (a chain of two lags of the input, at
+#: order 1; off the default list for its cost)
+ALL_FAMILIES = FAMILIES + ("order1+latent2",)
+LATENT_FAMILIES = ("order1+latent", "order2+latent", "order1+latent2")
+_ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order1+latent": 1, "order2+latent": 2, "order1+latent2": 1}
 #: the order-2 latent family's library: linear, plus the absolute products of the velocity and the latent state
 LATENT_LIBRARY = "linear+abs"
 # the latent family's own search (the lag's time constant, in samples) and refinement
@@ -206,6 +209,11 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
                          "input_delay": delay}, lib)
                         for d in derivs]
             continue
+        if family == "order1+latent2":
+            if n_outputs == 1 and n_inputs >= 1:  # states (y, z0, z1), a chain of two lags of u0; linear library
+                out.append(({"family": family, "library": "linear", "derivative": "finite_difference",
+                             "input_hold": hold, "input_delay": delay}, PolynomialLibrary(degree=1)))
+            continue
         if family == "order1+latent":
             if n_outputs == 1 and n_inputs >= 1:  # states (y, z), driven by u0; refined, so one derivative
                 for lib_name, lib in (("linear", PolynomialLibrary(degree=1)),
@@ -251,9 +259,10 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None, 
         return SINDy(library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
                      input_hold=hold, input_delay=delay, refine=refine)
     order = _ORDER[structure["family"]]
-    if structure["family"] == "order1+latent":  # a lag of the input as the start, searched, then refined
+    if structure["family"] in ("order1+latent", "order1+latent2"):  # lags of the input as the start, then refined
         positive, top = bool(settings["positive"]), settings["saturation"][0]
-        hidden = LatentHiddenState(order=1, driver="input", bounds={"tau": LogUniform(_LATENT_TAU[0] * dt,
+        hidden = LatentHiddenState(n_latent=2 if structure["family"] == "order1+latent2" else 1, order=1,
+                                   driver="input", bounds={"tau": LogUniform(_LATENT_TAU[0] * dt,
                                                                                       _LATENT_TAU[1] * dt)},
                                    latent_bounds=(0.0, np.inf) if positive else None,
                                    output_bounds=(0.0, np.inf if top is None else top) if positive else None)

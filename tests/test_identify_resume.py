@@ -111,3 +111,4 @@ def test_a_study_of_other_data_or_settings_is_refused_and_kept(record, tmp_path)
 def test_bad_storage_arguments(record, kwargs, match):
     with pytest.raises(ValueError, match=match):
         IdentifyCV(**dict(SEARCH, **kwargs)).fit(*record)
+

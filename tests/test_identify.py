@@ -1,5 +1,6 @@
 """``sindybench.identify`` and ``IdentifyCV`` on synthetic systems of known truth, and on bad input."""
 
+import importlib
 import json
 
 import numpy as np
@@ -13,6 +14,8 @@ from sindybench.identify import IdentifyCV, identify
 from sindybench.identify._search import pareto_front, parsimonious_index, validation_blocks
 from sindybench.simulate import simulate
 
+# sindybench.identify is also the function: the module by its full name
+estimator_module = importlib.import_module("sindybench.identify._estimator")
 DT = 0.01
 # a quick search: one derivative method, no refinement (the defaults are exercised by the slow tests)
 QUICK = dict(derivatives=["finite_difference"], n_refine=0, show_progress_bar=False)
@@ -178,6 +181,42 @@ def test_bad_data(oscillator):
         IdentifyCV().fit(u, y)
     with pytest.raises(ValueError, match="too few for 3 validation blocks of 1002 samples"):
         IdentifyCV(dt=DT, n_init=1000).fit(u, y)
+
+
+def test_a_family_that_raises_is_recorded_and_the_search_goes_on(oscillator, monkeypatch):
+    real = estimator_module.make_estimator
+
+    def make_estimator(structure, *args, **kwargs):
+        if structure["family"] in ("order3", "order1+latent"):
+            raise RuntimeError(f"no estimator for {structure['family']}")
+        return real(structure, *args, **kwargs)
+
+    monkeypatch.setattr(estimator_module, "make_estimator", make_estimator)
+    search = IdentifyCV(dt=DT, families=["order2", "order3", "order1+latent"], libraries=["linear"],
+                        **QUICK).fit(*oscillator)
+    table = search.cv_results_
+    for family in ("order3", "order1+latent"):
+        rows = [i for i, f in enumerate(table["family"]) if f == family]
+        assert rows and all(table["status"][i] == f"failed: RuntimeError: no estimator for {family}" for i in rows)
+        assert all(np.isinf(table["mean_validation_error"][i]) for i in rows)
+    assert search.best_params_["family"] == "order2"
+
+
+def test_no_candidate_that_simulates_is_a_clear_error(oscillator, monkeypatch):
+    u, y = oscillator
+
+    def make_estimator(structure, *args, **kwargs):
+        raise RuntimeError("nothing fits")
+
+    monkeypatch.setattr(estimator_module, "make_estimator", make_estimator)
+    with pytest.raises(ValueError, match=r"none of the \d+ candidates .*RuntimeError: nothing fits.*expected a record"):
+        IdentifyCV(dt=DT, families=["first_order"], libraries=["linear"], **QUICK).fit(u, y)
+
+
+def test_a_constant_output_is_refused(oscillator):
+    u, y = oscillator
+    with pytest.raises(ValueError, match="output column 0 is constant"):
+        IdentifyCV(dt=DT).fit(u, np.full_like(y, 2.0))
 
 
 def test_helpers():

@@ -15,7 +15,7 @@ from sindybench.identify._search import pareto_front, parsimonious_index, valida
 from sindybench.simulate import simulate
 
 # sindybench.identify is also the function: the module by its full name
-estimator_module = importlib.import_module("sindybench.identify._estimator")
+stages_module = importlib.import_module("sindybench.identify._stages")
 DT = 0.01
 # a quick search: one derivative method, no refinement (the defaults are exercised by the slow tests)
 QUICK = dict(derivatives=["finite_difference"], n_refine=0, show_progress_bar=False)
@@ -184,14 +184,14 @@ def test_bad_data(oscillator):
 
 
 def test_a_family_that_raises_is_recorded_and_the_search_goes_on(oscillator, monkeypatch):
-    real = estimator_module.make_estimator
+    real = stages_module.make_estimator
 
     def make_estimator(structure, *args, **kwargs):
         if structure["family"] in ("order3", "order1+latent"):
             raise RuntimeError(f"no estimator for {structure['family']}")
         return real(structure, *args, **kwargs)
 
-    monkeypatch.setattr(estimator_module, "make_estimator", make_estimator)
+    monkeypatch.setattr(stages_module, "make_estimator", make_estimator)
     search = IdentifyCV(dt=DT, families=["order2", "order3", "order1+latent"], libraries=["linear"],
                         **QUICK).fit(*oscillator)
     table = search.cv_results_
@@ -208,7 +208,7 @@ def test_no_candidate_that_simulates_is_a_clear_error(oscillator, monkeypatch):
     def make_estimator(structure, *args, **kwargs):
         raise RuntimeError("nothing fits")
 
-    monkeypatch.setattr(estimator_module, "make_estimator", make_estimator)
+    monkeypatch.setattr(stages_module, "make_estimator", make_estimator)
     with pytest.raises(ValueError, match=r"none of the \d+ candidates .*RuntimeError: nothing fits.*expected a record"):
         IdentifyCV(dt=DT, families=["first_order"], libraries=["linear"], **QUICK).fit(u, y)
 

@@ -12,7 +12,7 @@ from sindybench.identify import IdentifyCV
 from sindybench.simulate import simulate
 
 # sindybench.identify is also the function: the module by its full name
-estimator_module = importlib.import_module("sindybench.identify._estimator")
+stages_module = importlib.import_module("sindybench.identify._stages")
 DT = 0.01
 SEARCH = dict(dt=DT, families=["first_order", "order2"], libraries=["linear"], derivatives=["finite_difference"],
               n_refine=1, max_path=4, show_progress_bar=False)
@@ -42,7 +42,7 @@ def _same_table(a, b):
 
 def _stop_after(monkeypatch, n):
     """Make the search stop (KeyboardInterrupt) at its ``n+1``-th candidate evaluation."""
-    calls, real = [0], estimator_module.evaluate
+    calls, real = [0], stages_module.evaluate
 
     def evaluate(*args, **kwargs):
         calls[0] += 1
@@ -50,7 +50,7 @@ def _stop_after(monkeypatch, n):
             raise KeyboardInterrupt
         return real(*args, **kwargs)
 
-    monkeypatch.setattr(estimator_module, "evaluate", evaluate)
+    monkeypatch.setattr(stages_module, "evaluate", evaluate)
 
 
 @pytest.mark.parametrize("storage", ["search.log", "sqlite:///search.db"])

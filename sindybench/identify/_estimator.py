@@ -1,7 +1,6 @@
 """``IdentifyCV``: the structure search scored by simulation, as an estimator; ``identify``, its one-call form."""
 
 import math
-import time
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
@@ -12,137 +11,21 @@ from .._records import check_record_lists, check_records
 from .._validation import (check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option,
                            check_positive, is_records)
 from ._resume import CandidateStore, fingerprint
-from ._search import (describe_blocks, evaluate, pareto_front, parsimonious_index, path_thresholds, record_folds,
-                      segments, stls_threshold)
+from ._search import describe_blocks, pareto_front, parsimonious_index, record_folds, segments, stls_threshold
 from ._space import n_terms
 from ._space import ALL_FAMILIES, FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
+from ._stages import (STRUCTURE, Budget, parallel_map, run_stage, score_candidate, screen_structure, store_full,
+                      store_screen, stored_full, stored_screen)
 
 __all__ = ["IdentifyCV", "identify"]
 
 _HOLDS = ("zoh", "linear")
 # fewest samples a fold may train on
 _MIN_TRAIN = 5
-# the settings that make a structure (the threshold and the refinement make a candidate of it)
-_STRUCTURE = ("family", "library", "derivative", "input_hold", "input_delay")
 # first samples that start a simulation of new data, unless n_init says
 _N_INIT = 20
 # the most a screening stage keeps, whatever the fraction
 _MAX_SURVIVORS = 16
-
-
-def _parallel(n_jobs):
-    """``run(func, args_list)``: the results in order as they finish, from a plain loop for ``n_jobs`` None or 1,
-    else from joblib's ``Parallel`` (imported here)."""
-    if n_jobs in (None, 1):
-        return lambda func, calls: (func(*args) for args in calls)
-    try:
-        from joblib import Parallel, delayed
-    except ImportError as exc:  # pragma: no cover - joblib comes with scikit-learn
-        raise ImportError("n_jobs != 1 needs joblib: pip install sindybench[parallel] (or pip install joblib).") \
-            from exc
-    return lambda func, calls: Parallel(n_jobs=n_jobs, return_as="generator")(delayed(func)(*args) for args in calls)
-
-
-def _stage(func, calls, get, put, parallel):
-    """``func(*call)`` of each call, in order: read back by ``get(*call)`` where stored, else computed (in
-    parallel) and recorded by ``put(call, result)`` as it finishes."""
-    stored = [get(*call) for call in calls]
-    computed = parallel(func, [call for call, result in zip(calls, stored) if result is None])
-    for call, result in zip(calls, stored):
-        if result is None:
-            result = next(computed)
-            put(call, result)
-        yield result
-
-
-class _Budget:
-    """Candidates and seconds left (a deadline on the wall clock, so that worker processes read it too)."""
-
-    def __init__(self, time_budget, max_candidates):
-        self.deadline = None if time_budget is None else time.time() + time_budget
-        self.left = max_candidates
-
-    def take(self, n):
-        """How many of ``n`` candidates may still run (0 once the time or the count is spent)."""
-        if self.deadline is not None and time.time() >= self.deadline:
-            return 0
-        k = n if self.left is None else min(n, self.left)
-        if self.left is not None:
-            self.left -= k
-        return k
-
-
-def _screen(struct, library, ctx):
-    """Stage 1 of one structure: the pruning path of its dense fit, each level scored on the last fold."""
-    X, y, folds = ctx["X"], ctx["y"], ctx["folds"]
-    train = [(r, max(lo, hi - ctx["window"]), hi) for r, lo, hi in folds[-1][0]]
-    make = lambda t, n: make_estimator(struct, library, stls_threshold(t, n), ctx["dt"], ctx["settings"],  # noqa: E731
-                                       random_state=ctx["random_state"])
-    rows = []
-    try:
-        dense = make(0.0, sum(hi - lo for _, lo, hi in train)).fit(*segments(X, y, train))
-        thresholds = path_thresholds(dense, *segments(X, y, train), ctx["levels"])
-    except Exception as exc:  # the structure cannot be fitted at all: one failed row
-        return [dict(struct, threshold=0.0, refine=False, stage="screen", errors=[np.inf], n_terms=None,
-                     max_row_terms=None, fit_time=0.0, status=f"failed: {type(exc).__name__}: {exc}", path_length=1)]
-    for t in thresholds:
-        if ctx["deadline"] is not None and time.time() >= ctx["deadline"]:
-            break
-        result = evaluate(lambda n, t=t: make(t, n), X, y, folds[-1:], n_init=ctx["n_init"], scale=ctx["scale"],
-                          train_window=ctx["window"])
-        result.pop("model")
-        rows.append(dict(struct, threshold=t, refine=False, stage="screen", path_length=len(thresholds), **result))
-    return rows
-
-
-def _screen_key(struct, ctx, k):
-    return CandidateStore.key(dict(struct, threshold=None, stage="screen"), levels=ctx["levels"], k=k)
-
-
-def _stored_screen(struct, library, ctx):
-    """The stored screen of ``struct`` (its whole path), or None."""
-    store = ctx["store"]
-    first = store.get(_screen_key(struct, ctx, 0))
-    if first is None:
-        return None
-    rows = [first] + [store.get(_screen_key(struct, ctx, k)) for k in range(1, first["path_length"])]
-    if any(r is None for r in rows):
-        return None
-    ctx["n_read"] += len(rows)
-    return rows
-
-
-def _store_screen(call, rows):
-    struct, _, ctx = call
-    for k, row in enumerate(rows):
-        ctx["store"].put(_screen_key(struct, ctx, k), row, path_length=row["path_length"])
-
-
-def _full_key(row, refinement):
-    return CandidateStore.key(dict(row, stage="refine" if refinement is not None else "blocks"))
-
-
-def _stored_full(row, library, ctx, refinement):
-    stored = ctx["store"].get(_full_key(row, refinement))
-    ctx["n_read"] += stored is not None
-    return stored
-
-
-def _store_full(call, result):
-    row, _, ctx, refinement = call
-    ctx["store"].put(_full_key(row, refinement), result)
-
-
-def _full(row, library, ctx, refinement):
-    """Stages 2 and 3: one candidate on every block (refined when ``refinement`` is given)."""
-    struct = {k: row[k] for k in _STRUCTURE}
-    make = lambda n: make_estimator(struct, library, stls_threshold(row["threshold"], n), ctx["dt"],  # noqa: E731
-                                    ctx["settings"], refine=refinement, random_state=ctx["random_state"])
-    result = evaluate(make, ctx["X"], ctx["y"], ctx["folds"], n_init=ctx["n_init"], scale=ctx["scale"])
-    result.pop("model")
-    refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
-    return dict(struct, threshold=row["threshold"], refine=refined,
-                stage="refine" if refinement is not None else "blocks", **result)
 
 
 class IdentifyCV(RegressorMixin, BaseEstimator):
@@ -364,7 +247,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         dt = check_dt(dt if dt is not None else self.dt, allow_none=True)
         if dt is None:
             raise ValueError("dt is None; pass the sampling interval dt to IdentifyCV or to fit.")
-        for name, value, options in (("families", self.families, ALL_FAMILIES), ("libraries", self.libraries, LIBRARIES),
+        for name, value, options in (("families", self.families, ALL_FAMILIES),
+                                     ("libraries", self.libraries, LIBRARIES),
                                      ("derivatives", self.derivatives, ("finite_difference", "savgol", "spectral"))):
             if value is None and name == "derivatives":
                 continue
@@ -469,10 +353,10 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         X_all, y_all = np.vstack(X), np.vstack(y)
         structs = structures(X_all, y_all, dt, settings, families=self.families, libraries=self.libraries,
                              derivatives=self.derivatives, input_hold=self.input_hold, input_delay=self.input_delay)
-        if self.input_hold is None and X_all.shape[1] > 0:  # the advice's hold first, the other one too: validation decides
+        if self.input_hold is None and X_all.shape[1] > 0:  # the advice's hold first, the other too: validation decides
             other = {"zoh": "linear", "linear": "zoh"}
             structs += [(dict(s, input_hold=other[s["input_hold"]]), lib) for s, lib in structs]
-        budget = _Budget(self.time_budget, self.max_candidates)
+        budget = Budget(self.time_budget, self.max_candidates)
         scale = np.std(np.vstack(y_train) if several else y_train, axis=0)
         random_state = 0 if self.random_state is None else self.random_state
         signature = {"data": fingerprint(X, y, dt), "validation": validation, "n_blocks": self.n_blocks,
@@ -484,14 +368,15 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                # with a candidate budget, the screening's paths take at most half of it
                "levels": self.max_path if self.max_candidates is None else max(
                    1, min(self.max_path, self.max_candidates // (2 * max(len(structs), 1))))}
-        parallel = _parallel(self.n_jobs)
+        parallel = parallel_map(self.n_jobs)
         rows, libraries = [], []
         with progress_bar(len(structs), desc="identify", show=self.show_progress_bar) as bar:
             # stage 1: every structure's pruning path on the last block (the latent family has its own search)
             latent = [(s, lib) for s, lib in structs if s["family"] in LATENT_FAMILIES]
             structs = [(s, lib) for s, lib in structs if s["family"] not in LATENT_FAMILIES]
             todo = structs[: budget.take(len(structs))]
-            screens = _stage(_screen, [(s, lib, ctx) for s, lib in todo], _stored_screen, _store_screen, parallel)
+            screens = run_stage(screen_structure, [(s, lib, ctx) for s, lib in todo], stored_screen, store_screen,
+                                parallel)
             for (struct, library), screened in zip(todo, screens):
                 rows.extend(screened)
                 libraries.extend([library] * len(screened))
@@ -514,7 +399,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             second += [(dict(s, threshold=0.0), lib) for s, lib in latent]
             second = second[: budget.take(len(second))]
             bar.total += len(second)
-            results = _stage(_full, [(r, lib, ctx, None) for r, lib in second], _stored_full, _store_full, parallel)
+            results = run_stage(score_candidate, [(r, lib, ctx, None) for r, lib in second], stored_full, store_full,
+                                parallel)
             for (row, library), result in zip(second, results):
                 rows.append(result)
                 libraries.append(library)
@@ -534,8 +420,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             third = scored[: budget.take(min(self.n_refine, len(scored)))]
             refinement = self._refinement(n)
             bar.total += len(third)
-            results = _stage(_full, [(rows[i], libraries[i], ctx, refinement) for i in third], _stored_full,
-                             _store_full, parallel)
+            results = run_stage(score_candidate, [(rows[i], libraries[i], ctx, refinement) for i in third], stored_full,
+                                store_full, parallel)
             for i, result in zip(third, results):
                 rows.append(result)
                 libraries.append(libraries[i])
@@ -554,7 +440,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         best = parsimonious_index(mean, table["std_validation_error"], terms, len(folds))
         front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}
                  for i in pareto_front(list(mean), terms)]
-        chosen = {k: rows[best][k] for k in _STRUCTURE + ("threshold", "refine")}
+        chosen = {k: rows[best][k] for k in STRUCTURE + ("threshold", "refine")}
         final = make_estimator(chosen, libraries[best], stls_threshold(chosen["threshold"], n), dt, settings,
                                refine=refinement if chosen["refine"] else None, random_state=ctx["random_state"])
         if several:
@@ -628,7 +514,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
 
 def _table(rows, n_blocks):
     """``cv_results_``: one list per column; block errors of screened rows only in their last split."""
-    table = {k: [r[k] for r in rows] for k in _STRUCTURE + ("threshold", "refine", "stage", "n_terms",
+    table = {k: [r[k] for r in rows] for k in STRUCTURE + ("threshold", "refine", "stage", "n_terms",
                                                             "max_row_terms", "fit_time", "status")}
     errors = np.full((len(rows), n_blocks), np.nan)
     for i, r in enumerate(rows):

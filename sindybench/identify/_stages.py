@@ -1,0 +1,137 @@
+"""The stages of ``identify``'s search, one candidate or one structure at a time, and their budget.
+
+``screen_structure`` scores a structure's pruning path on the last fold; ``score_candidate`` one
+candidate on every fold (refined or not); ``run_stage`` runs a stage's calls in
+order, reading back those a :class:`~sindybench.identify._resume.CandidateStore`
+holds and recording the others as they finish; ``Budget`` counts the
+candidates and seconds left.
+"""
+
+import time
+
+import numpy as np
+
+from ._resume import CandidateStore
+from ._search import evaluate, path_thresholds, segments, stls_threshold
+from ._space import LATENT_FAMILIES, make_estimator
+
+__all__ = ["STRUCTURE", "Budget", "parallel_map", "run_stage", "score_candidate", "screen_structure", "store_full",
+           "store_screen", "stored_full", "stored_screen"]
+
+# the settings that make a structure (the threshold and the refinement make a candidate of it)
+STRUCTURE = ("family", "library", "derivative", "input_hold", "input_delay")
+
+
+def parallel_map(n_jobs):
+    """``run(func, args_list)``: the results in order as they finish, from a plain loop for ``n_jobs`` None or 1,
+    else from joblib's ``Parallel`` (imported here)."""
+    if n_jobs in (None, 1):
+        return lambda func, calls: (func(*args) for args in calls)
+    try:
+        from joblib import Parallel, delayed
+    except ImportError as exc:  # pragma: no cover - joblib comes with scikit-learn
+        raise ImportError("n_jobs != 1 needs joblib: pip install sindybench[parallel] (or pip install joblib).") \
+            from exc
+    return lambda func, calls: Parallel(n_jobs=n_jobs, return_as="generator")(delayed(func)(*args) for args in calls)
+
+
+def run_stage(func, calls, get, put, parallel):
+    """``func(*call)`` of each call, in order: read back by ``get(*call)`` where stored, else computed (in
+    parallel) and recorded by ``put(call, result)`` as it finishes."""
+    stored = [get(*call) for call in calls]
+    computed = parallel(func, [call for call, result in zip(calls, stored) if result is None])
+    for call, result in zip(calls, stored):
+        if result is None:
+            result = next(computed)
+            put(call, result)
+        yield result
+
+
+class Budget:
+    """Candidates and seconds left (a deadline on the wall clock, so that worker processes read it too)."""
+
+    def __init__(self, time_budget, max_candidates):
+        self.deadline = None if time_budget is None else time.time() + time_budget
+        self.left = max_candidates
+
+    def take(self, n):
+        """How many of ``n`` candidates may still run (0 once the time or the count is spent)."""
+        if self.deadline is not None and time.time() >= self.deadline:
+            return 0
+        k = n if self.left is None else min(n, self.left)
+        if self.left is not None:
+            self.left -= k
+        return k
+
+
+def screen_structure(struct, library, ctx):
+    """Stage 1 of one structure: the pruning path of its dense fit, each level scored on the last fold."""
+    X, y, folds = ctx["X"], ctx["y"], ctx["folds"]
+    train = [(r, max(lo, hi - ctx["window"]), hi) for r, lo, hi in folds[-1][0]]
+    make = lambda t, n: make_estimator(struct, library, stls_threshold(t, n), ctx["dt"], ctx["settings"],  # noqa: E731
+                                       random_state=ctx["random_state"])
+    rows = []
+    try:
+        dense = make(0.0, sum(hi - lo for _, lo, hi in train)).fit(*segments(X, y, train))
+        thresholds = path_thresholds(dense, *segments(X, y, train), ctx["levels"])
+    except Exception as exc:  # the structure cannot be fitted at all: one failed row
+        return [dict(struct, threshold=0.0, refine=False, stage="screen", errors=[np.inf], n_terms=None,
+                     max_row_terms=None, fit_time=0.0, status=f"failed: {type(exc).__name__}: {exc}", path_length=1)]
+    for t in thresholds:
+        if ctx["deadline"] is not None and time.time() >= ctx["deadline"]:
+            break
+        result = evaluate(lambda n, t=t: make(t, n), X, y, folds[-1:], n_init=ctx["n_init"], scale=ctx["scale"],
+                          train_window=ctx["window"])
+        result.pop("model")
+        rows.append(dict(struct, threshold=t, refine=False, stage="screen", path_length=len(thresholds), **result))
+    return rows
+
+
+def _screen_key(struct, ctx, k):
+    return CandidateStore.key(dict(struct, threshold=None, stage="screen"), levels=ctx["levels"], k=k)
+
+
+def stored_screen(struct, library, ctx):
+    """The stored screen of ``struct`` (its whole path), or None."""
+    store = ctx["store"]
+    first = store.get(_screen_key(struct, ctx, 0))
+    if first is None:
+        return None
+    rows = [first] + [store.get(_screen_key(struct, ctx, k)) for k in range(1, first["path_length"])]
+    if any(r is None for r in rows):
+        return None
+    ctx["n_read"] += len(rows)
+    return rows
+
+
+def store_screen(call, rows):
+    struct, _, ctx = call
+    for k, row in enumerate(rows):
+        ctx["store"].put(_screen_key(struct, ctx, k), row, path_length=row["path_length"])
+
+
+def _full_key(row, refinement):
+    return CandidateStore.key(dict(row, stage="refine" if refinement is not None else "blocks"))
+
+
+def stored_full(row, library, ctx, refinement):
+    stored = ctx["store"].get(_full_key(row, refinement))
+    ctx["n_read"] += stored is not None
+    return stored
+
+
+def store_full(call, result):
+    row, _, ctx, refinement = call
+    ctx["store"].put(_full_key(row, refinement), result)
+
+
+def score_candidate(row, library, ctx, refinement):
+    """Stages 2 and 3: one candidate on every block (refined when ``refinement`` is given)."""
+    struct = {k: row[k] for k in STRUCTURE}
+    make = lambda n: make_estimator(struct, library, stls_threshold(row["threshold"], n), ctx["dt"],  # noqa: E731
+                                    ctx["settings"], refine=refinement, random_state=ctx["random_state"])
+    result = evaluate(make, ctx["X"], ctx["y"], ctx["folds"], n_init=ctx["n_init"], scale=ctx["scale"])
+    result.pop("model")
+    refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
+    return dict(struct, threshold=row["threshold"], refine=refined,
+                stage="refine" if refinement is not None else "blocks", **result)

@@ -112,3 +112,13 @@ def test_bad_storage_arguments(record, kwargs, match):
     with pytest.raises(ValueError, match=match):
         IdentifyCV(**dict(SEARCH, **kwargs)).fit(*record)
 
+
+
+@pytest.mark.slow
+def test_worker_processes_resume_too(record, uninterrupted, tmp_path, monkeypatch):
+    """With ``n_jobs=2`` the store stays in the search's process (slow: each worker compiles the kernels)."""
+    storage = str(tmp_path / "search.log")
+    first = IdentifyCV(storage=storage, n_jobs=2, max_candidates=20, **SEARCH).fit(*record)
+    full = IdentifyCV(storage=storage, n_jobs=2, **SEARCH).fit(*record)
+    assert first.n_resumed_ == 0 and full.n_resumed_ > 0
+    _same_table(full.cv_results_, uninterrupted.cv_results_)

@@ -1,6 +1,7 @@
 """``IdentifyCV``: the structure search scored by simulation, as an estimator; ``identify``, its one-call form."""
 
 import math
+from functools import partial
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
@@ -363,19 +364,23 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                      "block_size": self.block_size, "n_init": n_init, "screen_window": self.screen_window,
                      "random_state": random_state, "refinement": repr(self.refinement)}
         ctx = {"X": X, "y": y, "dt": dt, "settings": settings, "random_state": random_state, "folds": folds,
-               "n_init": n_init, "store": CandidateStore(self.storage, self.study_name, signature), "n_read": 0,
+               "n_init": n_init,
                "scale": np.where(scale > 0, scale, 1.0), "window": self.screen_window, "deadline": budget.deadline,
                # with a candidate budget, the screening's paths take at most half of it
                "levels": self.max_path if self.max_candidates is None else max(
                    1, min(self.max_path, self.max_candidates // (2 * max(len(structs), 1))))}
         parallel = parallel_map(self.n_jobs)
+        # the store stays in this process (never sent to the workers): it reads back and records every candidate
+        store = CandidateStore(self.storage, self.study_name, signature)
+        stored_screens, store_screens = partial(stored_screen, store), partial(store_screen, store)
+        stored_scores, store_scores = partial(stored_full, store), partial(store_full, store)
         rows, libraries = [], []
         with progress_bar(len(structs), desc="identify", show=self.show_progress_bar) as bar:
             # stage 1: every structure's pruning path on the last block (the latent family has its own search)
             latent = [(s, lib) for s, lib in structs if s["family"] in LATENT_FAMILIES]
             structs = [(s, lib) for s, lib in structs if s["family"] not in LATENT_FAMILIES]
             todo = structs[: budget.take(len(structs))]
-            screens = run_stage(screen_structure, [(s, lib, ctx) for s, lib in todo], stored_screen, store_screen,
+            screens = run_stage(screen_structure, [(s, lib, ctx) for s, lib in todo], stored_screens, store_screens,
                                 parallel)
             for (struct, library), screened in zip(todo, screens):
                 rows.extend(screened)
@@ -399,8 +404,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             second += [(dict(s, threshold=0.0), lib) for s, lib in latent]
             second = second[: budget.take(len(second))]
             bar.total += len(second)
-            results = run_stage(score_candidate, [(r, lib, ctx, None) for r, lib in second], stored_full, store_full,
-                                parallel)
+            results = run_stage(score_candidate, [(r, lib, ctx, None) for r, lib in second], stored_scores,
+                                store_scores, parallel)
             for (row, library), result in zip(second, results):
                 rows.append(result)
                 libraries.append(library)
@@ -420,8 +425,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             third = scored[: budget.take(min(self.n_refine, len(scored)))]
             refinement = self._refinement(n)
             bar.total += len(third)
-            results = run_stage(score_candidate, [(rows[i], libraries[i], ctx, refinement) for i in third], stored_full,
-                                store_full, parallel)
+            calls = [(rows[i], libraries[i], ctx, refinement) for i in third]
+            results = run_stage(score_candidate, calls, stored_scores, store_scores, parallel)
             for i, result in zip(third, results):
                 rows.append(result)
                 libraries.append(libraries[i])
@@ -456,7 +461,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self.blocks_ = blocks
         self.validation_ = validation
         self.splits_ = splits
-        self.n_resumed_ = ctx["n_read"]
+        self.n_resumed_ = store.n_read
         self.cv_results_ = table
         self.best_index_ = int(best)
         self.best_params_ = chosen

@@ -73,10 +73,16 @@ class CandidateStore:
     signature : dict
         The data's fingerprint (``"data"``) and the settings that change a
         candidate's result; a stored study made with another one is refused.
+
+    Attributes
+    ----------
+    study : optuna.study.Study or None
+    n_read : int
+        Candidates read back (counted by the search, which reads whole paths).
     """
 
     def __init__(self, storage, study_name, signature):
-        self.study = None
+        self.study, self.n_read = None, 0
         self._done = {}
         if storage is None:
             return

@@ -91,38 +91,40 @@ def _screen_key(struct, ctx, k):
     return CandidateStore.key(dict(struct, threshold=None, stage="screen"), levels=ctx["levels"], k=k)
 
 
-def stored_screen(struct, library, ctx):
-    """The stored screen of ``struct`` (its whole path), or None."""
-    store = ctx["store"]
+def stored_screen(store, struct, library, ctx):
+    """The stored screen of ``struct`` (its whole path) in ``store``, or None."""
     first = store.get(_screen_key(struct, ctx, 0))
     if first is None:
         return None
     rows = [first] + [store.get(_screen_key(struct, ctx, k)) for k in range(1, first["path_length"])]
     if any(r is None for r in rows):
         return None
-    ctx["n_read"] += len(rows)
+    store.n_read += len(rows)
     return rows
 
 
-def store_screen(call, rows):
+def store_screen(store, call, rows):
+    """Record the screened path ``rows`` of ``call``'s structure."""
     struct, _, ctx = call
     for k, row in enumerate(rows):
-        ctx["store"].put(_screen_key(struct, ctx, k), row, path_length=row["path_length"])
+        store.put(_screen_key(struct, ctx, k), row, path_length=row["path_length"])
 
 
 def _full_key(row, refinement):
     return CandidateStore.key(dict(row, stage="refine" if refinement is not None else "blocks"))
 
 
-def stored_full(row, library, ctx, refinement):
-    stored = ctx["store"].get(_full_key(row, refinement))
-    ctx["n_read"] += stored is not None
+def stored_full(store, row, library, ctx, refinement):
+    """The stored result of the candidate ``row`` on every fold (refined when ``refinement`` is given), or None."""
+    stored = store.get(_full_key(row, refinement))
+    store.n_read += stored is not None
     return stored
 
 
-def store_full(call, result):
-    row, _, ctx, refinement = call
-    ctx["store"].put(_full_key(row, refinement), result)
+def store_full(store, call, result):
+    """Record ``result``, the candidate of ``call`` on every fold."""
+    row, _, _, refinement = call
+    store.put(_full_key(row, refinement), result)
 
 
 def score_candidate(row, library, ctx, refinement):

@@ -11,7 +11,7 @@ neural state-space protocol) next to the issue's target, the chosen settings, th
 terms and the CPU time against the budget (30 s per benchmark, 60 s for Silverbox). Needs
 the benchmark data (``SINDYBENCH_DATA``). Run::
 
-    SINDYBENCH_DATA=../shared/data python benchmarks/bench_identify.py [benchmark ...]
+    SINDYBENCH_DATA=../shared/data python benchmarks/bench_identify.py [benchmark ...] [--families a,b,...]
 """
 
 import os
@@ -56,13 +56,15 @@ def _warm_up():
     IdentifyCV(dt=0.05, show_progress_bar=False).fit(u, y)
 
 
-def run(name):
+def run(name, families=None):
     bench = get_benchmark(name)
     data = load_data(bench)
     X, y, _, n_val = _training_record(bench, data, False)
     dt = float(data["train"]["dt"])
     spec = bench.model(IDENTIFIED)
     estimator = spec.make(random_state=0, quick=False, dt=dt, n_val=n_val, n_samples=len(y))
+    if families is not None:  # e.g. the defaults plus two latent states: what that family costs
+        estimator.set_params(families=families)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         ref_s, _ = _cpu(lambda: HiddenStateSINDy(dt=dt, show_progress_bar=False).fit(X, y))
@@ -95,10 +97,11 @@ def main(argv=None):
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("benchmarks", nargs="*", default=sorted(BENCHMARKS))
+    parser.add_argument("--families", default=None, help="comma-separated families to search (default: the row's)")
     args = parser.parse_args(argv)
     _warm_up()
     for name in args.benchmarks:
-        run(name)
+        run(name, None if args.families is None else args.families.split(","))
 
 
 if __name__ == "__main__":

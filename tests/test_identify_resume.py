@@ -103,6 +103,19 @@ def test_a_study_of_other_data_or_settings_is_refused_and_kept(record, tmp_path)
     assert other.n_resumed_ == 0
 
 
+def test_a_study_not_made_by_identify_is_refused(record, tmp_path):
+    from sindybench import SINDy
+    from sindybench.model_selection import Uniform, tune
+
+    storage = f"sqlite:///{tmp_path / 'studies.db'}"
+    u, y = record
+    tune(SINDy(dt=DT), {"optimizer__threshold": Uniform(0.0, 0.1)}, u, y, n_trials=2, storage=storage,
+         study_name="mine", show_progress_bar=False)
+    with pytest.raises(ValueError, match="'mine' .* was not made by identify .*2 trials"):
+        IdentifyCV(storage=storage, study_name="mine", **SEARCH).fit(u, y)
+    assert len(optuna.load_study(study_name="mine", storage=storage).trials) == 2
+
+
 @pytest.mark.parametrize("kwargs, match", [
     ({"storage": "study.csv"}, "is not understood"),
     ({"storage": "no_such_folder/s.log"}, "does not exist"),

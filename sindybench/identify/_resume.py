@@ -100,6 +100,10 @@ class CandidateStore:
             now = ", ".join(f"{k}={signature.get(k)!r}" for k in changed)
             raise ValueError(f"{where} was made with other settings ({was}; got {now}); expected the same settings to "
                              "resume it. Pass another study_name (the stored study is left as it is).")
+        if stored is None and (study.user_attrs or study.get_trials(deepcopy=False)):
+            raise ValueError(f"{where} was not made by identify (it holds {len(study.trials)} trials and the "
+                             f"attributes {sorted(study.user_attrs)}); expected a new study or one of identify's. "
+                             "Pass another study_name (the stored study is left as it is).")
         if stored is None:
             study.set_user_attr(STUDY_ATTR, signature)
         for trial in study.get_trials(deepcopy=False):

@@ -350,7 +350,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         # what the data decides, from the longest training part of the last fold (one record: all before its block)
         r, lo, hi = max(folds[-1][0], key=lambda part: part[2] - part[1])
         settings = data_settings(X[r][lo:hi], y[r][lo:hi], dt)
-        X_train, y_train = segments(X, y, folds[-1][0])
+        _, y_train = segments(X, y, folds[-1][0])
         X_all, y_all = np.vstack(X), np.vstack(y)
         structs = structures(X_all, y_all, dt, settings, families=self.families, libraries=self.libraries,
                              derivatives=self.derivatives, input_hold=self.input_hold, input_delay=self.input_delay)

@@ -340,6 +340,15 @@ class HiddenStrategy(BaseEstimator):
         """
         return tuple(name for name in self._physical if name in params)
 
+    def physical_map(self, params, *, n_outputs, n_inputs):
+        """How the refinable physical parameters enter the fixed rows: a :class:`~sindybench.refine.CoefficientMap`.
+
+        Declared once, so that a refinement evaluates it without calling the
+        strategy back. The default: None (the refinement then calls
+        :meth:`structure` at every evaluation when the fixed rows have terms).
+        """
+        return None
+
     def refine_free(self, coef, terms, *, n_outputs, n_inputs):
         """Entries of the learned coefficients (n_terms, n_learned) that a refinement frees.
 

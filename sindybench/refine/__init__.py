@@ -8,7 +8,8 @@ here still work, with a ``FutureWarning``.
 
 import warnings
 
-from ._core import Physical, estimate_initial_state, refine_simulation_error
+from ._core import estimate_initial_state, refine_simulation_error
+from ._parametrized import CoefficientMap, FreeParameters, LeastSquares, ParametrizedDynamics, Physical, Shooting
 from ._prediction import refine_prediction_error
 from ._predictor import predict_sensitivity
 from ._result import RefinementResult
@@ -16,10 +17,15 @@ from ._sensitivity import simulate_sensitivity
 from ._settings import OutputErrorRefinement, PredictionErrorRefinement
 
 __all__ = [
+    "CoefficientMap",
+    "FreeParameters",
+    "LeastSquares",
     "OutputErrorRefinement",
+    "ParametrizedDynamics",
     "Physical",
     "PredictionErrorRefinement",
     "RefinementResult",
+    "Shooting",
     "estimate_initial_state",
     "predict_sensitivity",
     "refine_prediction_error",

@@ -61,6 +61,11 @@ def _local_derivatives(y, dt):
     return p[0], p[1] / dt, 2.0 * p[2] / dt**2
 
 
+#: The fixed rows over the terms ``(v, y, z, u)``: ``y' = v``, ``v' = (u - c v - k y - z) / m``.
+_FIXED_ROWS = CoefficientMap((4, 3), [(0, 0, 1.0, (), ()), (0, 1, -1.0, ("c",), ("m",)), (1, 1, -1.0, ("k",), ("m",)),
+                                      (2, 1, -1.0, (), ("m",)), (3, 1, 1.0, (), ("m",))])
+
+
 class BoucWenHiddenState(HiddenStrategy):
     """Hidden hysteretic force of a mass-spring-damper (Bouc-Wen structural iteration).
 
@@ -177,7 +182,7 @@ class BoucWenHiddenState(HiddenStrategy):
                 f"got {n_inputs} inputs and {n_outputs} outputs."
             )
         terms = [linear_term(_V), linear_term(_Y), linear_term(_Z), linear_term(_U)]
-        coef = self.physical_map(params, n_outputs=n_outputs, n_inputs=n_inputs).matrix(params)
+        coef = _FIXED_ROWS.matrix(params)
         return Structure(n_states=3, learned=(_Z,), output_index=(_Y,), fixed_terms=terms, fixed_coef=coef,
                          state_names=["y", "v", "z"])
 
@@ -190,9 +195,7 @@ class BoucWenHiddenState(HiddenStrategy):
         >>> rows.matrix({"m": 2.0, "c": 10.0, "k": 5e4})[:, 1].tolist()
         [-5.0, -25000.0, -0.5, 0.5]
         """
-        return CoefficientMap((4, 3), [(0, 0, 1.0, (), ()), (0, 1, -1.0, ("c",), ("m",)),
-                                       (1, 1, -1.0, ("k",), ("m",)), (2, 1, -1.0, (), ("m",)),
-                                       (3, 1, 1.0, (), ("m",))])
+        return _FIXED_ROWS
 
     def design(self, u, y, dt, *, derivative, params):
         """States ``[y, y', z]`` with ``z = u - c y' - k y - m y''`` and the target ``z'``."""

@@ -16,6 +16,10 @@ from ._parametric import ParametricHiddenState
 __all__ = ["TanksHiddenState"]
 
 
+#: The lower tank's row over the terms ``(sqrt(x1), u)``: ``x1' = -k1 sqrt(x1) + k2 u``.
+_FIXED_ROWS = CoefficientMap((2, 2), [(0, 1, -1.0, ("k1",), ()), (1, 1, 1.0, ("k2",), ())])
+
+
 class TanksHiddenState(ParametricHiddenState):
     """Hidden upper-tank level of a cascaded-tanks system.
 
@@ -175,7 +179,7 @@ class TanksHiddenState(ParametricHiddenState):
             learned=(0,),
             output_index=(0,),
             fixed_terms=terms,
-            fixed_coef=self.physical_map(params, n_outputs=n_outputs, n_inputs=n_inputs).matrix(params),
+            fixed_coef=_FIXED_ROWS.matrix(params),
             state_names=["y0", "x1"],
             bounds=(np.array([ylo[0], lo]), np.array([yhi[0], hi])),
         )
@@ -188,7 +192,7 @@ class TanksHiddenState(ParametricHiddenState):
         >>> TanksHiddenState().physical_map({}, n_outputs=1, n_inputs=1).matrix({"k1": 0.5, "k2": 2.0}).tolist()
         [[0.0, -0.5], [0.0, 2.0]]
         """
-        return CoefficientMap((2, 2), [(0, 1, -1.0, ("k1",), ()), (1, 1, 1.0, ("k2",), ())])
+        return _FIXED_ROWS
 
     def _simulate_hidden(self, u, y, dt, params):
         terms, coef = self._hidden_terms(params, 0, 1)

@@ -62,6 +62,13 @@ method ``HiddenStateSINDy`` calls on a strategy, besides scikit-learn's ``get_pa
 ``refine_free(coef, terms, *, n_outputs, n_inputs)``
     which learned coefficients that refinement frees (default: the nonzero ones;
     the latent strategy keeps each row's gauge coefficient fixed).
+``physical_map(params, *, n_outputs, n_inputs)``
+    how those parameters enter the fixed rows, declared once: a
+    :class:`~sindybench.refine.CoefficientMap` (entries ``scale * prod / prod`` of
+    named parameters over ``fixed_terms``), so that the refinement evaluates it
+    without calling the strategy back (default: None; the refinement then calls
+    ``structure`` at every evaluation). Python fixed rows take new values through
+    their own ``with_params`` (``ParametricHiddenState``'s do).
 ``gauge()``
     for strategies whose hidden states have no unit of their own: how their scale is
     fixed, in words, one line per state; the estimator adds the lines to

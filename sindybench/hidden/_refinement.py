@@ -89,7 +89,7 @@ def refinement_problem(cand, hidden, n_outputs, n_inputs):
             coef = CoefficientMap((0, s.n_states), (), names, n_lib)
         else:
             coef = _FixedBlock(hidden, cand.params, names, n_lib, n_outputs, n_inputs)
-        if not dyn.compiled and s.fixed_rhs is not None and not hasattr(s.fixed_rhs, "with_params"):
+        if s.fixed_rhs is not None and not hasattr(s.fixed_rhs, "with_params"):  # Python rows of unknown form
             make_rhs = _StructureRows(_FixedBlock(hidden, cand.params, names, n_lib, n_outputs, n_inputs), dyn)
         physical = Physical(names=names, values=values, lower=np.where(values > 0, 0.0, -np.inf),
                             upper=np.full(len(names), np.inf), coef=coef, make_rhs=make_rhs)

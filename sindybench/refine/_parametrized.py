@@ -109,7 +109,16 @@ class LeastSquares(NamedTuple):
 
 
 class Shooting(NamedTuple):
-    """Multiple shooting: ``n_segments`` segments, their continuity residuals weighted by ``continuity_weight``."""
+    """Multiple shooting: ``n_segments`` segments, their continuity residuals weighted by ``continuity_weight``.
+
+    ``n_segments=1`` is single shooting; the weight is relative to the
+    output residuals (continuity per state spread, outputs per output spread).
+
+    Examples
+    --------
+    >>> Shooting(5)
+    Shooting(n_segments=5, continuity_weight=1.0)
+    """
 
     n_segments: int = 1
     continuity_weight: float = 1.0

@@ -289,7 +289,7 @@ def refine_prediction_error(dynamics, u, y, *, x0, free=None, horizon=1, gain=No
     if not view.compiled:
         raise ValueError("prediction-error refinement needs a compiled model (terms); got a Python right-hand side "
                          "(a model on the Python path, or a physical map with make_rhs). Expected a model over a "
-                         "built-in or custom library.")
+                         "built-in or custom library whose terms numba compiles, or OutputErrorRefinement.")
     solver = LeastSquares() if solver is None else LeastSquares(*solver)
     n_states = dynamics.n_states
     us, ys, x0s = _check_records(u, y, x0, n_states)

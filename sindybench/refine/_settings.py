@@ -172,9 +172,6 @@ class PredictionErrorRefinement(_Refinement):
         self._validate_common()
         check_integer(self.horizon, "horizon")
         check_bool(self.fit_gain, "fit_gain")
-        if not dynamics.compiled:
-            raise ValueError("PredictionErrorRefinement needs a compiled model (a built-in or custom library whose "
-                             "terms numba compiles); got a Python right-hand side. Use OutputErrorRefinement.")
         u, y, free = self._prepare(u, y, free)
         return refine_prediction_error(dynamics, u, y, x0=x0, free=free, horizon=self.horizon,
                                        free_gain=self.fit_gain, noise=self.noise, prune=self.prune,

@@ -1,6 +1,11 @@
 """Fit by simulation or prediction error: forward sensitivities, output- and prediction-error refinement,
 initial states.
 
+Every criterion takes a fitted :class:`~sindybench.dynamics.Dynamics` and a
+:class:`FreeParameters` description of what is free (coefficient entries, a
+:class:`Physical` map of physical parameters, initial states), with its
+knobs grouped in :class:`LeastSquares` and :class:`Shooting`.
+
 The covariance of the refined parameters and its reporting (standard errors,
 confidence intervals) moved to :mod:`sindybench.uncertainty`; the old names
 here still work, with a ``FutureWarning``.

@@ -13,6 +13,7 @@ from sindybench.refine import OutputErrorRefinement
 from sindybench.simulate import TermsRHS, simulate
 
 DT = 0.05
+pytestmark = pytest.mark.filterwarnings("ignore:the refinement stopped on its evaluation budget")
 
 
 def _record(n=600):
@@ -60,15 +61,16 @@ def _modules_per_evaluation(monkeypatch, model, u, y):
     return {m for m in entered if m.startswith("sindybench")}
 
 
-@pytest.mark.parametrize("hidden, path", [
-    (BoucWenHiddenState(m=1.0, c=0.5, k=4.0), "sensitivity"),  # compiled: m, c, k through the declared map
+@pytest.mark.parametrize("hidden, path, n", [
+    (BoucWenHiddenState(m=1.0, c=0.5, k=4.0), "sensitivity", 600),  # compiled: m, c, k through the declared map
     (ParametricHiddenState(lambda xh, y, u, *, a: -a * xh + y, params={"a": 0.8}, x0_bounds=(0.2, 0.6)),
-     "2-point"),  # Python path: a through the fixed rows' with_params
+     "2-point", 300),  # Python path: a through the fixed rows' with_params (a short record: Python steps)
 ])
-def test_no_hidden_module_is_entered_per_evaluation(monkeypatch, hidden, path):
+def test_no_hidden_module_is_entered_per_evaluation(monkeypatch, hidden, path, n):
     u, y = _record()
+    u, y = u[:n], y[:n]
     model = HiddenStateSINDy(hidden=hidden, library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=0.05),
-                             dt=DT, n_trials=1, random_state=0, refine=OutputErrorRefinement(max_nfev=4))
+                             dt=DT, n_trials=1, random_state=0, refine=OutputErrorRefinement(max_nfev=3))
     modules = _modules_per_evaluation(monkeypatch, model, u, y)
     assert model.refinement_["jacobian"] == path and list(model.refinement_["physical"]) in (["m", "c", "k"], ["a"])
     assert "sindybench.refine._parametrized" in modules  # the view builds every evaluation's model

@@ -16,6 +16,7 @@ from sindybench.libraries import PolynomialLibrary
 from sindybench.libraries._terms import POW
 from sindybench.dynamics import Dynamics
 from sindybench.refine import (
+    CoefficientMap,
     FreeParameters,
     LeastSquares,
     OutputErrorRefinement,
@@ -302,6 +303,20 @@ def test_refine_takes_a_dynamics(duffing):
     u, y = duffing
     with pytest.raises(TypeError, match="dynamics must be a sindybench.dynamics.Dynamics .*; got TermsRHS"):
         refine_simulation_error(TermsRHS(TRUE_COEF, DUFFING, 2), u, y, x0=TRUE_X0)
+    # the old flat keywords' values where a grouped setting is expected: a TypeError that says how to write it
+    with pytest.raises(TypeError, match=r"free must be a sindybench.refine.FreeParameters \(e.g. FreeParameters\("
+                                        r"coef=mask\)\) or None; got ndarray"):
+        refine_simulation_error(duffing_model(), u, y, x0=TRUE_X0, free=FREE)
+    with pytest.raises(TypeError, match="shooting must be a sindybench.refine.Shooting .*; got int"):
+        refine_simulation_error(duffing_model(), u, y, x0=TRUE_X0, shooting=3)
+    with pytest.raises(TypeError, match="solver must be a sindybench.refine.LeastSquares .*; got dict"):
+        estimate_initial_state(duffing_model(), u[:40], y[:40], x0=TRUE_X0, solver={"max_nfev": 5})
+
+
+def test_coefficient_map_names_a_missing_parameter():
+    rows = CoefficientMap((1, 1), [(0, 0, -1.0, ("c",), ("m",))])
+    with pytest.raises(ValueError, match=r"the coefficient map needs the parameters \['c', 'm'\]; got \['k'\]"):
+        rows.matrix({"k": 1.0})
 
 
 def test_refine_free_x0_out_of_range(duffing):

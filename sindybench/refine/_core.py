@@ -41,7 +41,7 @@ from sklearn.exceptions import ConvergenceWarning
 from .._validation import check_bounds, check_integer, check_positive, check_signal, is_records
 from ..dynamics import Dynamics
 from ..libraries import evaluate_terms
-from ._parametrized import FreeParameters, LeastSquares, ParametrizedDynamics, Shooting
+from ._parametrized import FreeParameters, LeastSquares, ParametrizedDynamics, Shooting, check_settings
 from ._problem import _build, _output_jacobian
 from ._result import RefinementResult
 
@@ -144,8 +144,8 @@ def refine_simulation_error(dynamics, u, y, *, x0, free=None, shooting=None, pru
     (('x0', 0, 0), ('x0', 0, 1))
     """
     view = ParametrizedDynamics(_check_dynamics(dynamics), free)
-    shooting = Shooting() if shooting is None else Shooting(*shooting)
-    solver = LeastSquares() if solver is None else LeastSquares(*solver)
+    shooting = Shooting() if shooting is None else check_settings(shooting, Shooting, "shooting", "n_segments=5")
+    solver = LeastSquares() if solver is None else check_settings(solver, LeastSquares, "solver", "max_nfev=50")
     us, ys, x0s = _check_records(u, y, x0, dynamics.n_states)
     _check_outputs(ys, dynamics)
     n_segments = check_integer(shooting.n_segments, "n_segments", high=max(1, us[0].shape[0] // 10))
@@ -371,7 +371,8 @@ def estimate_initial_state(dynamics, u, y, *, x0, free_x0=None, solver=None):
     >>> np.round(x0, 6).tolist()
     [0.9, 0.2]
     """
-    solver = LeastSquares(max_nfev=50) if solver is None else LeastSquares(*solver)
+    solver = LeastSquares(max_nfev=50) if solver is None else check_settings(solver, LeastSquares, "solver",
+                                                                             "max_nfev=50")
     free = FreeParameters(coef=np.zeros(np.shape(dynamics.coef), dtype=bool), x0=free_x0)
     res = refine_simulation_error(dynamics, u, y, x0=x0, free=free, solver=solver._replace(warn_budget=False))
     return res.x0

@@ -124,6 +124,14 @@ class Shooting(NamedTuple):
     continuity_weight: float = 1.0
 
 
+def check_settings(value, kind, name, example):
+    """``value`` if it is a ``kind`` (a grouped setting); a ``TypeError`` that says how to write one otherwise."""
+    if not isinstance(value, kind):
+        raise TypeError(f"{name} must be a sindybench.refine.{kind.__name__} (e.g. {kind.__name__}({example})) or "
+                        f"None; got {type(value).__name__}.")
+    return value
+
+
 class CoefficientMap:
     """``values -> C``: entries ``scale * prod(numerator) / prod(denominator)`` of named physical parameters.
 
@@ -154,6 +162,9 @@ class CoefficientMap:
 
     def matrix(self, params):
         """The ``(n_rows, n_states)`` block for the parameters ``params`` (a dict name -> number)."""
+        missing = sorted({n for _, _, _, num, den in self.entries for n in (*num, *den)} - set(params))
+        if missing:
+            raise ValueError(f"the coefficient map needs the parameters {missing}; got {sorted(params)}.")
         out = np.zeros(self.shape)
         for row, state, scale, numerator, denominator in self.entries:
             value = scale
@@ -200,7 +211,7 @@ class ParametrizedDynamics:
     """
 
     def __init__(self, dynamics, free=None, *, coef=None):
-        free = FreeParameters() if free is None else free
+        free = FreeParameters() if free is None else check_settings(free, FreeParameters, "free", "coef=mask")
         self.dynamics, self.physical = dynamics, free.physical
         n_states = dynamics.n_states
         if coef is None:  # the coefficients without the physical part

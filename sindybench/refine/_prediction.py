@@ -38,7 +38,7 @@ from scipy.linalg import solve_discrete_are
 from .._validation import check_positive
 from ..dynamics import SimulationError, step_jacobian
 from ._core import _box, _check_dynamics, _check_outputs, _check_records, solve
-from ._parametrized import LeastSquares, ParametrizedDynamics
+from ._parametrized import LeastSquares, ParametrizedDynamics, check_settings
 from ._predictor import predict_sensitivity
 from ._problem import _DIVERGED, _Problem
 
@@ -290,7 +290,7 @@ def refine_prediction_error(dynamics, u, y, *, x0, free=None, horizon=1, gain=No
         raise ValueError("prediction-error refinement needs a compiled model (terms); got a Python right-hand side "
                          "(a model on the Python path, or a physical map with make_rhs). Expected a model over a "
                          "built-in or custom library whose terms numba compiles, or OutputErrorRefinement.")
-    solver = LeastSquares() if solver is None else LeastSquares(*solver)
+    solver = LeastSquares() if solver is None else check_settings(solver, LeastSquares, "solver", "max_nfev=50")
     n_states = dynamics.n_states
     us, ys, x0s = _check_records(u, y, x0, n_states)
     _check_outputs(ys, dynamics)

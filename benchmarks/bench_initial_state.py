@@ -117,8 +117,7 @@ def run_case(name, model, u, y, n_init, reference, *, repeat, windows):
         guess = hidden.initial_state(u_w, y_w, dyn.dt, derivative=cand.derivative, params=cand.params, model=view)
 
         def new():
-            return refine_guess(fit, dyn.rhs, guess, u_w, y_w, dyn.dt, output_index=dyn.output_index,
-                                settings=dyn.settings)
+            return refine_guess(fit, dyn, guess, u_w, y_w)
 
         def old():
             return reference(guess, y_w, u_w, view)

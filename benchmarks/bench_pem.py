@@ -55,7 +55,14 @@ from threadpoolctl import threadpool_limits  # noqa: E402
 
 from sindybench.dynamics import POW, SIGN  # noqa: E402
 from sindybench.estimation import ModelStep, extended_kalman_filter  # noqa: E402
-from sindybench.refine import refine_prediction_error, refine_simulation_error, simulate_sensitivity  # noqa: E402
+from sindybench.dynamics import Dynamics  # noqa: E402
+from sindybench.refine import (  # noqa: E402
+    FreeParameters,
+    LeastSquares,
+    refine_prediction_error,
+    refine_simulation_error,
+    simulate_sensitivity,
+)
 from sindybench.refine._predictor import predict_sensitivity  # noqa: E402
 from sindybench.simulate import TermsRHS, simulate  # noqa: E402
 
@@ -121,16 +128,17 @@ def main(argv=None):
     args = parser.parse_args(argv)
     u, y = _record(args.samples)
     start = TRUE * np.where(FREE, 1.1, 1.0)
+    model, free = Dynamics.from_terms(TERMS, start, dt=DT, output_index=(0,)), FreeParameters(coef=FREE)
     # compile once, outside the timings
-    refine_simulation_error(TERMS, start, u[:200], y[:200], DT, x0=X0, free=FREE, max_nfev=2, warn_budget=False)
-    refine_prediction_error(TERMS, start, u[:200], y[:200], DT, x0=X0, free=FREE, max_nfev=2, warn_budget=False)
+    quick = LeastSquares(max_nfev=2, warn_budget=False)
+    refine_simulation_error(model, u[:200], y[:200], x0=X0, free=free, solver=quick)
+    refine_prediction_error(model, u[:200], y[:200], x0=X0, free=free, solver=quick)
     with threadpool_limits(limits=int(args.threads)), warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        t_oe, oe = _cpu(lambda: refine_simulation_error(TERMS, start, u, y, DT, x0=X0, free=FREE), args.repeat)
-        t_pem, pem = _cpu(lambda: refine_prediction_error(TERMS, start, u, y, DT, x0=X0, free=FREE,
-                                                          free_gain=False), args.repeat)
-        t_gain, gain = _cpu(lambda: refine_prediction_error(TERMS, start, u, y, DT, x0=X0, free=FREE),
-                            args.repeat)
+        t_oe, oe = _cpu(lambda: refine_simulation_error(model, u, y, x0=X0, free=free), args.repeat)
+        t_pem, pem = _cpu(lambda: refine_prediction_error(model, u, y, x0=X0, free=free, free_gain=False),
+                          args.repeat)
+        t_gain, gain = _cpu(lambda: refine_prediction_error(model, u, y, x0=X0, free=free), args.repeat)
     print(f"{args.samples} samples, 3 states, {int(FREE.sum()) + 3} free parameters (7 coefficients, 3 initial "
           f"states); CPU seconds, one thread, best of {args.repeat}")
     print(f"{'refinement':44s} {'CPU s':>7s} {'x OE':>6s} {'nfev':>5s} {'njev':>5s} {'max coef error':>15s}")
@@ -170,8 +178,8 @@ def main(argv=None):
     t_fit, fit = _cpu(lambda: least_squares(fun, p0, jac="2-point", method="trf", x_scale="jac", max_nfev=30), 1)
     C = TRUE.copy()
     C[FREE] = fit.x
-    t_gain_n, gain_n = _cpu(lambda: refine_prediction_error(TERMS, start, ue, ye, DT, x0=X0, free=FREE,
-                                                            free_x0=[], warn_budget=False), 1)
+    t_gain_n, gain_n = _cpu(lambda: refine_prediction_error(model, ue, ye, x0=X0, free=free._replace(x0=[]),
+                                                            solver=LeastSquares(warn_budget=False)), 1)
     print(f"\nthe predictor, on the first {n} samples (x0 held, 7 coefficients):")
     print(f"  EKF run (innovations)                      {t_run * 1e3:8.1f} ms; a finite-difference Jacobian "
           f"= {FREE.sum() + 1} runs = {(FREE.sum() + 1) * t_run * 1e3:.1f} ms")

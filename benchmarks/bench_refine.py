@@ -49,8 +49,8 @@ from sindybench._validation import check_bounds  # noqa: E402
 from sindybench.datasets import load_bouc_wen  # noqa: E402
 from sindybench.differentiation import Spectral  # noqa: E402
 from sindybench.hidden import BoucWenHiddenState  # noqa: E402
-from sindybench.refine import OutputErrorRefinement  # noqa: E402
-from sindybench.refine._core import _build  # noqa: E402
+from sindybench.refine import OutputErrorRefinement, ParametrizedDynamics, Shooting  # noqa: E402
+from sindybench.refine._problem import _build  # noqa: E402
 
 TRUE_MCK = {"m": 2.0, "c": 10.0, "k": 5e4}
 
@@ -58,10 +58,10 @@ TRUE_MCK = {"m": 2.0, "c": 10.0, "k": 5e4}
 class _Capture(OutputErrorRefinement):
     """``OutputErrorRefinement`` that keeps the problem it is given and the wall time of its run."""
 
-    def run(self, terms, coef, u, y, dt, **kwargs):
-        self.problem_ = (terms, coef, u, y, dt, kwargs)
+    def run(self, dynamics, u, y, **kwargs):
+        self.problem_ = (dynamics, u, y, kwargs)
         start = time.perf_counter()
-        result = super().run(terms, coef, u, y, dt, **kwargs)
+        result = super().run(dynamics, u, y, **kwargs)
         self.seconds_ = time.perf_counter() - start
         return result
 
@@ -79,14 +79,12 @@ def residual_problem(captured, n_samples, free=None):
 
     ``free`` replaces the captured mask of free coefficients (to vary the number of parameters).
     """
-    terms, coef, u, y, dt, kw = captured
-    settings = {k: kw[k] for k in ("n_substeps", "method", "input_hold", "bounds", "max_abs") if k in kw}
-    n = coef.shape[1]
-    lo, hi = check_bounds(settings.get("bounds"), n)
-    sim = {"settings": settings, "make_rhs": kw.get("make_rhs")}
-    problem, _ = _build(terms, coef, kw["free"] if free is None else free, kw["physical"],
-                     np.asarray(kw["x0"], dtype=float), np.arange(n), u[:n_samples], y[:n_samples], dt,
-                     kw["output_index"], sim, 1, 1.0, lo, hi)
+    dynamics, u, y, kw = captured
+    u, y = (u[0], y[0]) if isinstance(y, list) else (u, y)  # the estimator passes a list of records
+    lo, hi = check_bounds(dynamics.bounds, dynamics.n_states)
+    view = ParametrizedDynamics(dynamics, kw["free"] if free is None else kw["free"]._replace(coef=free))
+    problem, _ = _build(view, list(np.asarray(kw["x0"], dtype=float)), [u[:n_samples]], [y[:n_samples]], Shooting(),
+                        lo, hi)
     return problem, problem.bounds(lo, hi)
 
 
@@ -134,8 +132,8 @@ def main(argv=None):
 
         n_jac = min(args.jac_samples, len(u))
         captured = capture.problem_
-        free_all = captured[5]["free"].copy()
-        n_lib = captured[5]["free"].shape[0] - 4  # the 4 fixed terms of BoucWenHiddenState follow the library
+        free_all = np.array(captured[3]["free"].coef, dtype=bool)
+        n_lib = free_all.shape[0] - 4  # the 4 fixed terms of BoucWenHiddenState follow the library
         free_all[:n_lib, 2] = True
         variants = [("m, c, k and x0 only", np.zeros_like(free_all)), ("as refined (z' support of STLS)", None),
                     ("every z' library coefficient", free_all)]
@@ -148,7 +146,7 @@ def main(argv=None):
     problem = rows[1][1]
     print(f"Bouc-Wen hidden model, true m, c, k: {len(u)} training samples; refined: {problem.n_phys} physical, "
           f"{len(problem.free)} z' coefficients, {problem.free_x0.size} initial states; "
-          f"RK4 x {captured[5].get('n_substeps', 1)} sub-steps; {args.threads} thread(s)")
+          f"RK4 x {captured[0].n_substeps} sub-steps; {args.threads} thread(s)")
     print()
     print(f"(a) Jacobian of the residuals on {n_jac} samples, best of {args.repeat}")
     print(f"{'free parameters':<34}{'n':>4}{'1 simulation [s]':>18}{'sensitivity [s]':>17}{'2-point [s]':>13}"

@@ -51,6 +51,7 @@ import sindybench.refine._core as core  # noqa: E402
 import sindybench.refine._settings as settings_module  # noqa: E402
 from sindybench import load_model  # noqa: E402
 from sindybench.datasets import load_cascaded_tanks  # noqa: E402
+from sindybench.refine import Shooting  # noqa: E402
 from sindybench.uncertainty import BootstrapEnsemble  # noqa: E402
 
 MODEL = "/work/baseline_results/cascaded-tanks/models/hidden_tanks_refined.json"
@@ -80,7 +81,7 @@ def captured_refinement(model, u, y):
 
 
 def covariance_cost(args, kwargs, repeat, n_segments):
-    kwargs = {**kwargs, "n_segments": n_segments}
+    kwargs = {**kwargs, "shooting": Shooting(n_segments, kwargs["shooting"].continuity_weight)}
     extra = []
     original = core._output_jacobian
 

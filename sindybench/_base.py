@@ -409,23 +409,18 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
             raise ValueError(f"refine has n_segments={n_segments} (multiple shooting), which takes one record; got "
                              f"{n_records} records. Expected n_segments=1 with several records.")
 
-    def _run_refinement(self, dynamics, u, y, *, x0, coef=None, free=None, physical=None, make_rhs=None, refine=None):
+    def _run_refinement(self, dynamics, u, y, *, x0, free=None, refine=None):
         """Refine ``dynamics`` on ``(u, y)`` with ``refine`` (default ``self.refine``); ``(result, None)`` or ``(None, record)``.
 
-        ``coef`` defaults to ``dynamics.coef``, ``make_rhs`` to
-        ``dynamics.rhs_for`` on the Python path (see
-        :meth:`OutputErrorRefinement.run <sindybench.refine.OutputErrorRefinement.run>`).
+        ``free``: what is free (a :class:`~sindybench.refine.FreeParameters`;
+        see :meth:`OutputErrorRefinement.run <sindybench.refine.OutputErrorRefinement.run>`).
         A model whose simulation of the training record diverges cannot be
         refined: it is kept as fitted by equation error, with a warning, and
         the record says so.
         """
-        if make_rhs is None and not dynamics.compiled:
-            make_rhs = dynamics.rhs_for
         refine = refine or self.refine
         try:
-            result = refine.run(dynamics.terms, dynamics.coef if coef is None else coef, u, y, dynamics.dt,
-                                x0=x0, output_index=dynamics.output_index, free=free, physical=physical,
-                                make_rhs=make_rhs, **dynamics.settings)
+            result = refine.run(dynamics, u, y, x0=x0, free=free)
         except SimulationError as exc:
             warnings.warn(f"refinement skipped, the equation-error model is kept: {exc}", UserWarning, stacklevel=4)
             return None, {"status": -1, "message": f"skipped: {exc}"}

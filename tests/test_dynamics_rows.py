@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 
 from sindybench.dynamics import POW, OpCompileError, simulate
 from sindybench.dynamics._rows import RowsRHS
-from sindybench.hidden._parametric import _HiddenRows
+from sindybench.dynamics._rows import ParametricRows as _HiddenRows
 
 LAYOUT = ((1, 2), (0, 1), (2, 3))  # x_h = z[1], y = z[0], u = z[2]
 

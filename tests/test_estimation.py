@@ -21,6 +21,7 @@ from sindybench.estimation import (
 )
 from sindybench.hidden import DerivativeHiddenState, LatentHiddenState
 from sindybench.libraries import PolynomialLibrary
+from sindybench.dynamics import Dynamics
 from sindybench.refine import estimate_initial_state, simulate_sensitivity
 from sindybench.simulate import TermsRHS, simulate
 
@@ -192,7 +193,8 @@ def test_smoother_initial_state_beats_least_squares_start(rng):
         x0_true = np.array([rng.uniform(-1, 1), rng.uniform(-1, 1)])
         x, y = noisy_record(m, u, Q, R, x0_true, rng)
         res = rts_smoother(m, u, y, Q=Q, R=R, x0=[y[0, 0], 0.0], P0=np.diag([R[0, 0], 1.0]))
-        x_ls = estimate_initial_state(DUFFING, u, y, DT, x0=[y[0, 0], 0.0], output_index=(0,), **settings(m))
+        model = Dynamics.from_terms(DUFFING.terms, DUFFING.coef, dt=DT, output_index=(0,), **settings(m))
+        x_ls = estimate_initial_state(model, u, y, x0=[y[0, 0], 0.0])
         errs_smooth.append((res.states[0] - x0_true) ** 2)
         errs_ls.append((x_ls - x0_true) ** 2)
     smooth, ls = np.sqrt(np.mean(errs_smooth, axis=0)), np.sqrt(np.mean(errs_ls, axis=0))

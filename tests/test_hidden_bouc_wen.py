@@ -140,10 +140,11 @@ def test_initial_state_is_the_guess_refined_by_the_one_estimator(synthetic, monk
     x0 = model.estimate_initial_state(u[start:], y[start : start + 20])
     guess = coarse.estimate_initial_state(u[start:], y[start : start + 20])
     assert len(calls) == 1  # the coarse model keeps its guess
-    (_, u_w, y_w, _), kwargs = calls[0]
+    (dynamics, u_w, y_w), kwargs = calls[0]
+    assert dynamics is model.dynamics_
     assert u_w.shape == y_w.shape == (12, 1) and kwargs["free_x0"].tolist() == [0, 1, 2]
     np.testing.assert_array_equal(kwargs["x0"], guess)
-    assert kwargs["output_scale"].tolist() == [np.abs(y_w).max()]
+    assert kwargs["solver"].output_scale.tolist() == [np.abs(y_w).max()]
     cost = {name: rmse(y_w, model.dynamics_.simulate(u_w, x)[:, :1]) for name, x in (("x0", x0), ("guess", guess))}
     assert cost["x0"] < 0.01 * cost["guess"]
 

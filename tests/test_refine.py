@@ -14,9 +14,15 @@ from sindybench import STLS, HiddenStateSINDy
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.libraries._terms import POW
+from sindybench.dynamics import Dynamics
 from sindybench.refine import (
+    CoefficientMap,
+    FreeParameters,
+    LeastSquares,
     OutputErrorRefinement,
+    ParametrizedDynamics,
     Physical,
+    Shooting,
     estimate_initial_state,
     refine_simulation_error,
     simulate_sensitivity,
@@ -38,6 +44,17 @@ FREE = TRUE_COEF != 0
 FREE[0, 0] = False  # y' = v held: the scale of the unmeasured v would be free otherwise
 
 
+def duffing_model(coef=TRUE_COEF, **settings):
+    """The Duffing oscillator's ``Dynamics`` with these coefficients; the output is ``y``."""
+    return Dynamics.from_terms(DUFFING, coef, dt=DT, output_index=(0,), **settings)
+
+
+def python_path(make_rhs):
+    """A physical map without parameters whose Python ``make_rhs(C)`` puts the refinement on the Python path."""
+    return Physical(names=(), values=np.zeros(0), lower=np.zeros(0), upper=np.zeros(0), coef=lambda values: 0.0,
+                    make_rhs=lambda C, values: make_rhs(C))
+
+
 @pytest.fixture
 def duffing(rng):
     """Noise-free outputs of y'' = -4 y - 0.5 y' - y^3 + 2 u (multisine-like input)."""
@@ -51,8 +68,9 @@ def duffing(rng):
 def test_refine_recovers_coefficients_and_initial_state(duffing, n_segments):
     u, y = duffing
     start = TRUE_COEF * np.array([[1.0, 0.8], [1.0, 1.15], [1.0, 0.9], [1.0, 0.7]])
-    res = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, n_segments=n_segments,
-                                  max_nfev=50)
+    res = refine_simulation_error(duffing_model(start), u, y, x0=[0.25, 0.0],
+                                  free=FreeParameters(coef=FREE), shooting=Shooting(n_segments=n_segments),
+                                  solver=LeastSquares(max_nfev=50))
     assert res.jacobian == "sensitivity" and res.status > 0
     np.testing.assert_allclose(res.coef, TRUE_COEF, rtol=1e-6, atol=1e-9)
     np.testing.assert_allclose(res.x0, TRUE_X0, rtol=1e-6, atol=1e-8)
@@ -63,7 +81,9 @@ def test_refine_recovers_coefficients_and_initial_state(duffing, n_segments):
 def test_multiple_shooting_cost_is_the_open_loop_cost(duffing):
     u, y = duffing
     start = TRUE_COEF * np.array([[1.0, 0.8], [1.0, 1.15], [1.0, 0.9], [1.0, 0.7]])
-    res = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, n_segments=6, max_nfev=3)
+    res = refine_simulation_error(duffing_model(start), u, y, x0=[0.25, 0.0],
+                                  free=FreeParameters(coef=FREE), shooting=Shooting(n_segments=6),
+                                  solver=LeastSquares(max_nfev=3))
     x = simulate(TermsRHS(res.coef, DUFFING, 2), res.x0, u, DT)[:, :1]
     open_loop = 0.5 * np.mean(((x - y) / np.std(y)) ** 2)  # the definition initial_cost follows
     assert res.cost == pytest.approx(open_loop, rel=1e-6)  # measured: 5.6e-6 reported, 4.3e-5 open loop
@@ -85,8 +105,9 @@ def test_refine_physical_parameters_through_a_nonlinear_map(duffing):
     free[3, 1] = True
     physical = Physical(names=("m", "c", "k"), values=np.array([0.6, 0.2, 2.5]), lower=np.full(3, 1e-3),
                         upper=np.full(3, np.inf), coef=to_coef)
-    res = refine_simulation_error(DUFFING, start, u, y, DT, x0=TRUE_X0 * 0.9, free=free, physical=physical,
-                                  max_nfev=60)
+    model = duffing_model(start + to_coef(physical.values))  # the whole model: the physical part included
+    res = refine_simulation_error(model, u, y, x0=TRUE_X0 * 0.9, free=FreeParameters(coef=free, physical=physical),
+                                  solver=LeastSquares(max_nfev=60))
     assert set(res.physical) == {"m", "c", "k"}
     np.testing.assert_allclose([res.physical[n] for n in "mck"], [m, c, k], rtol=1e-4)
     np.testing.assert_allclose(res.coef, TRUE_COEF, rtol=1e-4, atol=1e-8)
@@ -99,11 +120,15 @@ def test_refine_prunes_a_spurious_term_and_keeps_the_true_ones(duffing):
     start = np.vstack([TRUE_COEF * 1.05, [[0.0, 0.03]]])
     start[0, 0] = 1.0
     free = np.vstack([FREE, [[False, True]]])
-    res = refine_simulation_error(terms, start, u, y, DT, x0=TRUE_X0, free=free, prune=0.01, max_nfev=50)
+    res = refine_simulation_error(Dynamics.from_terms(terms, start, dt=DT, output_index=(0,)), u, y, x0=TRUE_X0,
+                                  free=FreeParameters(coef=free), prune=0.01,
+                                  solver=LeastSquares(max_nfev=50))
     assert res.pruned == [(4, 1)]
     assert res.coef[4, 1] == 0.0
     np.testing.assert_allclose(res.coef[:4], TRUE_COEF, rtol=1e-6, atol=1e-9)
-    no_prune = refine_simulation_error(terms, start, u, y, DT, x0=TRUE_X0, free=free, max_nfev=50)
+    no_prune = refine_simulation_error(Dynamics.from_terms(terms, start, dt=DT, output_index=(0,)), u, y, x0=TRUE_X0,
+                                       free=FreeParameters(coef=free),
+                                       solver=LeastSquares(max_nfev=50))
     assert no_prune.pruned == [] and no_prune.coef[4, 1] != 0.0
 
 
@@ -118,8 +143,9 @@ def test_refine_python_rhs_uses_finite_differences(duffing):
 
     u, y = u[:200], y[:200]
     start = TRUE_COEF * np.array([[1.0, 0.9], [1.0, 1.1], [1.0, 0.95], [1.0, 0.8]])
-    res = refine_simulation_error(None, start, u, y, DT, x0=TRUE_X0, free=FREE, free_x0=[], make_rhs=make_rhs,
-                                  max_nfev=40)
+    res = refine_simulation_error(duffing_model(start), u, y, x0=TRUE_X0,
+                                  free=FreeParameters(coef=FREE, physical=python_path(make_rhs), x0=[]),
+                                  solver=LeastSquares(max_nfev=40))
     assert res.jacobian == "2-point"
     assert res.status > 0
     np.testing.assert_allclose(res.coef, TRUE_COEF, rtol=1e-5, atol=1e-8)
@@ -131,7 +157,8 @@ def test_refine_refuses_a_diverging_start(duffing):
     bad = TRUE_COEF.copy()
     bad[3, 1] = 2.0  # +2 y^3: finite-time blow-up
     with pytest.raises(SimulationError, match="cannot refine: the starting model's simulation diverges.*n_segments"):
-        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3)
+        refine_simulation_error(duffing_model(bad, max_abs=1e3), u, y,
+                                x0=[1.0, 1.0])
 
 
 @pytest.mark.parametrize("n_segments", [2, 3])
@@ -142,8 +169,10 @@ def test_multiple_shooting_starts_from_a_diverging_model(duffing, n_segments):
     bad[3, 1] = 2.0  # +2 y^3: finite-time blow-up from x0 = (1, 1)
     free = FREE.copy()
     free[0, 0] = False  # y' = v held (else the scale of v is free)
-    res = refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], free=free, max_abs=1e3,
-                                  n_segments=n_segments, max_nfev=200)
+    res = refine_simulation_error(duffing_model(bad, max_abs=1e3), u, y,
+                                  x0=[1.0, 1.0], free=FreeParameters(coef=free),
+                                  shooting=Shooting(n_segments=n_segments),
+                                  solver=LeastSquares(max_nfev=200))
     assert res.initial_cost > 1e3  # the start's open loop diverges: penalized
     np.testing.assert_allclose(res.coef, TRUE_COEF, rtol=1e-5, atol=1e-8)
     np.testing.assert_allclose(res.x0, TRUE_X0, rtol=1e-5, atol=1e-8)
@@ -155,7 +184,8 @@ def test_multiple_shooting_refuses_a_start_that_cannot_take_one_step(duffing):
     bad = TRUE_COEF.copy()
     bad[3, 1] = 1e4
     with pytest.raises(SimulationError, match="diverges within one sample of sample 0"):
-        refine_simulation_error(DUFFING, bad, u, y, DT, x0=[1.0, 1.0], max_abs=1e3, n_segments=3)
+        refine_simulation_error(duffing_model(bad, max_abs=1e3), u, y,
+                                x0=[1.0, 1.0], shooting=Shooting(n_segments=3))
 
 
 def test_diverging_trial_steps_never_reach_the_optimizer(duffing, monkeypatch):
@@ -176,7 +206,9 @@ def test_diverging_trial_steps_never_reach_the_optimizer(duffing, monkeypatch):
     monkeypatch.setattr(core, "least_squares", spy)
     start = TRUE_COEF.copy()
     start[0, 1], start[3, 1] = -0.01, -0.01  # hardly damped, hardly any stiffening cubic
-    res = refine_simulation_error(DUFFING, start, u, y, DT, x0=TRUE_X0, free=FREE, max_abs=50.0, max_nfev=80)
+    res = refine_simulation_error(duffing_model(start, max_abs=50.0), u, y,
+                                  x0=TRUE_X0, free=FreeParameters(coef=FREE),
+                                  solver=LeastSquares(max_nfev=80))
     assert seen["diverged"] >= 1  # the start is close enough to instability that a trial step blows up
     assert seen["calls"] > 3 and seen["bad"] == 0
     assert np.isfinite(res.cost) and np.all(np.isfinite(res.coef))
@@ -185,20 +217,21 @@ def test_diverging_trial_steps_never_reach_the_optimizer(duffing, monkeypatch):
 
 def test_estimate_initial_state_recovers_x0(duffing):
     u, y = duffing
-    rhs = TermsRHS(TRUE_COEF, DUFFING, 2)
-    x0 = estimate_initial_state(rhs, u[:40], y[:40], DT, x0=[0.0, 0.0])
+    x0 = estimate_initial_state(duffing_model(), u[:40], y[:40], x0=[0.0, 0.0])
     np.testing.assert_allclose(x0, TRUE_X0, rtol=1e-6, atol=1e-9)
-    only_v = estimate_initial_state(rhs, u[:40], y[:40], DT, x0=[0.3, 0.5], free_x0=[1])
+    only_v = estimate_initial_state(duffing_model(), u[:40], y[:40], x0=[0.3, 0.5], free_x0=[1])
     assert only_v[0] == 0.3 and only_v[1] == pytest.approx(-0.2, rel=1e-6)
 
 
 def test_estimate_initial_state_box_bounds(duffing):
     u, y = duffing
     rhs = TermsRHS(TRUE_COEF, DUFFING, 2)
-    inside = estimate_initial_state(rhs, u[:40], y[:40], DT, x0=[0.1, 0.0], x0_bounds=([0.0, -1.0], [1.0, 1.0]))
+    inside = estimate_initial_state(duffing_model(), u[:40], y[:40], x0=[0.1, 0.0],
+                                    solver=LeastSquares(max_nfev=50, x0_bounds=([0.0, -1.0], [1.0, 1.0])))
     np.testing.assert_allclose(inside, TRUE_X0, rtol=1e-6, atol=1e-9)
     # the velocity kept >= 0: it stops on its bound, the position moves to make up for it
-    clipped = estimate_initial_state(rhs, u[:40], y[:40], DT, x0=[0.3, 0.5], x0_bounds=([-1.0, 0.0], [1.0, 1.0]))
+    clipped = estimate_initial_state(duffing_model(), u[:40], y[:40], x0=[0.3, 0.5],
+                                     solver=LeastSquares(max_nfev=50, x0_bounds=([-1.0, 0.0], [1.0, 1.0])))
     assert clipped[1] == pytest.approx(0.0, abs=1e-9) and clipped[0] != pytest.approx(TRUE_X0[0], abs=1e-3)
     cost = {name: np.mean((simulate(rhs, x, u[:40], DT)[:, 0] - y[:40, 0]) ** 2)
             for name, x in (("clipped", clipped), ("on the bound, position held", [0.3, 0.0]))}
@@ -211,20 +244,22 @@ def test_estimate_initial_state_from_a_start_on_a_zero_bound(duffing):
     u, y = duffing
     rhs = TermsRHS(TRUE_COEF, DUFFING, 2)
     y_shift = simulate(rhs, [0.3, 0.4], u[:40], DT)[:, :1]
-    kwargs = dict(x0=[0.3, 0.0], free_x0=[1], x0_bounds=(0.0, None))
-    loose = estimate_initial_state(rhs, u[:40], y_shift, DT, **kwargs)
-    tight = estimate_initial_state(rhs, u[:40], y_shift, DT, ftol=1e-12, xtol=1e-12, gtol=1e-12, **kwargs)
+    kwargs = dict(x0=[0.3, 0.0], free_x0=[1])
+    loose = estimate_initial_state(duffing_model(), u[:40], y_shift, solver=LeastSquares(50, x0_bounds=(0.0, None)),
+                                   **kwargs)
+    tight = estimate_initial_state(duffing_model(), u[:40], y_shift, **kwargs,
+                                   solver=LeastSquares(50, 1e-12, 1e-12, 1e-12, x0_bounds=(0.0, None)))
     assert loose[1] < 1e-6
     assert tight[1] == pytest.approx(0.4, rel=1e-6)
 
 
 def test_estimate_initial_state_output_scale_moves_only_the_weights(duffing):
     u, y = duffing
-    rhs = TermsRHS(TRUE_COEF, DUFFING, 2)
     noisy = y[:40] + 0.01 * np.sin(np.arange(40))[:, None]
     # gtol is absolute on the scaled gradient, so it is off here: with it a small residual scale stops early
-    runs = [estimate_initial_state(rhs, u[:40], noisy, DT, x0=[0.0, 0.0], output_scale=scale, ftol=1e-12,
-                                   xtol=1e-12, gtol=None) for scale in (None, 1e-3, 1e3)]
+    runs = [estimate_initial_state(duffing_model(), u[:40], noisy, x0=[0.0, 0.0],
+                                   solver=LeastSquares(50, 1e-12, 1e-12, None, output_scale=scale))
+            for scale in (None, 1e-3, 1e3)]
     for x in runs[1:]:
         np.testing.assert_allclose(x, runs[0], rtol=1e-7)  # one output: the scale does not move the optimum
     assert np.abs(runs[0] - TRUE_X0).max() > 1e-4  # the noise did move it
@@ -234,16 +269,15 @@ def test_estimate_initial_state_output_scale_moves_only_the_weights(duffing):
 @pytest.mark.parametrize(
     "kwargs, match",
     [
-        ({"coef": np.zeros((3, 2))}, "rows but there are 4 terms"),
+        ({"coef": np.zeros((3, 2))}, r"coef has 3 rows; expected 4 \(one per term\)"),
         ({"x0": [0.0, 0.0, 0.0]}, "x0 has 3 entries; expected 2"),
         ({"free": np.ones((4, 3), dtype=bool)}, r"free has shape \(4, 3\); expected \(4, 2\)"),
         ({"output_index": (0, 1)}, "output_index=.0, 1. does not match y"),
-        ({"output_index": (2,)}, "output_index=.2,. does not match"),
+        ({"output_index": (2,)}, r"output_index\[0\] must be an integer in \[0, 1\]; got 2"),
         ({"n_segments": 0}, "n_segments must be an integer"),
         ({"n_segments": 1000}, "n_segments must be an integer in"),
         ({"prune": -0.1}, "prune must be a finite number >= 0; got -0.1"),
         ({"max_nfev": 0}, "max_nfev must be an integer"),
-        ({"terms": None}, "terms is None; give make_rhs"),
         ({"y": np.zeros((10, 1))}, "y has 10 samples; expected 600"),
         ({"x0_bounds": (0.0, 1.0, 2.0)}, "x0_bounds must be a pair"),
         ({"x0_bounds": (2.0, 3.0), "bounds": (-1.0, 1.0)}, "x0_bounds = .* leave no initial state within"),
@@ -253,17 +287,43 @@ def test_estimate_initial_state_output_scale_moves_only_the_weights(duffing):
 )
 def test_refine_bad_input(duffing, kwargs, match):
     u, y = duffing
-    args = {"terms": DUFFING, "coef": TRUE_COEF, "u": u, "y": y, "dt": DT, "x0": TRUE_X0}
+    args = {"coef": TRUE_COEF, "output_index": (0,), "bounds": None, "u": u, "y": y, "x0": TRUE_X0, "free": None,
+            "n_segments": 1, "prune": 0.0, "max_nfev": 100, "x0_bounds": None, "output_scale": None}
     args.update(kwargs)
     with pytest.raises(ValueError, match=match):
-        refine_simulation_error(args.pop("terms"), args.pop("coef"), args.pop("u"), args.pop("y"), args.pop("dt"),
-                                **args)
+        model = Dynamics.from_terms(DUFFING, args["coef"], dt=DT, output_index=args["output_index"],
+                                    bounds=args["bounds"])
+        refine_simulation_error(model, args["u"], args["y"], x0=args["x0"], free=FreeParameters(coef=args["free"]),
+                                shooting=Shooting(args["n_segments"]), prune=args["prune"],
+                                solver=LeastSquares(args["max_nfev"], x0_bounds=args["x0_bounds"],
+                                                    output_scale=args["output_scale"]))
+
+
+def test_refine_takes_a_dynamics(duffing):
+    u, y = duffing
+    with pytest.raises(TypeError, match="dynamics must be a sindybench.dynamics.Dynamics .*; got TermsRHS"):
+        refine_simulation_error(TermsRHS(TRUE_COEF, DUFFING, 2), u, y, x0=TRUE_X0)
+    # the old flat keywords' values where a grouped setting is expected: a TypeError that says how to write it
+    with pytest.raises(TypeError, match=r"free must be a sindybench.refine.FreeParameters \(e.g. FreeParameters\("
+                                        r"coef=mask\)\) or None; got ndarray"):
+        refine_simulation_error(duffing_model(), u, y, x0=TRUE_X0, free=FREE)
+    with pytest.raises(TypeError, match="shooting must be a sindybench.refine.Shooting .*; got int"):
+        refine_simulation_error(duffing_model(), u, y, x0=TRUE_X0, shooting=3)
+    with pytest.raises(TypeError, match="solver must be a sindybench.refine.LeastSquares .*; got dict"):
+        estimate_initial_state(duffing_model(), u[:40], y[:40], x0=TRUE_X0, solver={"max_nfev": 5})
+
+
+def test_coefficient_map_names_a_missing_parameter():
+    rows = CoefficientMap((1, 1), [(0, 0, -1.0, ("c",), ("m",))])
+    with pytest.raises(ValueError, match=r"the coefficient map needs the parameters \['c', 'm'\]; got \['k'\]"):
+        rows.matrix({"k": 1.0})
 
 
 def test_refine_free_x0_out_of_range(duffing):
     u, y = duffing
     with pytest.raises(ValueError, match="free_x0"):
-        refine_simulation_error(DUFFING, TRUE_COEF, u, y, DT, x0=TRUE_X0, free_x0=[2])
+        refine_simulation_error(duffing_model(TRUE_COEF), u, y, x0=TRUE_X0,
+                                free=FreeParameters(x0=[2]))
 
 
 @pytest.mark.parametrize(
@@ -308,7 +368,7 @@ def test_sensitivity_refuses_a_python_rhs(duffing):
 def test_output_error_refinement_bad_params(duffing, params, match):
     u, y = duffing
     with pytest.raises(ValueError, match=match):
-        OutputErrorRefinement(**params).run(DUFFING, TRUE_COEF, u, y, DT, x0=TRUE_X0, output_index=(0,))
+        OutputErrorRefinement(**params).run(duffing_model(), u, y, x0=TRUE_X0)
 
 
 def test_hidden_state_sindy_bad_refine_and_initial_state(duffing):
@@ -399,7 +459,9 @@ def output_residuals(res, terms, u, y, values):
 
 def test_refine_keeps_the_jacobian_at_the_optimum(noisy_duffing):
     u, y = noisy_duffing
-    res = refine_simulation_error(DUFFING, TRUE_COEF * 1.05, u, y, DT, x0=TRUE_X0, free=FREE, max_nfev=50)
+    res = refine_simulation_error(duffing_model(TRUE_COEF * 1.05), u, y,
+                                  x0=TRUE_X0, free=FreeParameters(coef=FREE),
+                                  solver=LeastSquares(max_nfev=50))
     assert res.parameters == (("coef", 0, 1), ("coef", 1, 1), ("coef", 2, 1), ("coef", 3, 1), ("x0", 0), ("x0", 1))
     r0 = output_residuals(res, DUFFING, u, y, res.values)
     np.testing.assert_allclose(res.residuals, r0, rtol=1e-9, atol=1e-12)
@@ -418,9 +480,13 @@ def test_refine_keeps_the_jacobian_at_the_optimum(noisy_duffing):
 def test_multiple_shooting_covariance_is_that_of_the_open_loop_model(duffing):
     u, y = duffing
     start = TRUE_COEF * np.array([[1.0, 0.8], [1.0, 1.15], [1.0, 0.9], [1.0, 0.7]])
-    single = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, max_nfev=50)
-    multiple = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, n_segments=3,
-                                       max_nfev=50)
+    single = refine_simulation_error(duffing_model(start), u, y,
+                                     x0=[0.25, 0.0], free=FreeParameters(coef=FREE),
+                                     solver=LeastSquares(max_nfev=50))
+    multiple = refine_simulation_error(duffing_model(start), u, y,
+                                       x0=[0.25, 0.0], free=FreeParameters(coef=FREE),
+                                       shooting=Shooting(n_segments=3),
+                                       solver=LeastSquares(max_nfev=50))
     assert multiple.parameters == single.parameters  # no segment starts
     assert multiple.jac.shape == single.jac.shape == (y.size, len(single.parameters))
     np.testing.assert_allclose(multiple.jac, single.jac, rtol=1e-5, atol=1e-9 * np.abs(single.jac).max())
@@ -428,7 +494,8 @@ def test_multiple_shooting_covariance_is_that_of_the_open_loop_model(duffing):
 
 def test_covariance_of_one_output_is_the_textbook_formula(noisy_duffing):
     u, y = noisy_duffing
-    res = refine_simulation_error(DUFFING, TRUE_COEF, u, y, DT, x0=TRUE_X0, free=FREE, max_nfev=50)
+    res = refine_simulation_error(duffing_model(TRUE_COEF), u, y, x0=TRUE_X0,
+                                  free=FreeParameters(coef=FREE), solver=LeastSquares(max_nfev=50))
     cov = res.covariance()
     p = len(res.parameters)
     s2 = res.residuals @ res.residuals / (y.size - p)
@@ -455,7 +522,9 @@ def test_covariance_of_collinear_terms_is_rank_deficient(noisy_duffing):
     start = np.vstack([TRUE_COEF, [[0.0, 0.5]]])
     start[2, 1] = 1.5
     free = np.vstack([FREE, [[False, True]]])
-    res = refine_simulation_error(terms, start, u, y, DT, x0=TRUE_X0, free=free, max_nfev=30, warn_budget=False)
+    res = refine_simulation_error(Dynamics.from_terms(terms, start, dt=DT, output_index=(0,)), u, y, x0=TRUE_X0,
+                                  free=FreeParameters(coef=free),
+                                  solver=LeastSquares(max_nfev=30, warn_budget=False))
     cov = res.covariance()
     assert cov.rank == len(res.parameters) - 1 and cov.rank_deficient
     assert np.all(np.isfinite(cov.standard_errors()))
@@ -465,13 +534,16 @@ def test_refine_warns_and_records_when_it_stops_on_its_budget(duffing):
     u, y = duffing
     start = TRUE_COEF * np.array([[1.0, 0.8], [1.0, 1.15], [1.0, 0.9], [1.0, 0.7]])
     with pytest.warns(ConvergenceWarning, match=r"stopped on its evaluation budget \(max_nfev=2\)"):
-        res = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, max_nfev=2)
+        res = refine_simulation_error(duffing_model(start), u, y,
+                                      x0=[0.25, 0.0], free=FreeParameters(coef=FREE),
+                                      solver=LeastSquares(max_nfev=2))
     assert res.budget_exhausted and res.status == 0 and res.summary()["budget_exhausted"] is True
     with warnings.catch_warnings():
         warnings.simplefilter("error", ConvergenceWarning)
-        quiet = refine_simulation_error(DUFFING, start, u, y, DT, x0=[0.25, 0.0], free=FREE, max_nfev=2,
-                                        warn_budget=False)
-        estimate_initial_state(TermsRHS(TRUE_COEF, DUFFING, 2), u[:50], y[:50], DT, x0=[0.2, 0.0], max_nfev=1)
+        quiet = refine_simulation_error(duffing_model(start), u, y,
+                                        x0=[0.25, 0.0], free=FreeParameters(coef=FREE),
+                                        solver=LeastSquares(max_nfev=2, warn_budget=False))
+        estimate_initial_state(duffing_model(), u[:50], y[:50], x0=[0.2, 0.0], solver=LeastSquares(max_nfev=1))
     assert quiet.budget_exhausted
 
 
@@ -486,11 +558,11 @@ def test_python_rhs_multiple_shooting_jacobian_matches_the_sensitivities(noisy_d
                              + C[3, 1] * x[0] ** 3])
         return f
 
-    python = refine_simulation_error(None, TRUE_COEF, u, y, DT, x0=TRUE_X0, free=FREE, make_rhs=make_rhs,
-                                     n_segments=2, max_nfev=40)
-    exact = problem_mod._Problem(DUFFING, python.coef, FREE, None, [python.x0], np.arange(2), [u], [y], DT, (0,),
-                          {"settings": {"n_substeps": 1, "method": "rk4", "input_hold": "zoh", "bounds": None,
-                                        "max_abs": np.inf}, "make_rhs": None}, [(0, 200)])
+    python = refine_simulation_error(duffing_model(), u, y, x0=TRUE_X0,
+                                     free=FreeParameters(coef=FREE, physical=python_path(make_rhs)),
+                                     shooting=Shooting(n_segments=2), solver=LeastSquares(max_nfev=40))
+    view = ParametrizedDynamics(duffing_model(python.coef), FreeParameters(coef=FREE))
+    exact = problem_mod._Problem(view, [python.x0], [u], [y], [(0, 200)])
     J = exact.jacobian(python.values)
     assert python.jacobian == "2-point" and python.parameters == exact.parameters()
     np.testing.assert_allclose(python.jac, J, rtol=1e-3, atol=1e-5 * np.abs(J).max())
@@ -499,11 +571,9 @@ def test_python_rhs_multiple_shooting_jacobian_matches_the_sensitivities(noisy_d
 def test_first_residuals_reuse_the_start_simulation(duffing, monkeypatch):
     """_build simulates the start; the optimizer's first residuals there are those, with no second simulation."""
     u, y = duffing
-    sim = {"settings": dict(n_substeps=1, method="rk4", input_hold="zoh", bounds=None, max_abs=np.inf),
-           "make_rhs": None}
     lo, hi = np.full(2, -np.inf), np.full(2, np.inf)
-    problem, xs = problem_mod._build(DUFFING, TRUE_COEF * 0.9, FREE, None, [TRUE_X0], np.arange(2), [u], [y], DT,
-                                     (0,), sim, 1, 1.0, lo, hi)
+    view = ParametrizedDynamics(duffing_model(TRUE_COEF * 0.9), FreeParameters(coef=FREE))
+    problem, xs = problem_mod._build(view, [TRUE_X0], [u], [y], Shooting(), lo, hi)
     p0 = problem.pack()
     fresh = simulate(TermsRHS(problem.matrix(p0), DUFFING, 2), TRUE_X0, u, DT)
     np.testing.assert_array_equal(xs[0], fresh)

@@ -10,8 +10,12 @@ from sindybench import STLS, HiddenStateSINDy, SINDy, load_model
 from sindybench.io import save_model
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import ConcatLibrary, CustomLibrary, PolynomialLibrary
+from sindybench.dynamics import Dynamics
 from sindybench.refine import (
+    FreeParameters,
+    LeastSquares,
     OutputErrorRefinement,
+    Physical,
     PredictionErrorRefinement,
     predict_sensitivity,
     refine_prediction_error,
@@ -102,15 +106,21 @@ def test_long_horizon_is_the_open_loop_simulation(rng):
 def test_bad_arguments(rng, kw, match):
     u, y, _ = _duffing(rng)
     with pytest.raises(ValueError, match=match):
-        refine_prediction_error(DUFFING, DUFFING_COEF, u, y, 0.05, x0=[0.5, 0.0], **kw)
+        refine_prediction_error(Dynamics.from_terms(DUFFING, DUFFING_COEF, dt=0.05, output_index=(0,)), u, y,
+                                x0=[0.5, 0.0], **kw)
 
 
 def test_python_model_is_refused(rng):
     u, y, _ = _duffing(rng)
+    model = Dynamics.from_terms(DUFFING, DUFFING_COEF, dt=0.05, output_index=(0,))
+    python_map = Physical(names=(), values=np.zeros(0), lower=np.zeros(0), upper=np.zeros(0), coef=lambda v: 0.0,
+                          make_rhs=lambda C, v: TermsRHS(C, DUFFING, 2))
     with pytest.raises(ValueError, match="needs a compiled model"):
-        refine_prediction_error(None, DUFFING_COEF, u, y, 0.05, x0=[0.5, 0.0])
+        refine_prediction_error(model, u, y, x0=[0.5, 0.0], free=FreeParameters(physical=python_map))
+    python = SINDy(library=CustomLibrary(functions=[np.tanh], compile=False), dt=0.05).fit(u, y).dynamics_
+    assert not python.compiled
     with pytest.raises(ValueError, match="needs a compiled model"):
-        PredictionErrorRefinement().run(None, DUFFING_COEF, u, y, 0.05, x0=[0.5, 0.0], output_index=(0,))
+        PredictionErrorRefinement().run(python, u, y, x0=[0.5])
 
 
 def test_diverging_predictor_names_the_sample(rng):
@@ -119,8 +129,8 @@ def test_diverging_predictor_names_the_sample(rng):
     exploding = DUFFING_COEF.copy()
     exploding[3, 1] = 5.0  # + 5 y^3
     with pytest.raises(SimulationError, match=r"the starting predictor diverges at sample \d+") as info:
-        refine_prediction_error(DUFFING, exploding, u, y * 10, 0.05, x0=[5.0, 0.0], gain=np.zeros((2, 1)),
-                                free_gain=False, simulation={"max_abs": 1e6})
+        refine_prediction_error(Dynamics.from_terms(DUFFING, exploding, dt=0.05, output_index=(0,), max_abs=1e6), u,
+                                y * 10, x0=[5.0, 0.0], gain=np.zeros((2, 1)), free_gain=False)
     assert info.value.step > 0
 
 
@@ -128,8 +138,9 @@ def test_diverging_predictor_names_the_sample(rng):
 @pytest.mark.filterwarnings("ignore:the refinement stopped on its evaluation budget")
 def test_recovers_duffing_from_a_biased_start_with_errors(rng):
     u, y, _ = _duffing(rng, n=400, noise=0.02)
-    res = refine_prediction_error(DUFFING, _start(0.8), u, y, 0.05, x0=[0.5, 0.0], free=DUFFING_FREE,
-                                  max_nfev=100)
+    res = refine_prediction_error(Dynamics.from_terms(DUFFING, _start(0.8), dt=0.05, output_index=(0,)), u, y,
+                                  x0=[0.5, 0.0], free=FreeParameters(coef=DUFFING_FREE),
+                                  solver=LeastSquares(max_nfev=100))
     np.testing.assert_allclose(res.coef[[0, 1, 2, 3], [1, 1, 1, 1]], [-4.0, -0.5, 2.0, -1.0], rtol=0.05)
     assert res.cost < res.initial_cost and res.horizon == 1 and res.gain.shape == (2, 1)
     se = res.standard_errors()
@@ -238,7 +249,8 @@ def test_sindy_model_file_equations_and_errors(rng, tmp_path):
 def test_output_error_unchanged_by_the_shared_solver(rng):
     """The output-error path through the shared rounds gives the exact optimum as before (no criterion fields)."""
     u, _, x = _duffing(rng, n=200)
-    res = refine_simulation_error(DUFFING, _start(0.9), u, x[:, :1], 0.05, x0=[0.5, 0.0], free=DUFFING_FREE)
+    res = refine_simulation_error(Dynamics.from_terms(DUFFING, _start(0.9), dt=0.05, output_index=(0,)), u, x[:, :1],
+                                  x0=[0.5, 0.0], free=FreeParameters(coef=DUFFING_FREE))
     np.testing.assert_allclose(res.coef, DUFFING_COEF, atol=1e-6)
     assert res.gain is None and "criterion" not in res.summary()
 
@@ -262,17 +274,18 @@ def test_closed_loop_assumptions():
     """Under feedback: the fitted gain gives the truth; a gain held at 0 is output error, which cannot follow."""
     terms, u, y = _first_order_closed_loop()
     start = [[1.2], [0.8]]
-    res = refine_prediction_error(terms, start, u, y, 0.05, x0=[0.0])
+    res = refine_prediction_error(Dynamics.from_terms(terms, start, dt=0.05, output_index=(0,)), u, y, x0=[0.0])
     np.testing.assert_allclose(res.coef.ravel(), [1.5, 1.0], rtol=0.05)
     zero = np.zeros((1, 1))
     x, _, _ = predict_sensitivity(TermsRHS(start, terms, 1), [0.0], u[:50], y[:50], 0.05, gain=zero,
                                   sensitivities=False)
     np.testing.assert_array_equal(x, simulate(TermsRHS(start, terms, 1), [0.0], u[:50], 0.05))  # K = 0: open loop
     with pytest.raises(SimulationError, match="the starting predictor diverges at sample"):
-        refine_prediction_error(terms, start, u, y, 0.05, x0=[0.0], gain=zero, free_gain=False,
-                                simulation={"max_abs": 1e6})
+        refine_prediction_error(Dynamics.from_terms(terms, start, dt=0.05, max_abs=1e6), u, y, x0=[0.0], gain=zero,
+                                free_gain=False)
     with pytest.raises(SimulationError, match="cannot refine: the starting model's simulation diverges"):
-        refine_simulation_error(terms, start, u, y, 0.05, x0=[0.0], max_abs=1e6)
+        refine_simulation_error(Dynamics.from_terms(terms, start, dt=0.05, output_index=(0,), max_abs=1e6), u, y,
+                                x0=[0.0])
 
 
 @pytest.mark.filterwarnings("ignore:the refinement stopped on its evaluation budget")
@@ -280,8 +293,9 @@ def test_several_records_share_the_model(rng):
     """Two records: shared coefficients and gain, one first predicted state each, errors stacked."""
     u, y, _ = _duffing(rng, n=300, noise=0.02)
     u2, y2, _ = _duffing(np.random.default_rng(5), n=200, noise=0.02)
-    res = refine_prediction_error(DUFFING, _start(0.8), [u, u2], [y, y2], 0.05, x0=[[0.5, 0.0], [0.5, 0.0]],
-                                  free=DUFFING_FREE, max_nfev=100)
+    res = refine_prediction_error(Dynamics.from_terms(DUFFING, _start(0.8), dt=0.05, output_index=(0,)), [u, u2],
+                                  [y, y2], x0=[[0.5, 0.0], [0.5, 0.0]],
+                                  free=FreeParameters(coef=DUFFING_FREE), solver=LeastSquares(max_nfev=100))
     np.testing.assert_allclose(res.coef[:, 1], DUFFING_COEF[:, 1], rtol=0.05)
     assert res.initial_states.shape == (2, 2) and res.record_samples == (300, 200)
     assert res.jac.shape[0] == 500 and ("x0", 1, 1) in res.parameters and res.gain.shape == (2, 1)

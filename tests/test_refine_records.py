@@ -4,8 +4,16 @@ import numpy as np
 import pytest
 
 from sindybench import SINDy, STLS
+from sindybench.dynamics import Dynamics
 from sindybench.libraries import POW, PolynomialLibrary
-from sindybench.refine import OutputErrorRefinement, refine_simulation_error
+from sindybench.refine import (
+    FreeParameters,
+    LeastSquares,
+    OutputErrorRefinement,
+    Physical,
+    Shooting,
+    refine_simulation_error,
+)
 from sindybench.uncertainty import parameter_covariance
 from sindybench.simulate import TermsRHS, simulate
 
@@ -14,6 +22,7 @@ DT = 0.05
 TERMS = [((0, POW, 1, 0),), ((0, POW, 2, 0),), ((1, POW, 1, 0),)]
 TRUE = np.array([[-1.0], [0.5], [1.0]])
 START = np.array([[-0.8], [0.35], [0.85]])
+START_DYN = Dynamics.from_terms(TERMS, START, dt=DT)
 
 
 def _record(rng, x0, u_mean, n=200, noise=0.0):
@@ -31,7 +40,8 @@ def records():
 
 def test_two_records_recover_shared_coefficients_and_each_start(records):
     (u1, y1), (u2, y2) = records
-    res = refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, x0=[[0.0], [1.0]], max_nfev=50)
+    res = refine_simulation_error(START_DYN, [u1, u2], [y1, y2],
+                                  x0=[[0.0], [1.0]], solver=LeastSquares(max_nfev=50))
     np.testing.assert_allclose(res.coef, TRUE, atol=1e-6)
     np.testing.assert_allclose(res.initial_states, [[0.3], [1.2]], atol=1e-6)
     np.testing.assert_array_equal(res.x0, res.initial_states[0])
@@ -43,9 +53,12 @@ def test_two_records_recover_shared_coefficients_and_each_start(records):
 
 def test_the_jacobian_of_stacked_records_matches_finite_differences(records):
     (u1, y1), (u2, y2) = records
-    kwargs = dict(x0=[[0.0], [1.0]], max_nfev=3, warn_budget=False)
-    exact = refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, **kwargs)
-    python = refine_simulation_error(None, START, [u1, u2], [y1, y2], DT, make_rhs=lambda C: TermsRHS(C, TERMS, 1),
+    kwargs = dict(x0=[[0.0], [1.0]], solver=LeastSquares(max_nfev=3, warn_budget=False))
+    exact = refine_simulation_error(START_DYN, [u1, u2], [y1, y2], **kwargs)
+    # a physical map without parameters whose Python right-hand side puts the model on the Python path
+    python_map = Physical(names=(), values=np.zeros(0), lower=np.zeros(0), upper=np.zeros(0),
+                          coef=lambda values: 0.0, make_rhs=lambda C, values: TermsRHS(C, TERMS, 1))
+    python = refine_simulation_error(START_DYN, [u1, u2], [y1, y2], free=FreeParameters(physical=python_map),
                                      **kwargs)
     assert python.jacobian == "2-point" and exact.jacobian == "sensitivity"
     J = exact.jac
@@ -56,8 +69,10 @@ def test_the_jacobian_of_stacked_records_matches_finite_differences(records):
 
 def test_one_record_in_a_list_is_bit_for_bit_one_array(records):
     (u1, y1), _ = records
-    a = refine_simulation_error(TERMS, START, u1, y1, DT, x0=[0.0], max_nfev=20, prune=0.05)
-    b = refine_simulation_error(TERMS, START, [u1], [y1], DT, x0=[[0.0]], max_nfev=20, prune=0.05)
+    a = refine_simulation_error(START_DYN, u1, y1, x0=[0.0],
+                                prune=0.05, solver=LeastSquares(max_nfev=20))
+    b = refine_simulation_error(START_DYN, [u1], [y1], x0=[[0.0]],
+                                prune=0.05, solver=LeastSquares(max_nfev=20))
     for field in ("coef", "x0", "jac", "residuals", "values"):
         np.testing.assert_array_equal(getattr(a, field), getattr(b, field))
     assert (a.cost, a.initial_cost, a.nfev, a.parameters) == (b.cost, b.initial_cost, b.nfev, b.parameters)
@@ -67,8 +82,10 @@ def test_one_record_in_a_list_is_bit_for_bit_one_array(records):
 
 def test_each_record_is_scaled_by_its_own_spread(records):
     (u1, y1), (u2, y2) = records
-    res = refine_simulation_error(TERMS, START, [u1, u2], [y1, 10.0 * y2], DT, x0=[[0.3], [1.2]], max_nfev=1,
-                                  free=np.zeros((3, 1), dtype=bool), warn_budget=False)
+    res = refine_simulation_error(START_DYN, [u1, u2],
+                                  [y1, 10.0 * y2], x0=[[0.3], [1.2]],
+                                  free=FreeParameters(coef=np.zeros((3, 1), dtype=bool)),
+                                  solver=LeastSquares(max_nfev=1, warn_budget=False))
     r = res.residuals * np.sqrt(400)
     sim2 = simulate(TermsRHS(START, TERMS, 1), [1.2], u2, DT)
     np.testing.assert_allclose(r[200:], ((sim2 - 10.0 * y2) / np.std(10.0 * y2)).ravel(), rtol=1e-10)
@@ -92,23 +109,30 @@ def test_hac_sums_lags_within_each_record():
 def test_bad_record_lists(records):
     (u1, y1), (u2, y2) = records
     with pytest.raises(ValueError, match="u must be a list of 2 input arrays"):
-        refine_simulation_error(TERMS, START, u1, [y1, y2], DT, x0=[[0.0], [1.0]])
+        refine_simulation_error(START_DYN, u1, [y1, y2],
+                                x0=[[0.0], [1.0]])
     with pytest.raises(ValueError, match=r"x0 has shape \(1,\); expected \(2, 1\)"):
-        refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, x0=[0.0])
+        refine_simulation_error(START_DYN, [u1, u2], [y1, y2],
+                                x0=[0.0])
     with pytest.raises(ValueError, match=r"u\[1\] has 199 samples|y\[1\]"):
-        refine_simulation_error(TERMS, START, [u1, u2[:-1]], [y1, y2], DT, x0=[[0.0], [1.0]])
+        refine_simulation_error(START_DYN, [u1, u2[:-1]], [y1, y2],
+                                x0=[[0.0], [1.0]])
     with pytest.raises(ValueError, match="multiple shooting .* takes one record"):
-        refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, x0=[[0.0], [1.0]], n_segments=2)
+        refine_simulation_error(START_DYN, [u1, u2], [y1, y2],
+                                x0=[[0.0], [1.0]], shooting=Shooting(n_segments=2))
     with pytest.raises(Exception, match="diverges on record 1"):
-        refine_simulation_error(TERMS, [[1.0], [1.0], [1.0]], [u1, u2], [y1, y2], DT, x0=[[0.0], [1.0]],
-                                max_abs=1e3)
+        refine_simulation_error(Dynamics.from_terms(TERMS, [[1.0], [1.0], [1.0]], dt=DT, max_abs=1e3),
+                                [u1, u2], [y1, y2], x0=[[0.0], [1.0]])
     # found by the probe of the several-records API: a numpy message, an unnamed record, a silent extra input
     with pytest.raises(ValueError, match=r"x0 has shape \(2,\); expected \(2, 1\)"):
-        refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, x0=[[0.0], [1.0, 2.0]])
+        refine_simulation_error(START_DYN, [u1, u2], [y1, y2],
+                                x0=[[0.0], [1.0, 2.0]])
     with pytest.raises(ValueError, match=r"x0\[1\] \(the start of record 1\) = \[nan\] contains NaN"):
-        refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, x0=[[0.0], [np.nan]])
+        refine_simulation_error(START_DYN, [u1, u2], [y1, y2],
+                                x0=[[0.0], [np.nan]])
     with pytest.raises(ValueError, match=r"u\[1\] has 2 columns; expected 1 as in u\[0\]"):
-        refine_simulation_error(TERMS, START, [u1, np.hstack([u2, u2])], [y1, y2], DT, x0=[[0.0], [1.0]])
+        refine_simulation_error(START_DYN,
+                                [u1, np.hstack([u2, u2])], [y1, y2], x0=[[0.0], [1.0]])
 
 
 def test_sindy_refines_on_several_records(records):
@@ -130,18 +154,21 @@ def test_sindy_refines_on_several_records(records):
 
 def test_x0_bounds_hold_for_every_record(records):
     (u1, y1), (u2, y2) = records
-    res = refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, x0=[[0.5], [0.5]], max_nfev=30,
-                                  x0_bounds=(np.array([0.0]), np.array([1.0])), warn_budget=False)
+    res = refine_simulation_error(START_DYN, [u1, u2], [y1, y2],
+                                  x0=[[0.5], [0.5]],
+                                  solver=LeastSquares(max_nfev=30, x0_bounds=(np.array([0.0]), np.array([1.0])),
+                                                      warn_budget=False))
     assert np.all((res.initial_states >= 0.0) & (res.initial_states <= 1.0))
     assert res.initial_states[1, 0] == pytest.approx(1.0)  # record 1 starts at 1.2: held at the bound
 
 
 def test_output_scale_scales_every_record_and_the_reported_cost(records):
     (u1, y1), (u2, y2) = records
-    kwargs = dict(x0=[[0.0], [1.0]], max_nfev=1, warn_budget=False)
-    plain = refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, **kwargs)
-    scaled = refine_simulation_error(TERMS, START, [u1, u2], [y1, y2], DT, output_scale=100.0, **kwargs)
+    plain = refine_simulation_error(START_DYN, [u1, u2], [y1, y2], x0=[[0.0], [1.0]],
+                                    solver=LeastSquares(max_nfev=1, warn_budget=False))
+    scaled = refine_simulation_error(START_DYN, [u1, u2], [y1, y2], x0=[[0.0], [1.0]],
+                                     solver=LeastSquares(max_nfev=1, output_scale=100.0, warn_budget=False))
     assert not np.allclose(scaled.initial_cost, plain.initial_cost)
-    one = refine_simulation_error(TERMS, START, u1, y1, DT, x0=[0.0], output_scale=100.0, max_nfev=1,
-                                  warn_budget=False)
+    one = refine_simulation_error(START_DYN, u1, y1, x0=[0.0],
+                                  solver=LeastSquares(max_nfev=1, output_scale=100.0, warn_budget=False))
     assert one.cost == pytest.approx(0.5 * np.sum(one.residuals ** 2), rel=1e-9)

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from sindybench.libraries._terms import ABS_POW, POW, SIGN, SQRT, STEP, evaluate_terms, evaluate_terms_jacobian
-from sindybench.refine import refine_simulation_error, simulate_sensitivity
+from sindybench.dynamics import Dynamics
+from sindybench.refine import FreeParameters, refine_simulation_error, simulate_sensitivity
 from sindybench.simulate import SimulationError, TermsRHS, simulate
 
 X0, X1, X2, U = 0, 1, 2, 3
@@ -174,7 +175,8 @@ def test_sensitivity_of_a_c1_product_through_zero(u_sines):
 
 def test_refine_a_c1_product_from_rest(u_sines):
     y = simulate(TermsRHS(C1_COEF, C1_TERMS, 1), [0.0], u_sines, DT)
-    res = refine_simulation_error(C1_TERMS, C1_COEF * 0.9, u_sines, y, DT, x0=[0.0], free_x0=[])
+    res = refine_simulation_error(Dynamics.from_terms(C1_TERMS, C1_COEF * 0.9, dt=DT), u_sines, y, x0=[0.0],
+                                  free=FreeParameters(x0=[]))
     np.testing.assert_allclose(res.coef, C1_COEF, rtol=1e-6)
 
 

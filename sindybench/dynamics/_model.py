@@ -14,7 +14,7 @@ import numpy as np
 
 from .._validation import check_integer
 from ._simulate import TermsRHS, simulate
-from ._terms import evaluate_terms
+from ._terms import check_terms, evaluate_terms
 
 __all__ = ["Dynamics", "assemble", "check_output_index", "make_rhs"]
 
@@ -133,6 +133,31 @@ class Dynamics:
         """Keyword arguments of :func:`~sindybench.simulate.simulate` (and of the refinement)."""
         return dict(n_substeps=self.n_substeps, method=self.method, input_hold=self.input_hold, bounds=self.bounds,
                     max_abs=self.max_abs)
+
+    @classmethod
+    def from_terms(cls, terms, coef, *, dt=None, output_index=None, state_names=None, bounds=None, n_substeps=1,
+                   method="rk4", input_hold="zoh", max_abs=np.inf):
+        """The compiled model ``x' = terms([x, u]) @ coef`` (every row learned), without a library.
+
+        Examples
+        --------
+        >>> from sindybench.dynamics import POW
+        >>> dyn = Dynamics.from_terms([((0, POW, 1, 0),)], [[-1.0]], dt=0.1)  # x0' = -x0
+        >>> dyn.compiled, dyn.output_index, round(float(dyn.simulate(np.zeros((11, 0)), [1.0])[-1, 0]), 4)
+        (True, (0,), 0.3679)
+        """
+        coef = np.asarray(coef, dtype=float)
+        if coef.ndim == 1:
+            coef = coef.reshape(-1, 1)
+        terms = check_terms(terms)
+        if coef.shape[0] != len(terms):
+            raise ValueError(f"coef has {coef.shape[0]} rows; expected {len(terms)} (one per term).")
+        n_states = coef.shape[1]
+        names = tuple(f"x{i}" for i in range(n_states)) if state_names is None else tuple(state_names)
+        outputs = tuple(range(n_states)) if output_index is None else check_output_index(output_index, n_states)
+        return cls(rhs=TermsRHS(coef, terms, n_states), terms=terms, coef=coef, n_states=n_states, state_names=names,
+                   output_index=outputs, learned=tuple(range(n_states)), bounds=bounds, dt=dt, n_substeps=n_substeps,
+                   method=method, input_hold=input_hold, max_abs=max_abs)
 
     def rhs_for(self, coef):
         """The right-hand side with another full coefficient matrix (the shape of :attr:`coef`)."""

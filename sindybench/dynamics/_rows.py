@@ -14,6 +14,7 @@ Python right-hand side.
 
 import inspect
 import types as pytypes
+import warnings
 
 import numpy as np
 from numba import carray, cfunc, njit, types
@@ -22,7 +23,7 @@ from ._ops import call_rows
 from ._simulate import TermsRHS
 from ._user import OpCompileError
 
-__all__ = ["ROWS_SIGNATURE", "RowsRHS", "compile_rows"]
+__all__ = ["ParametricRows", "ROWS_SIGNATURE", "RowsRHS", "compile_rows", "compiled_rows"]
 
 _P = types.CPointer(types.float64)
 ROWS_SIGNATURE = types.void(_P, types.int64, _P, types.int64, _P, types.int64)
@@ -177,3 +178,51 @@ class RowsRHS:
     def __repr__(self):
         return (f"RowsRHS(n_terms={len(self.terms)}, n_states={self.n_states}, "
                 f"rows={getattr(self.function, '__name__', 'f')} -> states {self.first}..{self.first + self.n_rows - 1})")
+
+
+def compiled_rows(coef, terms, n_states, rhs, params, layout, first):
+    """A :class:`RowsRHS`, or None with a warning when numba cannot compile ``rhs``."""
+    n_variables = max([n_states] + [f[0] + 1 for t in terms for f in t])
+    layout = tuple((a, n_variables if b is None else b) for a, b in layout)
+    try:
+        return RowsRHS(coef, terms, n_states, rhs, params, layout, first)
+    except OpCompileError as exc:
+        warnings.warn(f"ParametricHiddenState: {exc}; the model runs on the Python path (about 100x slower).",
+                      UserWarning, stacklevel=3)
+        return None
+
+
+class ParametricRows:
+    """Fixed rows ``[0, ..., 0, rhs(x_h, y, u, **params)]`` of the full state ``(y, x_h)`` (picklable if ``rhs`` is).
+
+    The Python fixed rows of a ``ParametricHiddenState`` model: ``n_outputs``
+    measured states, then ``n_hidden`` states whose derivative is ``rhs``.
+    :meth:`with_params` gives the rows for other parameter values (a
+    refinement of the physical parameters on the Python path calls it, not
+    the strategy).
+
+    Examples
+    --------
+    >>> def lag(xh, y, u, *, a):
+    ...     return -a * xh + u
+    >>> rows = ParametricRows(lag, {"a": 2.0}, 1, 1)
+    >>> rows(np.array([0.0, 1.0]), np.array([1.0])).tolist(), rows.with_params({"a": 1.0}).params
+    ([0.0, -1.0], {'a': 1.0})
+    """
+
+    def __init__(self, rhs, params, n_outputs, n_hidden):
+        self.rhs, self.params, self.p, self.q = rhs, params, n_outputs, n_hidden
+
+    def with_params(self, values):
+        """These rows with the parameters ``values`` (a dict) replacing theirs."""
+        return ParametricRows(self.rhs, {**self.params, **values}, self.p, self.q)
+
+    def compiled(self, coef, terms, n_states):
+        """The whole model, terms plus these rows, as a compiled :class:`RowsRHS` (None if ``rhs`` does not compile)."""
+        p, q = self.p, self.q
+        return compiled_rows(coef, terms, n_states, self.rhs, self.params, ((p, p + q), (0, p), (p + q, None)), p)
+
+    def __call__(self, x, u):
+        dx = np.zeros(self.p + self.q)
+        dx[self.p :] = np.asarray(self.rhs(x[self.p :], x[: self.p], u, **self.params), dtype=float).reshape(self.q)
+        return dx

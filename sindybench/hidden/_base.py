@@ -62,6 +62,13 @@ method ``HiddenStateSINDy`` calls on a strategy, besides scikit-learn's ``get_pa
 ``refine_free(coef, terms, *, n_outputs, n_inputs)``
     which learned coefficients that refinement frees (default: the nonzero ones;
     the latent strategy keeps each row's gauge coefficient fixed).
+``physical_map(params, *, n_outputs, n_inputs)``
+    how those parameters enter the fixed rows, declared once: a
+    :class:`~sindybench.refine.CoefficientMap` (entries ``scale * prod / prod`` of
+    named parameters over ``fixed_terms``), so that the refinement evaluates it
+    without calling the strategy back (default: None; the refinement then calls
+    ``structure`` at every evaluation). Python fixed rows take new values through
+    their own ``with_params`` (``ParametricHiddenState``'s do).
 ``gauge()``
     for strategies whose hidden states have no unit of their own: how their scale is
     fixed, in words, one line per state; the estimator adds the lines to
@@ -339,6 +346,15 @@ class HiddenStrategy(BaseEstimator):
         not listed here; the refinement frees the whole initial state anyway.
         """
         return tuple(name for name in self._physical if name in params)
+
+    def physical_map(self, params, *, n_outputs, n_inputs):
+        """How the refinable physical parameters enter the fixed rows: a :class:`~sindybench.refine.CoefficientMap`.
+
+        Declared once, so that a refinement evaluates it without calling the
+        strategy back. The default: None (the refinement then calls
+        :meth:`structure` at every evaluation when the fixed rows have terms).
+        """
+        return None
 
     def refine_free(self, coef, terms, *, n_outputs, n_inputs):
         """Entries of the learned coefficients (n_terms, n_learned) that a refinement frees.

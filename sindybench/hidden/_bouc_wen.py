@@ -35,6 +35,7 @@ from scipy.integrate import cumulative_simpson, cumulative_trapezoid
 
 from .._validation import check_bool, check_integer
 from ..io import register_model
+from ..refine import CoefficientMap
 from ..search import LogUniform
 from ._base import Design, HiddenStrategy, InitialFit, Structure, linear_term, with_defaults
 
@@ -58,6 +59,11 @@ def _local_derivatives(y, dt):
     p = np.polynomial.polynomial.polyfit(s, y, min(3, n - 1))
     p = np.concatenate([p, np.zeros(3)])
     return p[0], p[1] / dt, 2.0 * p[2] / dt**2
+
+
+#: The fixed rows over the terms ``(v, y, z, u)``: ``y' = v``, ``v' = (u - c v - k y - z) / m``.
+_FIXED_ROWS = CoefficientMap((4, 3), [(0, 0, 1.0, (), ()), (0, 1, -1.0, ("c",), ("m",)), (1, 1, -1.0, ("k",), ("m",)),
+                                      (2, 1, -1.0, (), ("m",)), (3, 1, 1.0, (), ("m",))])
 
 
 class BoucWenHiddenState(HiddenStrategy):
@@ -175,13 +181,21 @@ class BoucWenHiddenState(HiddenStrategy):
                 f"BoucWenHiddenState models one force input and one displacement output; "
                 f"got {n_inputs} inputs and {n_outputs} outputs."
             )
-        m, c, k = (float(params[name]) for name in ("m", "c", "k"))
         terms = [linear_term(_V), linear_term(_Y), linear_term(_Z), linear_term(_U)]
-        coef = np.zeros((4, 3))
-        coef[0, 0] = 1.0
-        coef[:, 1] = [-c / m, -k / m, -1.0 / m, 1.0 / m]
+        coef = _FIXED_ROWS.matrix(params)
         return Structure(n_states=3, learned=(_Z,), output_index=(_Y,), fixed_terms=terms, fixed_coef=coef,
                          state_names=["y", "v", "z"])
+
+    def physical_map(self, params, *, n_outputs, n_inputs):
+        """The fixed rows over the terms ``(v, y, z, u)``: ``y' = v``, ``v' = (u - c v - k y - z) / m``.
+
+        Examples
+        --------
+        >>> rows = BoucWenHiddenState().physical_map({}, n_outputs=1, n_inputs=1)
+        >>> rows.matrix({"m": 2.0, "c": 10.0, "k": 5e4})[:, 1].tolist()
+        [-5.0, -25000.0, -0.5, 0.5]
+        """
+        return _FIXED_ROWS
 
     def design(self, u, y, dt, *, derivative, params):
         """States ``[y, y', z]`` with ``z = u - c y' - k y - m y''`` and the target ``z'``."""

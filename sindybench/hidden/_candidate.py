@@ -169,5 +169,4 @@ def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):
     if x0.shape[0] != dyn.n_states or not np.all(np.isfinite(x0)):
         raise ValueError(f"the strategy's initial state {x0!r} is not {dyn.n_states} finite numbers.")
     fit = hidden.initial_fit(cand.params, n_outputs=y_init.shape[1], n_inputs=X.shape[1])
-    return initial_state(mode, fit, dyn.rhs, x0, X, y_init[:n], dyn.dt, output_index=dyn.output_index,
-                         settings=dyn.settings)
+    return initial_state(mode, fit, dyn, x0, X, y_init[:n])

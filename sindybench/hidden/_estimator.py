@@ -454,8 +454,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         """
         simulation = self._simulation(cand.dynamics.dt)
         n_outputs, n_inputs = y[0].shape[1], X[0].shape[1]
-        problem = refinement_problem(cand, hidden, n_outputs, n_inputs,
-                                     build=lambda s, coef: structure_dynamics(s, cand.library, coef, simulation))
+        problem = refinement_problem(cand, hidden, n_outputs, n_inputs)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             result, record = self._run_refinement(cand.dynamics, X, y, **problem)

@@ -3,15 +3,13 @@
 import inspect
 import itertools
 import numbers
-import warnings
 
 import numpy as np
 
 from .._limits import check_size
 from .._validation import check_bounds, check_integer, check_option
 from ..io import register_model
-from ..dynamics._rows import RowsRHS
-from ..dynamics._user import OpCompileError
+from ..dynamics._rows import ParametricRows, compiled_rows
 from ..search import LogUniform, Uniform, as_dimension
 from ..simulate import simulate
 from ._base import Design, HiddenStrategy, InitialFit, Structure
@@ -34,35 +32,6 @@ def _middle(dim):
     if isinstance(dim, Uniform):
         return 0.5 * (dim.low + dim.high)
     return dim.from_unit(0.5)
-
-
-class _HiddenRows:
-    """Fixed rows ``[0, ..., 0, rhs(x_h, y, u, **params)]`` of the full state (picklable if ``rhs`` is)."""
-
-    def __init__(self, rhs, params, n_outputs, n_hidden):
-        self.rhs, self.params, self.p, self.q = rhs, params, n_outputs, n_hidden
-
-    def compiled(self, coef, terms, n_states):
-        """The whole model, terms plus these rows, as a compiled :class:`RowsRHS` (None if ``rhs`` does not compile)."""
-        p, q = self.p, self.q
-        return _compiled(coef, terms, n_states, self.rhs, self.params, ((p, p + q), (0, p), (p + q, None)), p)
-
-    def __call__(self, x, u):
-        dx = np.zeros(self.p + self.q)
-        dx[self.p :] = np.asarray(self.rhs(x[self.p :], x[: self.p], u, **self.params), dtype=float).reshape(self.q)
-        return dx
-
-
-def _compiled(coef, terms, n_states, rhs, params, layout, first):
-    """A :class:`RowsRHS`, or None with a warning when numba cannot compile ``rhs``."""
-    n_variables = max([n_states] + [f[0] + 1 for t in terms for f in t])
-    layout = tuple((a, n_variables if b is None else b) for a, b in layout)
-    try:
-        return RowsRHS(coef, terms, n_states, rhs, params, layout, first)
-    except OpCompileError as exc:
-        warnings.warn(f"ParametricHiddenState: {exc}; the model runs on the Python path (about 100x slower).",
-                      UserWarning, stacklevel=3)
-        return None
 
 
 class ParametricHiddenState(HiddenStrategy):
@@ -289,7 +258,7 @@ class ParametricHiddenState(HiddenStrategy):
             output_index=tuple(range(p)),
             state_names=self._state_names(p, q),
             bounds=(np.r_[np.full(p, -np.inf), lo], np.r_[np.full(p, np.inf), hi]),
-            fixed_rhs=_HiddenRows(self._hidden_rhs(), phys, p, q),
+            fixed_rhs=ParametricRows(self._hidden_rhs(), phys, p, q),
         )
 
     def _state_names(self, p, q):
@@ -301,7 +270,7 @@ class ParametricHiddenState(HiddenStrategy):
         phys, x0 = self._split(params)
         rhs, q = self._hidden_rhs(), len(x0)
         n_u, n_y = u.shape[1], y.shape[1]
-        f = _compiled(np.zeros((0, q)), [], q, rhs, phys, ((0, q), (q + n_u, q + n_u + n_y), (q, q + n_u)), 0)
+        f = compiled_rows(np.zeros((0, q)), [], q, rhs, phys, ((0, q), (q + n_u, q + n_u + n_y), (q, q + n_u)), 0)
         if f is not None:
             return simulate(f, x0, np.hstack([u, y]), dt, n_substeps=self.n_substeps, input_hold="linear",
                             bounds=self._hidden_bounds(q))

@@ -1,20 +1,25 @@
 """Simulation-error refinement and initial states of a fitted ``HiddenStateSINDy`` candidate.
 
 The estimator's model is ``[learned rows | fixed rows]`` over the terms
-``library terms + strategy fixed terms``; this module lays it out as one
-coefficient matrix for :mod:`sindybench.refine`: the learned block's nonzero
-entries are free one by one, and the strategy's physical parameters
-(:meth:`HiddenStrategy.refinable`) enter the fixed block through
-``strategy.structure(params)``.
+``library terms + strategy fixed terms``, its :class:`~sindybench.dynamics.Dynamics`;
+:func:`refinement_problem` says once what a refinement frees in it (a
+:class:`~sindybench.refine.FreeParameters`): the learned block's entries
+that :meth:`HiddenStrategy.refine_free` names, and the strategy's physical
+parameters (:meth:`HiddenStrategy.refinable`) with their map into the fixed
+rows, the :class:`~sindybench.refine.CoefficientMap` of
+:meth:`HiddenStrategy.physical_map` (Python fixed rows take the values
+through their ``with_params``). Only a strategy that declares neither is
+called back (its ``structure``) per evaluation.
 """
 
 import logging
 import numbers
+from dataclasses import replace
 
 import numpy as np
 
-from ..refine import Physical, estimate_initial_state
-from ..simulate import SimulationError, simulate
+from ..refine import CoefficientMap, FreeParameters, LeastSquares, Physical, estimate_initial_state
+from ..simulate import SimulationError
 from ._base import InitialFit
 
 __all__ = ["initial_state", "refine_guess", "refined_values", "refinement_problem"]
@@ -26,7 +31,11 @@ _FIT_NFEV = 100  # its budget of simulations per free state
 
 
 class _FixedBlock:
-    """``values -> C`` with the strategy's fixed rows for these physical values (learned block zero)."""
+    """``values -> C`` with the strategy's fixed rows for these physical values (learned block zero).
+
+    The fallback for a strategy without :meth:`HiddenStrategy.physical_map`: it
+    calls the strategy's ``structure`` at every evaluation.
+    """
 
     def __init__(self, hidden, params, names, n_lib, n_outputs, n_inputs):
         self.hidden, self.params, self.names = hidden, params, names
@@ -45,48 +54,47 @@ class _FixedBlock:
         return out
 
 
-class _PythonModel:
-    """``make_rhs(C, values)`` for models on the Python path: the dynamics of ``structure(values)`` with ``C``."""
+class _StructureRows:
+    """``make_rhs(C, values)``: ``dynamics`` with the Python fixed rows of ``structure(values)`` (the fallback)."""
 
-    def __init__(self, block, learned, build):
-        self.block, self.learned, self.build = block, learned, build
+    def __init__(self, block, dynamics):
+        self.block, self.dynamics = block, dynamics
 
-    def __call__(self, C, values=None):
-        s = self.block.structure(() if values is None else values)
-        return self.build(s, C[: self.block.n_lib, self.learned]).rhs_for(C)
+    def __call__(self, C, values):
+        return replace(self.dynamics, fixed_rhs=self.block.structure(values).fixed_rhs).rhs_for(C)
 
 
-def refinement_problem(cand, hidden, n_outputs, n_inputs, *, build):
-    """The refinement's layout of ``cand``: ``coef``, ``free``, ``physical``, ``make_rhs`` and ``x0``.
+def refinement_problem(cand, hidden, n_outputs, n_inputs):
+    """What a refinement of ``cand.dynamics`` frees, and where it starts: ``{"free": FreeParameters, "x0": ...}``.
 
     ``x0`` holds the first state of each training record, shape (n_records, n_states).
-
-    The keyword arguments of ``DynamicsEstimator._run_refinement`` on
-    ``cand.dynamics``. ``build(structure, coef) -> Dynamics`` assembles the
-    estimator's model (for the Python path, whose fixed rows may depend on
-    the physical parameters).
+    The keyword arguments of ``DynamicsEstimator._run_refinement`` on ``cand.dynamics``.
     """
     s, dyn = cand.structure, cand.dynamics
     learned = list(s.learned)
     n_lib = cand.coef.shape[0]
     names = tuple(k for k in hidden.refinable(cand.params)
                   if isinstance(cand.params.get(k), numbers.Real) and not isinstance(cand.params[k], bool))
-    block = _FixedBlock(hidden, cand.params, names, n_lib, n_outputs, n_inputs)
-    values = np.array([float(cand.params[k]) for k in names])
-    coef = np.zeros((n_lib + len(s.fixed_terms), s.n_states))
-    coef[:n_lib, learned] = cand.coef
-    free = np.zeros(coef.shape, dtype=bool)
+    free = np.zeros(np.shape(dyn.coef), dtype=bool)
     free[:n_lib, learned] = hidden.refine_free(cand.coef, getattr(cand.library, "terms_", None),
                                                n_outputs=n_outputs, n_inputs=n_inputs)
-    make_rhs = None if dyn.compiled else _PythonModel(block, learned, build)
+    physical = None
     if names:
+        values = np.array([float(cand.params[k]) for k in names])
+        declared = hidden.physical_map(cand.params, n_outputs=n_outputs, n_inputs=n_inputs)
+        make_rhs = None
+        if declared is not None:
+            coef = declared.placed(names, n_lib)
+        elif not s.fixed_terms:  # the values enter no term: a block of zeros
+            coef = CoefficientMap((0, s.n_states), (), names, n_lib)
+        else:
+            coef = _FixedBlock(hidden, cand.params, names, n_lib, n_outputs, n_inputs)
+        if s.fixed_rhs is not None and not hasattr(s.fixed_rhs, "with_params"):  # Python rows of unknown form
+            make_rhs = _StructureRows(_FixedBlock(hidden, cand.params, names, n_lib, n_outputs, n_inputs), dyn)
         physical = Physical(names=names, values=values, lower=np.where(values > 0, 0.0, -np.inf),
-                            upper=np.full(len(names), np.inf), coef=block, make_rhs=make_rhs)
-    else:
-        physical = None
-        coef = coef + block(values)
+                            upper=np.full(len(names), np.inf), coef=coef, make_rhs=make_rhs)
     x0 = np.array([np.asarray(d.states[0], dtype=float) for d in cand.designs])  # one start per record
-    return dict(coef=coef, free=free, physical=physical, make_rhs=make_rhs, x0=x0)
+    return dict(free=FreeParameters(coef=free, physical=physical), x0=x0)
 
 
 def refined_values(cand, result):
@@ -96,7 +104,7 @@ def refined_values(cand, result):
     return {**cand.params, **result.physical}, result.coef[: cand.coef.shape[0], learned].copy(), x0s
 
 
-def refine_guess(fit, rhs, x0, X, y_init, dt, *, output_index, settings):
+def refine_guess(fit, dynamics, x0, X, y_init):
     """A strategy's guess ``x0`` refined as its :class:`~sindybench.hidden.InitialFit` ``fit`` says.
 
     Least squares of the simulation of the first ``fit.n_samples`` samples
@@ -115,9 +123,9 @@ def refine_guess(fit, rhs, x0, X, y_init, dt, *, output_index, settings):
     peak = np.max(np.abs(y), axis=0)
     scale = np.where(peak > 0, peak, 1.0)
     try:
-        return estimate_initial_state(rhs, X[:n], y, dt, x0=x0, output_index=output_index, free_x0=free,
-                                      x0_bounds=fit.bounds, output_scale=scale, max_nfev=_FIT_NFEV * free.size,
-                                      ftol=_FIT_TOL, xtol=_FIT_TOL, gtol=_FIT_TOL, **settings)
+        solver = LeastSquares(max_nfev=_FIT_NFEV * free.size, ftol=_FIT_TOL, xtol=_FIT_TOL, gtol=_FIT_TOL,
+                              x0_bounds=fit.bounds, output_scale=scale)
+        return estimate_initial_state(dynamics, X[:n], y, x0=x0, free_x0=free, solver=solver)
     except SimulationError as exc:
         logger.debug("initial state: the guess is kept (%s)", exc)
         return x0
@@ -136,7 +144,7 @@ def _check_fit(fit, n_states):
     return free.astype(np.int64)
 
 
-def initial_state(mode, fit, rhs, x0, X, y_init, dt, *, output_index, settings):
+def initial_state(mode, fit, dynamics, x0, X, y_init):
     """The initial state of a simulation of ``X`` from a strategy's guess ``x0`` and the first outputs ``y_init``.
 
     ``mode``: ``"strategy"``: the guess refined as the strategy's
@@ -148,16 +156,16 @@ def initial_state(mode, fit, rhs, x0, X, y_init, dt, *, output_index, settings):
     periodic steady state), without using ``y_init``.
     """
     if fit is not None and mode != "periodic":
-        x0 = refine_guess(fit, rhs, x0, X, y_init, dt, output_index=output_index, settings=settings)
+        x0 = refine_guess(fit, dynamics, x0, X, y_init)
     if mode == "fit":
         n = min(len(y_init), len(X))
         if n < 2:
             return x0
-        return estimate_initial_state(rhs, X[:n], y_init[:n], dt, x0=x0, output_index=output_index, **settings)
+        return estimate_initial_state(dynamics, X[:n], y_init[:n], x0=x0)
     if mode == "periodic":
         period = np.vstack([X, X[:1]])
         for _ in range(2):
-            x = simulate(rhs, x0, period, dt, on_divergence="raise", **settings)
+            x = dynamics.simulate(period, x0, on_divergence="raise")
             x0 = x[-1]
         return x0
     return x0

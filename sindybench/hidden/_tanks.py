@@ -7,12 +7,17 @@ import numpy as np
 from .._validation import check_bounds
 from ..io import register_model
 from ..libraries import POW, SQRT, ConcatLibrary, PolynomialLibrary, SqrtLibrary
+from ..refine import CoefficientMap
 from ..search import Uniform
 from ..simulate import TermsRHS, simulate
 from ._base import Structure, positive_dimension
 from ._parametric import ParametricHiddenState
 
 __all__ = ["TanksHiddenState"]
+
+
+#: The lower tank's row over the terms ``(sqrt(x1), u)``: ``x1' = -k1 sqrt(x1) + k2 u``.
+_FIXED_ROWS = CoefficientMap((2, 2), [(0, 1, -1.0, ("k1",), ()), (1, 1, 1.0, ("k2",), ())])
 
 
 class TanksHiddenState(ParametricHiddenState):
@@ -166,7 +171,7 @@ class TanksHiddenState(ParametricHiddenState):
             raise ValueError(
                 f"TanksHiddenState models one input and one output; got {n_inputs} inputs and {n_outputs} outputs."
             )
-        terms, coef = self._hidden_terms(params, 1, 2)
+        terms, _ = self._hidden_terms(params, 1, 2)
         lo, hi = self._tank_bounds()
         ylo, yhi = check_bounds(self.output_bounds, 1, name="output_bounds")
         return Structure(
@@ -174,10 +179,20 @@ class TanksHiddenState(ParametricHiddenState):
             learned=(0,),
             output_index=(0,),
             fixed_terms=terms,
-            fixed_coef=np.c_[np.zeros(2), coef],
+            fixed_coef=_FIXED_ROWS.matrix(params),
             state_names=["y0", "x1"],
             bounds=(np.array([ylo[0], lo]), np.array([yhi[0], hi])),
         )
+
+    def physical_map(self, params, *, n_outputs, n_inputs):
+        """The lower tank's row over the terms ``(sqrt(x1), u)``: ``x1' = -k1 sqrt(x1) + k2 u``.
+
+        Examples
+        --------
+        >>> TanksHiddenState().physical_map({}, n_outputs=1, n_inputs=1).matrix({"k1": 0.5, "k2": 2.0}).tolist()
+        [[0.0, -0.5], [0.0, 2.0]]
+        """
+        return _FIXED_ROWS
 
     def _simulate_hidden(self, u, y, dt, params):
         terms, coef = self._hidden_terms(params, 0, 1)

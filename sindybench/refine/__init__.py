@@ -1,6 +1,11 @@
 """Fit by simulation or prediction error: forward sensitivities, output- and prediction-error refinement,
 initial states.
 
+Every criterion takes a fitted :class:`~sindybench.dynamics.Dynamics` and a
+:class:`FreeParameters` description of what is free (coefficient entries, a
+:class:`Physical` map of physical parameters, initial states), with its
+knobs grouped in :class:`LeastSquares` and :class:`Shooting`.
+
 The covariance of the refined parameters and its reporting (standard errors,
 confidence intervals) moved to :mod:`sindybench.uncertainty`; the old names
 here still work, with a ``FutureWarning``.
@@ -8,7 +13,8 @@ here still work, with a ``FutureWarning``.
 
 import warnings
 
-from ._core import Physical, estimate_initial_state, refine_simulation_error
+from ._core import estimate_initial_state, refine_simulation_error
+from ._parametrized import CoefficientMap, FreeParameters, LeastSquares, ParametrizedDynamics, Physical, Shooting
 from ._prediction import refine_prediction_error
 from ._predictor import predict_sensitivity
 from ._result import RefinementResult
@@ -16,10 +22,15 @@ from ._sensitivity import simulate_sensitivity
 from ._settings import OutputErrorRefinement, PredictionErrorRefinement
 
 __all__ = [
+    "CoefficientMap",
+    "FreeParameters",
+    "LeastSquares",
     "OutputErrorRefinement",
+    "ParametrizedDynamics",
     "Physical",
     "PredictionErrorRefinement",
     "RefinementResult",
+    "Shooting",
     "estimate_initial_state",
     "predict_sensitivity",
     "refine_prediction_error",

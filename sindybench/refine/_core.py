@@ -39,12 +39,13 @@ from scipy.optimize import least_squares
 from sklearn.exceptions import ConvergenceWarning
 
 from .._validation import check_bounds, check_integer, check_positive, check_signal, is_records
+from ..dynamics import Dynamics
 from ..libraries import evaluate_terms
-from ..simulate import TermsRHS
+from ._parametrized import FreeParameters, LeastSquares, ParametrizedDynamics, Shooting, check_settings
+from ._problem import _build, _output_jacobian
 from ._result import RefinementResult
-from ._problem import Physical, _build, _output_jacobian
 
-__all__ = ["Physical", "RefinementResult", "estimate_initial_state", "refine_simulation_error", "solve"]
+__all__ = ["estimate_initial_state", "refine_simulation_error", "solve"]
 
 logger = logging.getLogger(__name__)
 
@@ -63,69 +64,47 @@ def _contributions(terms, C, x, u, free, rows):
     return np.array(out)
 
 
-def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), free=None, physical=None,
-                            free_x0=None, make_rhs=None, n_segments=1, continuity_weight=1.0, prune=0.0,
-                            n_substeps=1, method="rk4", input_hold="zoh", bounds=None, max_abs=np.inf,
-                            max_nfev=100, ftol=1e-8, xtol=1e-8, gtol=1e-8, x0_bounds=None, output_scale=None,
-                            warn_budget=True):
+def refine_simulation_error(dynamics, u, y, *, x0, free=None, shooting=None, prune=0.0, solver=None):
     """Refine a model's coefficients and initial state by open-loop simulation error.
 
     Parameters
     ----------
-    terms : sequence of term tuples or None
-        Terms of ``Z = [x, u]``, one per row of ``coef``; None for a Python
-        right-hand side (then give ``make_rhs`` or ``physical.make_rhs``).
-    coef : array-like of shape (n_terms, n_states)
-        Starting coefficients, without the physical part (which
-        ``physical.coef(values)`` adds).
+    dynamics : Dynamics
+        The starting model; its ``dt``, ``output_index`` and simulation
+        settings are those of the refinement. Its coefficients include the
+        physical part (``free.physical.coef(free.physical.values)``).
     u : array-like of shape (n_samples, n_inputs), or list
     y : array-like of shape (n_samples, n_outputs), or list of ndarray
-        Measured outputs: the states ``output_index``. Lists of arrays (``u``
-        and ``y`` alike) are several records of one system: the coefficients
-        and physical parameters are shared, each record has its own initial
-        state (free as one record's), its residuals are scaled by its own
-        output spread, and the records' residuals (and the Jacobian's rows)
-        are stacked in record order.
-    dt : float
+        Measured outputs: the states ``dynamics.output_index``. Lists of arrays
+        (``u`` and ``y`` alike) are several records of one system: the
+        coefficients and physical parameters are shared, each record has its
+        own initial state (free as one record's), its residuals are scaled by
+        its own output spread, and the records' residuals (and the Jacobian's
+        rows) are stacked in record order.
     x0 : array-like of shape (n_states,), or (n_records, n_states)
         Starting initial state (hidden states included); one per record
         with several records.
-    output_index : sequence of int, default=(0,)
-    free : array-like of bool of shape (n_terms, n_states), optional
-        Entries refined one by one; default: the nonzero entries of ``coef``.
-    physical : Physical, optional
-        Physical parameters refined through ``physical.coef``.
-    free_x0 : sequence of int, optional
-        States whose initial value is refined; default: all.
-    make_rhs : callable, optional
-        ``make_rhs(C) -> f(x, u)`` for Python right-hand sides without
-        physical parameters.
-    n_segments : int, default=1
-        Multiple-shooting segments (1 = single shooting; one record only).
-    continuity_weight : float, default=1.0
-        Weight of the continuity residuals (per state spread) relative to the
-        output residuals (per output spread).
+    free : FreeParameters, optional
+        The free coefficient entries (default: the nonzero ones), the
+        physical parameters and their map (default: none), the free initial
+        states (default: all).
+    shooting : Shooting, optional
+        Multiple shooting: ``n_segments`` (1 = single shooting; one record
+        only) and the weight of the continuity residuals (per state spread)
+        relative to the output residuals (per output spread).
     prune : float, default=0.0
         After a refinement, free entries whose term contributes less than
         ``prune`` times the RMS of its state's derivative along the simulated
         trajectory are set to zero and the model is refined again (until
         nothing more is pruned).
-    n_substeps, method, input_hold, bounds, max_abs
-        Simulation settings, as in :func:`sindybench.simulate.simulate`.
-    max_nfev : int, default=100
-        Budget of simulations per refinement round.
-    ftol, xtol, gtol : float, default=1e-8
-        Stopping tolerances of :func:`scipy.optimize.least_squares`.
-    x0_bounds : (lower, upper), optional
-        Box bounds of the free initial states (scalars or one per state),
-        within the simulation ``bounds``; default: those alone.
-    output_scale : array-like of shape (n_outputs,), optional
-        Scale of each output's residuals; default: its standard deviation
-        over the record (1 where it is zero).
-    warn_budget : bool, default=True
-        Warn (:class:`~sklearn.exceptions.ConvergenceWarning`) when the last
-        round stops on ``max_nfev``; the record says so either way
-        (``budget_exhausted``).
+    solver : LeastSquares, optional
+        Budget of simulations per round, tolerances, bounds of the free
+        initial states (within the simulation ``bounds``), the residuals'
+        scale (default: each output's standard deviation over its record, 1
+        where it is zero) and whether to warn
+        (:class:`~sklearn.exceptions.ConvergenceWarning`) when the last round
+        stops on its budget (the record says so either way,
+        ``budget_exhausted``).
 
     Returns
     -------
@@ -143,12 +122,13 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
     --------
     Recover ``x' = -a x + b u`` from a biased start:
 
+    >>> from sindybench.dynamics import Dynamics
     >>> from sindybench.libraries import POW
-    >>> from sindybench.simulate import TermsRHS, simulate
     >>> terms = [((0, POW, 1, 0),), ((1, POW, 1, 0),)]
     >>> u = np.sign(np.sin(np.arange(400) * 0.05))[:, None]
-    >>> y = simulate(TermsRHS([[-1.0], [2.0]], terms, 1), [0.5], u, 0.05)
-    >>> res = refine_simulation_error(terms, [[-0.8], [1.7]], u, y, 0.05, x0=[0.0])
+    >>> y = Dynamics.from_terms(terms, [[-1.0], [2.0]], dt=0.05).simulate(u, [0.5])
+    >>> start = Dynamics.from_terms(terms, [[-0.8], [1.7]], dt=0.05)
+    >>> res = refine_simulation_error(start, u, y, x0=[0.0])
     >>> np.round(res.coef.ravel(), 6).tolist(), round(float(res.x0[0]), 6), res.jacobian
     ([-1.0, 2.0], 0.5, 'sensitivity')
     >>> res.parameters, res.standard_errors().shape  # exact data: errors ~ 0
@@ -156,85 +136,95 @@ def refine_simulation_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
 
     Two records, one initial state each:
 
-    >>> y2 = simulate(TermsRHS([[-1.0], [2.0]], terms, 1), [-1.0], -u, 0.05)
-    >>> res = refine_simulation_error(terms, [[-0.8], [1.7]], [u, -u], [y, y2], 0.05, x0=[[0.0], [0.0]])
+    >>> y2 = Dynamics.from_terms(terms, [[-1.0], [2.0]], dt=0.05).simulate(-u, [-1.0])
+    >>> res = refine_simulation_error(start, [u, -u], [y, y2], x0=[[0.0], [0.0]])
     >>> np.round(res.coef.ravel(), 6).tolist(), np.round(res.initial_states.ravel(), 6).tolist()
     ([-1.0, 2.0], [0.5, -1.0])
     >>> res.parameters[2:]
     (('x0', 0, 0), ('x0', 0, 1))
     """
-    coef = np.asarray(coef, dtype=float)
-    if coef.ndim == 1:
-        coef = coef.reshape(-1, 1)
-    n_states = coef.shape[1]
-    us, ys, x0s = _check_records(u, y, x0, n_states)
-    y = ys[0]
-    output_index = tuple(int(i) for i in output_index)
-    if any(y_r.shape[1] != y.shape[1] for y_r in ys):
-        raise ValueError(f"the records' y have {[y_r.shape[1] for y_r in ys]} columns; expected the same number.")
-    if len(output_index) != y.shape[1] or min(output_index) < 0 or max(output_index) >= n_states:
-        raise ValueError(
-            f"output_index={output_index} does not match y with {y.shape[1]} columns and {n_states} states; "
-            "expected one state index per output column."
-        )
-    if terms is None and make_rhs is None and (physical is None or physical.make_rhs is None):
-        raise ValueError("terms is None; give make_rhs (or physical.make_rhs) for a Python right-hand side.")
-    free = (coef != 0) if free is None else np.asarray(free, dtype=bool)
-    if free.shape != coef.shape:
-        raise ValueError(f"free has shape {free.shape}; expected {coef.shape} (the shape of coef).")
-    free_x0 = np.arange(n_states) if free_x0 is None else np.asarray(free_x0, dtype=np.int64).reshape(-1)
-    if free_x0.size and (free_x0.min() < 0 or free_x0.max() >= n_states or np.unique(free_x0).size < free_x0.size):
-        raise ValueError(f"free_x0 = {free_x0.tolist()}; expected distinct state indices in [0, {n_states - 1}].")
-    n_segments = check_integer(n_segments, "n_segments", high=max(1, us[0].shape[0] // 10))
+    view = ParametrizedDynamics(_check_dynamics(dynamics), free)
+    shooting = Shooting() if shooting is None else check_settings(shooting, Shooting, "shooting", "n_segments=5")
+    solver = LeastSquares() if solver is None else check_settings(solver, LeastSquares, "solver", "max_nfev=50")
+    us, ys, x0s = _check_records(u, y, x0, dynamics.n_states)
+    _check_outputs(ys, dynamics)
+    n_segments = check_integer(shooting.n_segments, "n_segments", high=max(1, us[0].shape[0] // 10))
     if n_segments > 1 and len(us) > 1:
         raise ValueError(f"multiple shooting (n_segments={n_segments}) takes one record; got {len(us)} records. "
                          "Expected n_segments=1 with several records.")
-    check_positive(continuity_weight, "continuity_weight")
+    check_positive(shooting.continuity_weight, "continuity_weight")
     prune = check_positive(prune, "prune", strict=False)
-    max_nfev = check_integer(max_nfev, "max_nfev")
+    box = _box(dynamics, view.free_x0, solver.x0_bounds)
+    output_scale = _check_output_scale(solver.output_scale, len(dynamics.output_index))
+    shooting = Shooting(n_segments, shooting.continuity_weight)
+
+    def build(view, x0s, carry):
+        return _build(view, x0s, us, ys, shooting, box[0], box[1])
+
+    return solve(build, view, x0s, us, ys, bounds=box, prune=prune, solver=solver._replace(output_scale=output_scale))
+
+
+def _check_dynamics(dynamics):
+    if not isinstance(dynamics, Dynamics):
+        raise TypeError(f"dynamics must be a sindybench.dynamics.Dynamics (an estimator's dynamics_, or "
+                        f"Dynamics.from_terms); got {type(dynamics).__name__}.")
+    return dynamics
+
+
+def _check_outputs(ys, dynamics):
+    """The records' ``y`` have one column per output of ``dynamics``."""
+    widths = [y_r.shape[1] for y_r in ys]
+    if any(w != widths[0] for w in widths):
+        raise ValueError(f"the records' y have {widths} columns; expected the same number.")
+    if widths[0] != len(dynamics.output_index):
+        raise ValueError(f"output_index={tuple(dynamics.output_index)} does not match y with {widths[0]} columns and "
+                         f"{dynamics.n_states} states; expected one state index per output column.")
+
+
+def _box(dynamics, free_x0, x0_bounds):
+    """``(lo, hi, x0_lo, x0_hi)``: the simulation bounds and those of the free initial states within them."""
+    n_states, bounds = dynamics.n_states, dynamics.bounds
     lo, hi = check_bounds(bounds, n_states)
     x0_lo, x0_hi = check_bounds(x0_bounds, n_states, name="x0_bounds")
     x0_lo, x0_hi = np.maximum(lo, x0_lo), np.minimum(hi, x0_hi)
     if np.any(x0_lo[free_x0] > x0_hi[free_x0]):
         raise ValueError(f"x0_bounds = {x0_bounds!r} leave no initial state within the simulation bounds {bounds!r}.")
-    if output_scale is not None:
-        given = output_scale
-        output_scale = np.asarray(output_scale, dtype=float).reshape(-1)
-        if output_scale.size == 1:
-            output_scale = np.full(len(output_index), output_scale[0])
-        if output_scale.size != len(output_index) or not np.all(np.isfinite(output_scale) & (output_scale > 0)):
-            raise ValueError(f"output_scale = {given!r}; expected one finite number > 0 per output "
-                             f"({len(output_index)}).")
-    settings = dict(n_substeps=n_substeps, method=method, input_hold=input_hold, bounds=bounds, max_abs=max_abs)
-    sim = {"settings": settings, "make_rhs": make_rhs}
-
-    def build(coef, free, physical, x0s, carry):
-        problem, xs = _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, n_segments,
-                             continuity_weight, lo, hi)
-        return problem, xs
-
-    return solve(build, terms, coef, free, physical, x0s, us, ys, bounds=(lo, hi, x0_lo, x0_hi), prune=prune,
-                 output_scale=output_scale, max_nfev=max_nfev, tols=(ftol, xtol, gtol), warn_budget=warn_budget)
+    return lo, hi, x0_lo, x0_hi
 
 
-def solve(build, terms, coef, free, physical, x0s, us, ys, *, bounds, prune, output_scale, max_nfev, tols,
-          warn_budget):
+def _check_output_scale(output_scale, n_outputs):
+    if output_scale is None:
+        return None
+    given = output_scale
+    output_scale = np.asarray(output_scale, dtype=float).reshape(-1)
+    if output_scale.size == 1:
+        output_scale = np.full(n_outputs, output_scale[0])
+    if output_scale.size != n_outputs or not np.all(np.isfinite(output_scale) & (output_scale > 0)):
+        raise ValueError(f"output_scale = {given!r}; expected one finite number > 0 per output ({n_outputs}).")
+    return output_scale
+
+
+def solve(build, view, x0s, us, ys, *, bounds, prune, solver):
     """The refinement rounds shared by the criteria: least squares, prune, refine again; a :class:`RefinementResult`.
 
-    ``build(coef, free, physical, x0s, carry) -> (problem, trajectories)`` makes one
-    round's problem (:class:`~sindybench.refine._problem._Problem` or a
-    criterion's subclass) and the starting model's trajectories;
-    ``problem.trajectories(p)`` gives those of ``p`` (the open-loop
-    simulation, or the predictor's predictions), from which the reported
-    costs and the pruned terms' contributions are computed; ``carry`` is
-    what the last round hands to the next (``problem.carry(p)``: the
-    predictor's gain; None in the first round).
+    ``build(view, x0s, carry) -> (problem, trajectories)`` makes one round's
+    problem (:class:`~sindybench.refine._problem._Problem` or a criterion's
+    subclass) for the :class:`ParametrizedDynamics` ``view`` and the starting
+    model's trajectories; ``problem.trajectories(p)`` gives those of ``p``
+    (the open-loop simulation, or the predictor's predictions), from which
+    the reported costs and the pruned terms' contributions are computed;
+    ``carry`` is what the last round hands to the next (``problem.carry(p)``:
+    the predictor's gain; None in the first round). ``solver``: a
+    :class:`LeastSquares`.
     """
     lo, hi, x0_lo, x0_hi = bounds
-    ftol, xtol, gtol = tols
+    max_nfev = check_integer(solver.max_nfev, "max_nfev")
+    output_scale = solver.output_scale
+    coef, free, physical = view.coef, view.mask.copy(), view.physical
+    terms = view.terms
     pruned, nfev, njev, initial_cost, carry = [], 0, 0, None, None
     while True:
-        problem, x = build(coef, free, physical, x0s, carry)
+        problem, x = build(view, x0s, carry)
         if output_scale is not None:
             problem.scale_outputs(output_scale)
         if initial_cost is None:
@@ -246,7 +236,7 @@ def solve(build, terms, coef, free, physical, x0s, us, ys, *, bounds, prune, out
         p0 = np.clip(p0, lower, upper)
         jac = problem.jacobian if problem.compiled else "2-point"
         fit = least_squares(problem.residuals, p0, jac=jac, bounds=(lower, upper), method="trf", x_scale="jac",
-                            max_nfev=max_nfev, ftol=ftol, xtol=xtol, gtol=gtol)
+                            max_nfev=max_nfev, ftol=solver.ftol, xtol=solver.xtol, gtol=solver.gtol)
         nfev, njev = nfev + fit.nfev, njev + (fit.njev or 0)
         p = fit.x
         coef_all = problem.matrix(p)
@@ -268,11 +258,12 @@ def solve(build, terms, coef, free, physical, x0s, us, ys, *, bounds, prune, out
             coef[j, i] = 0.0
             free[j, i] = False
             pruned.append((int(j), int(i)))
+        view = view.rounded(coef, free, physical)
         logger.debug("pruned %d terms; refining again", int(small.sum()))
     names = () if physical is None else physical.names
     phys = dict(zip(names, (float(v) for v in (physical.values if physical is not None else ()))))
     budget = int(fit.status) == 0
-    if budget and warn_budget:
+    if budget and solver.warn_budget:
         warnings.warn(f"the refinement stopped on its evaluation budget (max_nfev={max_nfev}) before converging "
                       f"(cost {initial_cost:.4g} -> {problem.output_cost(x):.4g}); raise max_nfev "
                       "(refine__max_nfev) for a converged model.", ConvergenceWarning, stacklevel=2)
@@ -320,37 +311,32 @@ def _check_records(u, y, x0, n_states):
     return us, ys, [x0s[r].copy() for r in range(n)]
 
 
-def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None, x0_bounds=None, output_scale=None,
-                           n_substeps=1, method="rk4", input_hold="zoh", bounds=None, max_abs=np.inf, max_nfev=50,
-                           ftol=1e-8, xtol=1e-8, gtol=1e-8):
+def estimate_initial_state(dynamics, u, y, *, x0, free_x0=None, solver=None):
     """Initial state that best simulates the first output samples ``y`` (only ``x0`` free).
 
     The same least squares as :func:`refine_simulation_error` with the
-    coefficients held: exact sensitivities for a :class:`TermsRHS`, finite
-    differences for a Python right-hand side. It is the one initial-state
-    estimator of the package: ``HiddenStateSINDy`` refines a strategy's first
-    guess with it wherever the strategy's
+    coefficients held: exact sensitivities for a compiled ``Dynamics``,
+    finite differences on the Python path; the model runs as
+    ``dynamics.rhs`` with the ``dynamics``' settings. It is the one
+    initial-state estimator of the package: ``HiddenStateSINDy`` refines a
+    strategy's first guess with it wherever the strategy's
     :meth:`~sindybench.hidden.HiddenStrategy.initial_fit` asks for it, and
     ``initial_state="fit"`` uses it for every model.
 
     Parameters
     ----------
-    rhs : TermsRHS or callable
+    dynamics : Dynamics
     u : array-like of shape (n_samples, n_inputs)
     y : array-like of shape (n_samples, n_outputs)
-    dt : float
+        The first samples of the outputs ``dynamics.output_index``.
     x0 : array-like of shape (n_states,)
         Starting guess (e.g. a strategy's heuristic).
-    output_index, free_x0, x0_bounds, output_scale
-        As in :func:`refine_simulation_error`: the states that are outputs,
-        the states that are estimated (default: all), box bounds of those
-        (e.g. ``(0.0, None)`` for a level) and the residuals' scale.
-    n_substeps, method, input_hold, bounds, max_abs
-        Simulation settings, as in :func:`refine_simulation_error`.
-    max_nfev : int, default=50
-        Budget of simulations.
-    ftol, xtol, gtol : float, default=1e-8
-        Stopping tolerances of :func:`scipy.optimize.least_squares`.
+    free_x0 : sequence of int, optional
+        The states that are estimated (default: all).
+    solver : LeastSquares, optional
+        Default ``LeastSquares(max_nfev=50)``; its ``x0_bounds`` (e.g.
+        ``(0.0, None)`` for a level) and ``output_scale`` as in
+        :func:`refine_simulation_error`; it never warns on its budget.
 
     Returns
     -------
@@ -370,30 +356,23 @@ def estimate_initial_state(rhs, u, y, dt, *, x0, output_index=(0,), free_x0=None
 
     Examples
     --------
+    >>> from sindybench.dynamics import Dynamics
     >>> from sindybench.libraries import POW
-    >>> from sindybench.simulate import TermsRHS, simulate
-    >>> rhs = TermsRHS.from_equations([{((1, POW, 1, 0),): 1.0}, {((0, POW, 1, 0),): -4.0}])  # y'' = -4 y
-    >>> y = simulate(rhs, [1.0, 0.5], np.zeros((20, 0)), 0.05)[:, :1]
-    >>> np.round(estimate_initial_state(rhs, np.zeros((20, 0)), y, 0.05, x0=[0.9, 0.0]), 6).tolist()
+    >>> dyn = Dynamics.from_terms([((1, POW, 1, 0),), ((0, POW, 1, 0),)], [[1.0, 0.0], [0.0, -4.0]], dt=0.05,
+    ...                           output_index=(0,))  # y'' = -4 y
+    >>> y = dyn.simulate(np.zeros((20, 0)), [1.0, 0.5])[:, :1]
+    >>> np.round(estimate_initial_state(dyn, np.zeros((20, 0)), y, x0=[0.9, 0.0]), 6).tolist()
     [1.0, 0.5]
 
     With ``y(0)`` held at 0.9 and the velocity kept within ``[0, 0.2]``, it stops at its bound:
 
-    >>> x0 = estimate_initial_state(rhs, np.zeros((20, 0)), y, 0.05, x0=[0.9, 0.1], free_x0=[1],
-    ...                             x0_bounds=([None, 0.0], [None, 0.2]))
+    >>> x0 = estimate_initial_state(dyn, np.zeros((20, 0)), y, x0=[0.9, 0.1], free_x0=[1],
+    ...                             solver=LeastSquares(x0_bounds=([None, 0.0], [None, 0.2])))
     >>> np.round(x0, 6).tolist()
     [0.9, 0.2]
     """
-    if isinstance(rhs, TermsRHS):
-        terms, coef, make = rhs.terms, rhs.coef, None
-        free = np.zeros_like(coef, dtype=bool)
-    else:
-        n = np.asarray(x0).reshape(-1).shape[0]
-        terms, coef, make = None, np.zeros((0, n)), (lambda C: rhs)
-        free = np.zeros((0, n), dtype=bool)
-    res = refine_simulation_error(terms, coef, u, y, dt, x0=x0, output_index=output_index, free=free,
-                                  free_x0=free_x0, make_rhs=make, n_substeps=n_substeps, method=method,
-                                  input_hold=input_hold, bounds=bounds, max_abs=max_abs, max_nfev=max_nfev,
-                                  ftol=ftol, xtol=xtol, gtol=gtol, x0_bounds=x0_bounds, output_scale=output_scale,
-                                  warn_budget=False)
+    solver = LeastSquares(max_nfev=50) if solver is None else check_settings(solver, LeastSquares, "solver",
+                                                                             "max_nfev=50")
+    free = FreeParameters(coef=np.zeros(np.shape(dynamics.coef), dtype=bool), x0=free_x0)
+    res = refine_simulation_error(dynamics, u, y, x0=x0, free=free, solver=solver._replace(warn_budget=False))
     return res.x0

@@ -35,9 +35,10 @@ import numbers
 import numpy as np
 from scipy.linalg import solve_discrete_are
 
-from .._validation import check_bounds, check_integer, check_positive
-from ..dynamics import SimulationError, TermsRHS, step_jacobian
-from ._core import _check_records, solve
+from .._validation import check_positive
+from ..dynamics import SimulationError, step_jacobian
+from ._core import _box, _check_dynamics, _check_outputs, _check_records, solve
+from ._parametrized import LeastSquares, ParametrizedDynamics, check_settings
 from ._predictor import predict_sensitivity
 from ._problem import _DIVERGED, _Problem
 
@@ -170,7 +171,7 @@ class _PredictionProblem(_Problem):
             out.append(predict_sensitivity(rhs, x0, u, y, self.dt, gain=self.gain(p), horizon=self.horizon,
                                            directions=D, free_x0=self.free_x0, free_gain=self.free_gain,
                                            output_index=self.oidx, sensitivities=sensitivities,
-                                           **self.sim["settings"]))
+                                           **self.settings))
         return out
 
     def trajectories(self, p):
@@ -215,26 +216,24 @@ def _check_diverged(problem, p, what):
                                   "gain, or a better starting model).", step=int(np.argmax(bad)))
 
 
-def refine_prediction_error(terms, coef, u, y, dt, *, x0, output_index=(0,), free=None, physical=None,
-                            free_x0=None, horizon=1, gain=None, free_gain=True, noise=None, prune=0.0,
-                            simulation=None, max_nfev=100, tols=(1e-8, 1e-8, 1e-8), output_scale=None,
-                            warn_budget=True):
+def refine_prediction_error(dynamics, u, y, *, x0, free=None, horizon=1, gain=None, free_gain=True, noise=None,
+                            prune=0.0, solver=None):
     """Refine a model by the errors of its ``horizon``-step predictions through a constant-gain observer.
 
     Parameters
     ----------
-    terms : sequence of term tuples
-        Terms of ``Z = [x, u]``, one per row of ``coef`` (compiled models
-        only: the predictor and its sensitivities run in numba).
-    coef : array-like of shape (n_terms, n_states)
-        Starting coefficients, without the physical part.
-    u, y, dt, x0, output_index, free, physical, free_x0, prune, max_nfev, output_scale, warn_budget
+    dynamics : Dynamics
+        The starting model, compiled (a model of terms: the predictor and its
+        sensitivities run in numba); its ``dt``, ``output_index`` and
+        simulation settings are those of the predictor.
+    u, y, x0, free, prune, solver
         As in :func:`~sindybench.refine.refine_simulation_error`; ``x0`` is
         the first predicted state ``x[0|-1]`` (one per record). The
-        residuals are scaled by ``output_scale`` or, by default, by the RMS
-        prediction error of the starting predictor (one number per output):
-        one-step errors are often orders of magnitude below the output's
-        spread, and the optimizer's tolerances are relative to this scale.
+        residuals are scaled by ``solver.output_scale`` or, by default, by
+        the RMS prediction error of the starting predictor (one number per
+        output): one-step errors are often orders of magnitude below the
+        output's spread, and the optimizer's tolerances are relative to this
+        scale.
     horizon : int, default=1
         Steps ahead of the fitted predictions: 1 = one-step prediction
         error; larger values weigh the model's own dynamics more; at least
@@ -250,12 +249,6 @@ def refine_prediction_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         (n_states square, positive semidefinite) and of the measurement
         noise (n_outputs square, positive definite) that give the default
         gain.
-    simulation : dict, optional
-        Simulation settings ``n_substeps``, ``method``, ``input_hold``,
-        ``bounds``, ``max_abs`` (as :attr:`Dynamics.settings
-        <sindybench.dynamics.Dynamics.settings>`).
-    tols : (ftol, xtol, gtol), default=(1e-8, 1e-8, 1e-8)
-        Stopping tolerances of :func:`scipy.optimize.least_squares`.
 
     Returns
     -------
@@ -270,79 +263,70 @@ def refine_prediction_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
         When the starting predictor or the optimum's diverges (with the sample).
     ValueError
         For a ``horizon`` below 1 or beyond the record, a ``noise`` that is not
-        a covariance, a model without terms.
+        a covariance, a model on the Python path.
 
     Examples
     --------
     ``x' = a x + b u`` with ``a = 1.5`` is unstable: its open-loop simulation
     leaves any record, its predictor does not.
 
+    >>> from sindybench.dynamics import Dynamics
     >>> from sindybench.libraries import POW
-    >>> from sindybench.simulate import TermsRHS, simulate
     >>> terms = [((0, POW, 1, 0),), ((1, POW, 1, 0),)]
+    >>> plant = Dynamics.from_terms(terms, [[1.5], [1.0]], dt=0.05)
     >>> rng = np.random.default_rng(0)
     >>> u = rng.normal(size=(400, 1))
     >>> x = np.zeros(400)
     >>> for k in range(399):  # the plant under the feedback u - 3 x
-    ...     x[k + 1] = simulate(TermsRHS([[1.5], [1.0]], terms, 1), [x[k]], [[u[k, 0] - 3 * x[k]]] * 2, 0.05)[1, 0]
+    ...     x[k + 1] = plant.simulate([[u[k, 0] - 3 * x[k]]] * 2, [x[k]])[1, 0]
     >>> v = u[:, 0] - 3 * x
-    >>> res = refine_prediction_error(terms, [[1.2], [0.8]], v[:, None], x[:, None], 0.05, x0=[0.0])
+    >>> start = Dynamics.from_terms(terms, [[1.2], [0.8]], dt=0.05)
+    >>> res = refine_prediction_error(start, v[:, None], x[:, None], x0=[0.0])
     >>> np.round(res.coef.ravel(), 4).tolist(), res.horizon
     ([1.5, 1.0], 1)
     """
-    coef = np.asarray(coef, dtype=float)
-    if coef.ndim == 1:
-        coef = coef.reshape(-1, 1)
-    n_states = coef.shape[1]
-    if terms is None:
-        raise ValueError("prediction-error refinement needs a compiled model (terms); got terms=None (a Python "
-                         "right-hand side). Expected a model over a built-in or custom library.")
-    if physical is not None and physical.make_rhs is not None:
-        raise ValueError("prediction-error refinement needs physical parameters that enter through coef (a "
-                         "compiled model); got a Python make_rhs.")
+    view = ParametrizedDynamics(_check_dynamics(dynamics), free)
+    if not view.compiled:
+        raise ValueError("prediction-error refinement needs a compiled model (terms); got a Python right-hand side "
+                         "(a model on the Python path, or a physical map with make_rhs). Expected a model over a "
+                         "built-in or custom library whose terms numba compiles, or OutputErrorRefinement.")
+    solver = LeastSquares() if solver is None else check_settings(solver, LeastSquares, "solver", "max_nfev=50")
+    n_states = dynamics.n_states
     us, ys, x0s = _check_records(u, y, x0, n_states)
-    output_index = tuple(int(i) for i in output_index)
+    _check_outputs(ys, dynamics)
+    output_index = dynamics.output_index
     n_out = len(output_index)
-    if any(y_r.shape[1] != n_out for y_r in ys) or min(output_index) < 0 or max(output_index) >= n_states:
-        raise ValueError(f"output_index={output_index} does not match y with {ys[0].shape[1]} columns and "
-                         f"{n_states} states; expected one state index per output column.")
     n_min = min(u_r.shape[0] for u_r in us)
     if isinstance(horizon, bool) or not isinstance(horizon, numbers.Integral) or not 1 <= horizon <= n_min:
         raise ValueError(f"horizon must be an integer in [1, {n_min}] (1 = one-step predictions, at most the "
                          f"record's {n_min} samples); got {horizon!r}.")
     horizon = int(horizon)
-    free = (coef != 0) if free is None else np.asarray(free, dtype=bool)
-    if free.shape != coef.shape:
-        raise ValueError(f"free has shape {free.shape}; expected {coef.shape} (the shape of coef).")
-    free_x0 = np.arange(n_states) if free_x0 is None else np.asarray(free_x0, dtype=np.int64).reshape(-1)
     prune = check_positive(prune, "prune", strict=False)
-    max_nfev = check_integer(max_nfev, "max_nfev")
-    settings = dict(simulation or {})
-    lo, hi = check_bounds(settings.get("bounds"), n_states)
+    settings = dynamics.settings
+    box = _box(dynamics, view.free_x0, solver.x0_bounds)
     if noise is not None:
         noise = _check_noise(noise, n_states, n_out)
     if gain is not None:
         given, gain = gain, np.asarray(gain, dtype=float)
         if gain.shape != (n_states, n_out) or not np.all(np.isfinite(gain)):
             raise ValueError(f"gain has shape {np.shape(given)}; expected a finite ({n_states}, {n_out}) matrix.")
+    output_scale = solver.output_scale
     if output_scale is not None:
         output_scale = np.broadcast_to(np.asarray(output_scale, dtype=float).reshape(-1), (n_out,)).copy()
         if not np.all(np.isfinite(output_scale) & (output_scale > 0)):
             raise ValueError(f"output_scale = {output_scale.tolist()}; expected finite numbers > 0.")
-    sim = {"settings": settings, "make_rhs": None}
     held = {}
 
-    def build(coef, free, physical, x0s, carry):
+    def build(view, x0s, carry):
         def problem_of(K):
-            return _PredictionProblem(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim,
-                                      [(0, us[0].shape[0])], gain=K, free_gain=free_gain, horizon=horizon)
+            return _PredictionProblem(view, x0s, us, ys, [(0, us[0].shape[0])], gain=K, free_gain=free_gain,
+                                      horizon=horizon)
 
         problem = None if carry is None else problem_of(carry)  # after pruning: the last round's gain
         if problem is None or not all(np.all(np.isfinite(x)) for x in problem.trajectories(problem.pack())):
             K = gain
             if K is None:  # a fresh start of the gain (also when the pruned model diverges with the last one)
-                C = coef + (physical.coef(physical.values) if physical is not None else 0.0)
-                K = starting_gain(TermsRHS(C, terms, n_states), x0s[0], us[0], ys[0], dt,
+                K = starting_gain(view.rhs(view.start()), x0s[0], us[0], ys[0], dynamics.dt,
                                   output_index=output_index, noise=noise, settings=settings)
             problem = problem_of(K)
         _check_diverged(problem, problem.pack(), "the starting predictor")
@@ -355,6 +339,4 @@ def refine_prediction_error(terms, coef, u, y, dt, *, x0, output_index=(0,), fre
             problem.scale_outputs(held["scale"])
         return problem, xs
 
-    result = solve(build, terms, coef, free, physical, x0s, us, ys, bounds=(lo, hi, lo, hi), prune=prune,
-                   output_scale=output_scale, max_nfev=max_nfev, tols=tuple(tols), warn_budget=warn_budget)
-    return result
+    return solve(build, view, x0s, us, ys, bounds=box, prune=prune, solver=solver._replace(output_scale=output_scale))

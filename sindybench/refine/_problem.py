@@ -7,41 +7,15 @@ their Jacobian. :func:`~sindybench.refine.refine_simulation_error` drives it.
 """
 
 import copy
-from typing import Callable, NamedTuple
 
 import numpy as np
 
-from ..simulate import SimulationError, TermsRHS, simulate
+from ..simulate import SimulationError, simulate
 from ._sensitivity import simulate_sensitivity
 
-__all__ = ["Physical"]
+__all__ = []
 
 _DIVERGED = 1e3  # residual (in output spreads) of a diverged sample
-
-
-class Physical(NamedTuple):
-    """Physical parameters entering the coefficient matrix through a map.
-
-    Attributes
-    ----------
-    names : tuple of str
-    values : ndarray of shape (n_physical,)
-        Starting values.
-    lower, upper : ndarray of shape (n_physical,)
-        Bounds of the refined values.
-    coef : callable
-        ``coef(values) -> ndarray (n_terms, n_states)``, added to the constant
-        coefficients.
-    make_rhs : callable or None
-        For Python-path models: ``make_rhs(C, values) -> f(x, u)``.
-    """
-
-    names: tuple
-    values: np.ndarray
-    lower: np.ndarray
-    upper: np.ndarray
-    coef: Callable
-    make_rhs: Callable = None
 
 
 class _Problem:
@@ -53,17 +27,15 @@ class _Problem:
     record.
     """
 
-    def __init__(self, terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, segments):
-        self.terms, self.coef, self.physical = terms, coef, physical
-        self.free = np.argwhere(free)  # (n_free, 2) of (term, state)
-        self.x0s, self.free_x0 = x0s, np.asarray(free_x0, dtype=np.int64)
-        self.us, self.ys, self.dt, self.sim = us, ys, dt, sim
+    def __init__(self, view, x0s, us, ys, segments):
+        self.view, self.physical, self.free, self.free_x0 = view, view.physical, view.free, view.free_x0
+        dyn = view.dynamics
+        self.x0s, self.us, self.ys, self.dt, self.settings = x0s, us, ys, dyn.dt, dyn.settings
         self.x0, self.u, self.y = x0s[0], us[0], ys[0]  # the first record (multiple shooting's one record)
         self.n_records = len(us)
-        self.oidx = np.asarray(output_index, dtype=np.int64)
-        self.n_states = coef.shape[1]
-        self.n_phys = 0 if physical is None else len(physical.names)
-        self.n_model = self.n_phys + len(self.free)
+        self.oidx = np.asarray(dyn.output_index, dtype=np.int64)
+        self.n_states = dyn.n_states
+        self.n_phys, self.n_model = view.n_phys, view.n_model
         self.n_x0 = self.free_x0.size * self.n_records
         self.segments = segments
         self.y_scales = []
@@ -74,7 +46,7 @@ class _Problem:
         self.n_res = sum(y_r.size for y_r in ys)
         # multiple shooting: the later segments' free initial states and the continuity weights (see _build)
         self.x_segments, self.weight = [], np.ones(self.n_states)
-        self.compiled = terms is not None and (physical is None or physical.make_rhs is None)
+        self.compiled = view.compiled
         self._rhs_key = self._rhs = None
         self._open_loop_key = self._open_loop = None
 
@@ -91,8 +63,7 @@ class _Problem:
         return tuple(out)
 
     def pack(self):
-        parts = [] if self.physical is None else [np.asarray(self.physical.values, dtype=float)]
-        parts.append(self.coef[self.free[:, 0], self.free[:, 1]])
+        parts = [self.view.start()]
         parts.extend(x0[self.free_x0] for x0 in self.x0s)
         parts.extend(self.x_segments)
         return np.concatenate(parts)
@@ -106,34 +77,17 @@ class _Problem:
         """Lower and upper bounds of ``p``; the initial states of every record within ``x0_lo``, ``x0_hi``."""
         x0_lo = lo if x0_lo is None else x0_lo
         x0_hi = hi if x0_hi is None else x0_hi
-        n_free = len(self.free)
-        lower = [np.full(n_free, -np.inf)] + [x0_lo[self.free_x0]] * self.n_records + [lo] * len(self.x_segments)
-        upper = [np.full(n_free, np.inf)] + [x0_hi[self.free_x0]] * self.n_records + [hi] * len(self.x_segments)
-        if self.physical is not None:
-            lower.insert(0, np.asarray(self.physical.lower, dtype=float))
-            upper.insert(0, np.asarray(self.physical.upper, dtype=float))
+        m_lo, m_hi = self.view.model_bounds()
+        lower = [m_lo] + [x0_lo[self.free_x0]] * self.n_records + [lo] * len(self.x_segments)
+        upper = [m_hi] + [x0_hi[self.free_x0]] * self.n_records + [hi] * len(self.x_segments)
         return np.concatenate(lower), np.concatenate(upper)
 
     def matrix(self, p):
-        C = self.coef.copy()
-        C[self.free[:, 0], self.free[:, 1]] = p[self.n_phys : self.n_model]
-        if self.physical is not None:
-            C = C + self.physical.coef(p[: self.n_phys])
-        return C
+        return self.view.matrix(p)
 
     def directions(self, p):
-        """dC/dp for the model parameters (physical by central differences of the algebraic map)."""
-        D = np.zeros((self.n_model,) + self.coef.shape)
-        v = np.asarray(p[: self.n_phys], dtype=float)
-        for k in range(self.n_phys):
-            step = 1e-6 * max(abs(v[k]), 1e-3)
-            hi, lo = v.copy(), v.copy()
-            hi[k] += step
-            lo[k] -= step
-            D[k] = (self.physical.coef(hi) - self.physical.coef(lo)) / (2 * step)
-        for e, (j, i) in enumerate(self.free):
-            D[self.n_phys + e, j, i] = 1.0
-        return D
+        """dC/dp for the model parameters (see :meth:`ParametrizedDynamics.directions`)."""
+        return self.view.directions(p)
 
     def record_starts(self, p):
         """Initial state of each record."""
@@ -157,14 +111,8 @@ class _Problem:
         """The right-hand side for the model part of ``p``; the last one is reused while that part is unchanged."""
         key = p[: self.n_model].tobytes()
         if self._rhs_key != key:
-            self._rhs_key, self._rhs = key, self._build_rhs(p)
+            self._rhs_key, self._rhs = key, self.view.rhs(p)
         return self._rhs
-
-    def _build_rhs(self, p):
-        C = self.matrix(p)
-        if self.compiled:
-            return TermsRHS(C, self.terms, self.n_states)
-        return self.physical.make_rhs(C, p[: self.n_phys]) if self.physical is not None else self.sim["make_rhs"](C)
 
     # ----------------------------------------------------------- residuals
     def open_loop(self, p):
@@ -180,7 +128,7 @@ class _Problem:
         if self._open_loop_key != key:
             rhs = self.rhs(p)
             with np.errstate(all="ignore"):
-                xs = [simulate(rhs, x0, u, self.dt, on_divergence="nan", **self.sim["settings"])
+                xs = [simulate(rhs, x0, u, self.dt, on_divergence="nan", **self.settings)
                       for x0, u in zip(self.record_starts(p), self.us)]
             self._open_loop_key, self._open_loop = key, xs
         return self._open_loop
@@ -226,7 +174,7 @@ class _Problem:
         for s, (a, b) in enumerate(self.segments):
             last = b + 1 if s + 1 < len(self.segments) else b
             with np.errstate(all="ignore"):
-                x = simulate(rhs, starts[s], self.u[a:last], self.dt, on_divergence="nan", **self.sim["settings"])
+                x = simulate(rhs, starts[s], self.u[a:last], self.dt, on_divergence="nan", **self.settings)
             r, c = self._segment_residuals(x, (a, b), starts[s + 1] if s + 1 < len(self.segments) else None)
             res.append(r)
             cont.append(c)
@@ -248,7 +196,7 @@ class _Problem:
             last = b + 1 if s + 1 < n_seg else b
             free = self.free_x0 if s == 0 else np.arange(n)
             x, S, S_end = simulate_sensitivity(rhs, starts[s], self.u[a:last], self.dt, directions=D, free_x0=free,
-                                               output_index=self.oidx, on_divergence="nan", **self.sim["settings"])
+                                               output_index=self.oidx, on_divergence="nan", **self.settings)
             if not np.all(np.isfinite(S)):
                 raise SimulationError("the sensitivities of an accepted refinement step are not finite.", step=-1)
             cols = np.r_[np.arange(self.n_model),
@@ -270,7 +218,7 @@ class _Problem:
         row, n_free = 0, self.free_x0.size
         for r, (x0, u, scale) in enumerate(zip(self.record_starts(p), self.us, self.y_scales)):
             _, S, _ = simulate_sensitivity(rhs, x0, u, self.dt, directions=D, free_x0=self.free_x0,
-                                           output_index=self.oidx, on_divergence="nan", **self.sim["settings"])
+                                           output_index=self.oidx, on_divergence="nan", **self.settings)
             if not np.all(np.isfinite(S)):
                 raise SimulationError(f"the sensitivities of an accepted refinement step are not finite "
                                       f"(record {r}).", step=-1)
@@ -312,8 +260,7 @@ def _output_jacobian(problem, fit):
     return J, r, columns
 
 
-def _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim, n_segments, continuity_weight,
-           lo, hi):
+def _build(view, x0s, us, ys, shooting, lo, hi):
     """The problem of one refinement round and the starting model's open-loop trajectories (one per record).
 
     That simulation checks the start, scales the continuity residuals by
@@ -321,8 +268,8 @@ def _build(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, 
     With multiple shooting, a start whose simulation of the record diverges
     gets segments short enough to simulate (:func:`_adaptive_segments`).
     """
-    problem = _Problem(terms, coef, free, physical, x0s, free_x0, us, ys, dt, output_index, sim,
-                       _segments(us[0].shape[0], n_segments))
+    n_segments, continuity_weight = shooting
+    problem = _Problem(view, x0s, us, ys, _segments(us[0].shape[0], n_segments))
     xs = problem.open_loop(problem.pack())
     for r, x_r in enumerate(xs):
         finite = np.all(np.isfinite(x_r), axis=1)
@@ -360,7 +307,7 @@ def _adaptive_segments(problem, p, lo, hi):
         b = next(e for e in planned if e > a)
         with np.errstate(all="ignore"):
             x = simulate(rhs, start, u[a : b + 1] if b < n else u[a:b], problem.dt, on_divergence="nan",
-                         **problem.sim["settings"])
+                         **problem.settings)
         with np.errstate(invalid="ignore"):
             far = ~(np.abs(x[:, oidx] - y[a : a + x.shape[0]]) <= problem.y_scale).all(axis=1)
         if far.any():  # the run leaves the record (or diverges): end the segment where it does

@@ -7,6 +7,7 @@ from sklearn.base import BaseEstimator
 from .._validation import check_bool, check_integer, check_positive, is_records
 from ..io import register_model
 from ._core import refine_simulation_error
+from ._parametrized import FreeParameters, LeastSquares, Shooting
 from ._prediction import refine_prediction_error
 
 __all__ = ["OutputErrorRefinement", "PredictionErrorRefinement"]
@@ -25,18 +26,16 @@ class _Refinement(BaseEstimator):
                                              or self.max_samples < 10):
             raise ValueError(f"max_samples must be an integer >= 10 or None (all samples); got {self.max_samples!r}.")
 
-    def _prepare(self, coef, u, y, physical, make_rhs):
-        """``(coef, u, y, physical, make_rhs)`` with the physical parameters held if not refined, records cut."""
-        if physical is not None and not self.physical:  # held at their values
-            coef = coef + physical.coef(physical.values)
-            if physical.make_rhs is not None:
-                make_rhs = _Held(physical.make_rhs, physical.values)
-            physical = None
+    def _prepare(self, u, y, free):
+        """``(u, y, free)``: the records cut to ``max_samples``; the physical parameters held if not refined."""
+        free = FreeParameters() if free is None else free
+        free = free._replace(physical=free.physical if self.physical else None,  # held at the model's values
+                             x0=free.x0 if self.initial_state else [])
         if is_records(y):  # several records: the first max_samples of each
             u, y = [self._head(u_r) for u_r in u], [self._head(y_r) for y_r in y]
         else:
             u, y = self._head(u), self._head(y)
-        return coef, u, y, physical, make_rhs
+        return u, y, free
 
     def _head(self, a):
         return a if self.max_samples is None else a[: self.max_samples]
@@ -96,16 +95,18 @@ class OutputErrorRefinement(_Refinement):
         check_integer(self.n_segments, "n_segments")
         check_positive(self.continuity_weight, "continuity_weight")
 
-    def run(self, terms, coef, u, y, dt, *, x0, output_index, free=None, physical=None, make_rhs=None, **settings):
-        """Refine with these settings (see :func:`~sindybench.refine.refine_simulation_error`)."""
+    def run(self, dynamics, u, y, *, x0, free=None):
+        """Refine ``dynamics`` with these settings (see :func:`~sindybench.refine.refine_simulation_error`).
+
+        ``free``: a :class:`~sindybench.refine.FreeParameters` (the physical
+        parameters are dropped, i.e. held, with ``physical=False``; the initial
+        states with ``initial_state=False``).
+        """
         self._validate()
-        coef, u, y, physical, make_rhs = self._prepare(coef, u, y, physical, make_rhs)
-        return refine_simulation_error(
-            terms, coef, u, y, dt, x0=x0, output_index=output_index, free=free,
-            physical=physical, free_x0=None if self.initial_state else [],
-            make_rhs=make_rhs, n_segments=self.n_segments, continuity_weight=self.continuity_weight,
-            prune=self.prune, max_nfev=self.max_nfev, **settings,
-        )
+        u, y, free = self._prepare(u, y, free)
+        return refine_simulation_error(dynamics, u, y, x0=x0, free=free, prune=self.prune,
+                                       shooting=Shooting(self.n_segments, self.continuity_weight),
+                                       solver=LeastSquares(max_nfev=self.max_nfev))
 
 
 class PredictionErrorRefinement(_Refinement):
@@ -166,30 +167,15 @@ class PredictionErrorRefinement(_Refinement):
         self.noise = noise
         self.max_samples = max_samples
 
-    def run(self, terms, coef, u, y, dt, *, x0, output_index, free=None, physical=None, make_rhs=None, **settings):
-        """Refine with these settings (see :func:`~sindybench.refine.refine_prediction_error`)."""
+    def run(self, dynamics, u, y, *, x0, free=None):
+        """Refine ``dynamics`` with these settings (see :func:`~sindybench.refine.refine_prediction_error`)."""
         self._validate_common()
         check_integer(self.horizon, "horizon")
         check_bool(self.fit_gain, "fit_gain")
-        if terms is None:
-            raise ValueError("PredictionErrorRefinement needs a compiled model (a built-in or custom library whose "
-                             "terms numba compiles); got a Python right-hand side. Use OutputErrorRefinement.")
-        coef, u, y, physical, _ = self._prepare(coef, u, y, physical, make_rhs)
-        return refine_prediction_error(
-            terms, coef, u, y, dt, x0=x0, output_index=output_index, free=free, physical=physical,
-            free_x0=None if self.initial_state else [], horizon=self.horizon, free_gain=self.fit_gain,
-            noise=self.noise, prune=self.prune, simulation=settings, max_nfev=self.max_nfev,
-        )
-
-
-class _Held:
-    """``make_rhs(C)`` with the physical parameters held at ``values``."""
-
-    def __init__(self, make_rhs, values):
-        self.make_rhs, self.values = make_rhs, values
-
-    def __call__(self, C):
-        return self.make_rhs(C, self.values)
+        u, y, free = self._prepare(u, y, free)
+        return refine_prediction_error(dynamics, u, y, x0=x0, free=free, horizon=self.horizon,
+                                       free_gain=self.fit_gain, noise=self.noise, prune=self.prune,
+                                       solver=LeastSquares(max_nfev=self.max_nfev))
 
 
 register_model(OutputErrorRefinement)

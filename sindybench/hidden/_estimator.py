@@ -13,13 +13,15 @@ from .._params import Constraint
 from .._preprocessing import scaling_record
 from .._equations import EquationRow
 from ..optimizers import STLS
+from .._base import check_refinement
 from .._validation import check_bool, check_dt, check_integer, check_option
 from .._records import in_record
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name
-from ..search import SEARCH_PENALTY, check_search_space, minimize
+from ..search import SEARCH_PENALTY, Categorical, check_search_space, minimize
 from ._augmentation import DerivativeHiddenState
+from ._auto import AUTO, HOLDS, auto_grid, auto_refinement, candidate_settings, is_auto
 from ._base import Design, HiddenStrategy
 from ._candidate import Candidate, candidate_initial_state, fit_candidate, structure_dynamics
 from ._derivative import Derivative
@@ -34,6 +36,10 @@ logger = logging.getLogger(__name__)
 
 _HIDDEN_PREFIX = "hidden__"
 _INITIAL_STATES = ("strategy", "fit", "periodic")
+
+
+def _check_refine_param(value, name):
+    return value if is_auto(value) else check_refinement(value, name)
 
 
 def _check_strategy_param(value, name):
@@ -225,9 +231,9 @@ class HiddenStateSINDy(DynamicsEstimator):
         self,
         *,
         hidden=DerivativeHiddenState(order=2),
-        library=None,
+        library="auto",
         optimizer=STLS(threshold=0.0),
-        differentiation=FiniteDifference(),
+        differentiation=FiniteDifference(accuracy=4),
         dt=None,
         validation_size=0.2,
         validation="block",
@@ -239,12 +245,12 @@ class HiddenStateSINDy(DynamicsEstimator):
         show_progress_bar=True,
         n_substeps=1,
         integrator="rk4",
-        input_hold="zoh",
+        input_hold="auto",
         bounds=None,
         max_abs=1e6,
         input_delay=0,
         normalize=False,
-        refine=None,
+        refine="auto",
         initial_state="strategy",
     ):
         self.hidden = hidden
@@ -278,6 +284,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         "refit": Constraint(check_bool),
         "show_progress_bar": Constraint(check_bool),
         "initial_state": Constraint(check_option, options=_INITIAL_STATES),
+        "input_hold": Constraint(check_option, options=(*HOLDS, AUTO)),
+        "refine": Constraint(_check_refine_param),
     }
 
     # ------------------------------------------------------------------ checks
@@ -364,6 +372,9 @@ class HiddenStateSINDy(DynamicsEstimator):
                 hidden._validate_data(X_r, y_r)
         space = {_HIDDEN_PREFIX + k: dim for k, dim in hidden.search_space().items()}
         space.update(est_space)
+        if space and is_auto(self.input_hold) and X[0].shape[1]:
+            space["input_hold"] = Categorical(list(HOLDS))  # "auto": the inner search decides the hold too
+        grid = auto_grid(self, hidden, X[0].shape[1], searched=bool(space))
         n = [y_r.shape[0] for y_r in y]
         best_params, search_results = {}, []
         n_rows = n
@@ -388,6 +399,8 @@ class HiddenStateSINDy(DynamicsEstimator):
                     f"block; expected bounds of the searched parameters that contain a stable model.{first}"
                 )
             n_rows = n if self.refit else n_fit
+        elif grid:
+            best_params, search_results, n_rows = self._auto_settings(grid, hidden, X, y, dt, derivative)
         cand = self._candidate(hidden, best_params, X, y, dt, n_rows, derivative)
         cand.derivative.pin(None)
         # the records' states stacked; x0_ is the first record's
@@ -395,15 +408,17 @@ class HiddenStateSINDy(DynamicsEstimator):
         x0 = np.asarray(cand.designs[0].states[0], dtype=float).copy()
         scaling = scaling_record(np.hstack([states, np.vstack(X)])) if self.normalize else None  # [x, u], all records
         refinement = None
-        if self.refine is not None:
+        refine = auto_refinement(self.refine, cand.dynamics)
+        if refine is not None:
             head = ([X_r[:k] for X_r, k in zip(X, n_rows)], [y_r[:k] for y_r, k in zip(y, n_rows)])
-            cand, x0_refined, refinement = self._refine(hidden, cand, *head)
+            cand, x0_refined, refinement = self._refine(hidden, cand, *head, refine=refine)
             if x0_refined is not None:  # the refined model's own trajectories replace the reconstruction
                 x0 = x0_refined[0]
                 states = np.vstack([cand.dynamics.simulate(X_r, x0_r, on_divergence="nan")
                                     for X_r, x0_r in zip(X, x0_refined)])
 
         self.best_params_, self.search_results_ = best_params, search_results
+        self.input_hold_ = cand.dynamics.input_hold
         self.hidden_ = hidden
         self.params_ = dict(cand.params)
         self.library_, self.optimizer_, self.differentiation_ = cand.library, cand.optimizer, cand.differentiation
@@ -423,28 +438,57 @@ class HiddenStateSINDy(DynamicsEstimator):
 
     def _components(self, est_values):
         est = clone(self).set_params(**est_values) if est_values else self
-        library = est.library if est.library is not None else None
         optimizer = clone(est.optimizer) if est.optimizer is not None else STLS(threshold=0.0)
         differentiation = clone(as_differentiation(est.differentiation))
-        return library, optimizer, differentiation
+        return est, optimizer, differentiation
 
-    def _simulation(self, dt):
-        """The simulation settings of this estimator's dynamics (see :func:`structure_dynamics`)."""
-        return dict(dt=dt, n_substeps=self.n_substeps, input_hold=self.input_hold, max_abs=self.max_abs,
+    def _simulation(self, dt, input_hold=None):
+        """The simulation settings of this estimator's dynamics (see :func:`structure_dynamics`).
+
+        The hold is ``input_hold``, else the fitted ``input_hold_`` (what ``"auto"`` decided), else the parameter.
+        """
+        hold = input_hold or getattr(self, "input_hold_", None) or self.input_hold
+        return dict(dt=dt, n_substeps=self.n_substeps, input_hold=hold, max_abs=self.max_abs,
                     method=self.integrator, bounds=self.bounds)
 
     def _candidate(self, hidden, values, X, y, dt, n_rows, derivative=None):
         """The candidate of ``values``; ``X``, ``y`` and ``n_rows`` are lists, one entry per record."""
         hvals = {k[len(_HIDDEN_PREFIX) :]: v for k, v in values.items() if k.startswith(_HIDDEN_PREFIX)}
         est_values = {k: v for k, v in values.items() if not k.startswith(_HIDDEN_PREFIX)}
-        library, optimizer, differentiation = self._components(est_values)
-        library = clone(as_library(library if library is not None else hidden.default_library()))
+        auto_keys = ("input_hold", "library__degree") if is_auto(self.library) else ("input_hold",)
+        est, optimizer, differentiation = self._components(
+            {k: v for k, v in est_values.items() if k not in auto_keys})
+        library, hold, _ = candidate_settings(est, hidden, est_values)
+        library = clone(as_library(library))
         if derivative is None:
             derivative = Derivative(differentiation, dt)
         return fit_candidate(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
-                             self._simulation(dt), normalize=est_values.get("normalize", self.normalize))
+                             self._simulation(dt, hold), normalize=est_values.get("normalize", self.normalize))
 
-    def _refine(self, hidden, cand, X, y, held=()):
+    def _auto_settings(self, grid, hidden, X, y, dt, derivative):
+        """``(best_params, search_results, n_rows)`` of the ``"auto"`` candidates, each scored on the validation block.
+
+        A record too short for a validation block, or a grid whose every
+        candidate fails, takes the grid's last entry (the fallback) and all the rows.
+        """
+        n = [y_r.shape[0] for y_r in y]
+        try:
+            n_fit = [n_r - self._n_validation(n_r) for n_r in n]
+        except ValueError:
+            return dict(grid[-1]), [], n
+        if len(grid) == 1:
+            return dict(grid[0]), [], n
+        objective = SearchObjective(lambda values: self._candidate(hidden, values, X, y, dt, n_fit, derivative),
+                                    hidden, X, y, n_fit, self.validation)
+        with np.errstate(all="ignore"):
+            results = [(dict(values), float(objective(values))) for values in grid]
+        best = min(range(len(grid)), key=lambda i: (results[i][1], -i))  # a tie: the later (richer) candidate
+        if results[best][1] >= SEARCH_PENALTY:
+            best = len(grid) - 1
+        logger.info("auto settings: %s (validation %s)", grid[best], [round(r[1], 4) for r in results])
+        return dict(grid[best]), results, (n if self.refit else n_fit)
+
+    def _refine(self, hidden, cand, X, y, held=(), refine=None):
         """The candidate refined by simulation error, its refined first state and the refinement record.
 
         A model whose simulation of the training record diverges cannot be
@@ -452,14 +496,14 @@ class HiddenStateSINDy(DynamicsEstimator):
         with a warning. ``X`` and ``y`` are lists of records; the refined
         first states are an array (n_records, n_states).
         """
-        simulation = self._simulation(cand.dynamics.dt)
+        simulation = self._simulation(cand.dynamics.dt, cand.dynamics.input_hold)
         n_outputs, n_inputs = y[0].shape[1], X[0].shape[1]
         problem = refinement_problem(cand, hidden, n_outputs, n_inputs,
                                      build=lambda s, coef: structure_dynamics(s, cand.library, coef, simulation))
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            result, record = self._run_refinement(cand.dynamics, X, y, **problem)
-        fallback = getattr(hidden, "diverging_refinement", lambda refine: None)(self.refine)
+            result, record = self._run_refinement(cand.dynamics, X, y, refine=refine, **problem)
+        fallback = getattr(hidden, "diverging_refinement", lambda refine: None)(refine)
         if result is None and fallback is not None and cand.dynamics.compiled:  # the start diverges: prediction error
             result, record = self._run_refinement(cand.dynamics, X, y, refine=fallback, **problem)
             caught = [w for w in caught if "refinement skipped" not in str(w.message)]
@@ -481,7 +525,7 @@ class HiddenStateSINDy(DynamicsEstimator):
             states[0] = x0_new
             moved = cand._replace(coef=coef, designs=(cand.design._replace(states=states),),
                                   dynamics=structure_dynamics(cand.structure, cand.library, coef, simulation))
-            moved, x0_again, again = self._refine(hidden, moved, X, y, held=mixing_held)
+            moved, x0_again, again = self._refine(hidden, moved, X, y, held=mixing_held, refine=refine)
             if again.get("status", -1) >= 0 and again["cost"] <= summary["cost"] * (1 + 1e-3) + 1e-15:
                 return moved, x0_again, again
         if held:

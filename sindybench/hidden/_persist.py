@@ -51,7 +51,8 @@ from ..io import check_limit, check_params, encode_array, encode_value, fitted_t
 from ..libraries import check_terms, fitted_library_from_dict, fitted_library_to_dict, terms_to_json
 from ..libraries._spec import MAX_COLUMNS
 from .._covariance import check_refinement_record
-from ._auto import HOLDS
+from ..differentiation import FiniteDifference
+from ._auto import HOLDS, is_auto
 from ._base import HiddenStrategy, Structure
 from ._parametric import MAX_GRID_POINTS as MAX_GRID  # grid points a strategy's initial-state search may ask for
 
@@ -225,16 +226,25 @@ def _check_physical(hidden, params):
 
 
 def _load_input_hold(model, fitted):
-    """``input_hold_``: the hold the model simulates with; files written before ``"auto"`` (0.2) hold the parameter's."""
-    if "input_hold" not in fitted.data:
-        if model.input_hold not in HOLDS:
-            raise ValueError(f"fitted.input_hold is missing, and params.input_hold = {model.input_hold!r} does not name "
-                             f"a hold; expected one of {list(HOLDS)}.")
-        model.input_hold_ = model.input_hold
-    else:
+    """``input_hold_``, the hold the model simulates with, and the parameters of a file written before 0.2.
+
+    Such a file has no ``fitted.input_hold``: it simulates with its ``input_hold``
+    parameter, and a parameter it did not store (so that loading gave it the
+    current default) takes the default of its time: ``input_hold="zoh"``,
+    ``library=None``, ``refine=None``, ``differentiation=FiniteDifference()``.
+    """
+    if "input_hold" in fitted.data:
         model.input_hold_ = fitted.str("input_hold")
         if model.input_hold_ not in HOLDS:
             raise ValueError(f"fitted.input_hold: expected one of {list(HOLDS)}; got {model.input_hold_!r}.")
+        return
+    old = {"input_hold": "zoh", "library": None, "refine": None}  # "auto" did not exist before 0.2
+    model.set_params(**{k: v for k, v in old.items() if is_auto(getattr(model, k))})
+    fd = model.differentiation
+    if (type(fd) is FiniteDifference and fd.accuracy == 4 and type(model.differentiation_) is FiniteDifference
+            and model.differentiation_.accuracy == 2):
+        model.differentiation = FiniteDifference()  # the default before 0.2, as fitted
+    model.input_hold_ = model.input_hold
 
 
 def hidden_sindy_from_dict(model, fitted):

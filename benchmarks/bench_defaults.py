@@ -145,7 +145,9 @@ def _chosen(model):
     if not hasattr(model, "input_hold_"):
         return ""
     degree = getattr(model.library_, "degree", "?")
-    return f"{model.input_hold_}, poly{degree}{', refined' if model.refinement_ else ''}"
+    status = (model.refinement_ or {}).get("status", -1)
+    refined = ", refined" if status >= 0 else (", refinement skipped" if model.refinement_ else "")
+    return f"{model.input_hold_}, poly{degree}{refined}"
 
 
 def _fmt(v):

@@ -18,12 +18,21 @@ estimator's defaults since version 0.2 (see the user guide's "Defaults"):
   right-hand side refines by finite differences, hundreds of times slower).
 """
 
+import logging
+
+import numpy as np
 from sklearn.base import clone
 
+from .._base import check_refinement
 from ..libraries import PolynomialLibrary, as_library
 from ..refine import OutputErrorRefinement
+from ..search import SEARCH_PENALTY
+from ._objective import SearchObjective
 
-__all__ = ["AUTO", "HOLDS", "auto_grid", "auto_refinement", "candidate_settings", "is_auto"]
+logger = logging.getLogger(__name__)
+
+__all__ = ["AUTO", "HOLDS", "auto_grid", "auto_refinement", "candidate_settings", "check_refine_param", "decide",
+           "is_auto"]
 
 AUTO = "auto"
 HOLDS = ("zoh", "linear")
@@ -34,6 +43,11 @@ DEGREE = "library__degree"
 def is_auto(value):
     """Whether a parameter's value is ``"auto"`` (decided inside ``fit``)."""
     return isinstance(value, str) and value == AUTO
+
+
+def check_refine_param(value, name):
+    """``refine``: ``"auto"`` or what :func:`sindybench._base.check_refinement` accepts."""
+    return value if is_auto(value) else check_refinement(value, name)
 
 
 def _auto_degrees(estimator, hidden):
@@ -127,3 +141,30 @@ def auto_refinement(refine, dynamics):
     if not is_auto(refine):
         return refine
     return OutputErrorRefinement() if dynamics.compiled else None
+
+
+def decide(estimator, grid, hidden, X, y, dt, derivative):
+    """``(best_params, search_results, n_rows)``: the candidates of ``grid``, each scored on the validation block.
+
+    Each candidate is ``estimator._candidate`` fitted without the validation
+    block of each record and scored as a trial of the inner search. A record
+    too short for a validation block, or a grid whose every candidate fails,
+    takes the grid's last entry (the fallback) and all the rows; otherwise the
+    rows are all of them with ``refit`` (the chosen settings are fitted again).
+    """
+    n = [y_r.shape[0] for y_r in y]
+    try:
+        n_fit = [n_r - estimator._n_validation(n_r) for n_r in n]
+    except ValueError:
+        return dict(grid[-1]), [], n
+    if len(grid) == 1:
+        return dict(grid[0]), [], n
+    objective = SearchObjective(lambda values: estimator._candidate(hidden, values, X, y, dt, n_fit, derivative),
+                                hidden, X, y, n_fit, estimator.validation)
+    with np.errstate(all="ignore"):
+        results = [(dict(values), float(objective(values))) for values in grid]
+    best = min(range(len(grid)), key=lambda i: (results[i][1], -i))  # a tie: the later (richer) candidate
+    if results[best][1] >= SEARCH_PENALTY:
+        best = len(grid) - 1
+    logger.info("auto settings: %s (validation %s)", grid[best], [round(r[1], 4) for r in results])
+    return dict(grid[best]), results, (n if estimator.refit else n_fit)

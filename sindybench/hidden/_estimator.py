@@ -13,7 +13,6 @@ from .._params import Constraint
 from .._preprocessing import scaling_record
 from .._equations import EquationRow
 from ..optimizers import STLS
-from .._base import check_refinement
 from .._validation import check_bool, check_dt, check_integer, check_option
 from .._records import in_record
 from ..differentiation import FiniteDifference, as_differentiation
@@ -21,7 +20,7 @@ from ..io import register_model
 from ..libraries import as_library, term_name
 from ..search import SEARCH_PENALTY, Categorical, check_search_space, minimize
 from ._augmentation import DerivativeHiddenState
-from ._auto import AUTO, HOLDS, auto_grid, auto_refinement, candidate_settings, is_auto
+from ._auto import AUTO, HOLDS, auto_grid, auto_refinement, candidate_settings, check_refine_param, decide, is_auto
 from ._base import Design, HiddenStrategy
 from ._candidate import Candidate, candidate_initial_state, fit_candidate, structure_dynamics
 from ._derivative import Derivative
@@ -36,10 +35,6 @@ logger = logging.getLogger(__name__)
 
 _HIDDEN_PREFIX = "hidden__"
 _INITIAL_STATES = ("strategy", "fit", "periodic")
-
-
-def _check_refine_param(value, name):
-    return value if is_auto(value) else check_refinement(value, name)
 
 
 def _check_strategy_param(value, name):
@@ -66,23 +61,29 @@ class HiddenStateSINDy(DynamicsEstimator):
     hidden : HiddenStrategy, default=DerivativeHiddenState(order=2)
         The strategy (None means the default); its parameters are
         searchable (``hidden__order``).
-    library : transformer, default=None
+    library : transformer, "auto" or None, default="auto"
         Candidate functions of ``Z = [states, inputs]``; None means the
         strategy's ``default_library()`` (it depends on the strategy, so it
-        is chosen in ``fit``). pysindy libraries are wrapped.
+        is chosen in ``fit``). ``"auto"`` (the default since 0.2): that
+        library, or when it is a ``PolynomialLibrary`` each of its degrees
+        from 1 up, the one whose model simulates the validation block best
+        (when the inner search runs, the strategy's library itself). pysindy
+        libraries are wrapped.
     optimizer : regressor, default=STLS(threshold=0.0)
         Sparse regressor with ``coef_`` (n_targets, n_features); the default
         is plain least squares (None means the same), and
         ``optimizer__threshold`` sets sparsity in the units of your problem.
-    differentiation : object, default=FiniteDifference()
+    differentiation : object, default=FiniteDifference(accuracy=4)
         Derivative method with ``derivative(y, *, dt, order)`` (see
         :mod:`sindybench.differentiation`); None means finite differences.
+        The default was ``FiniteDifference()`` (accuracy 2) before 0.2.
     dt : float, default=None
         Sampling interval (required, here or in ``fit``).
     validation_size : float or int, default=0.2
         Validation block at the end of the training data: a fraction in
         (0, 1) or a number of samples (at the end of each record, with
-        several records). Used only when something is searched.
+        several records). Used only when something is searched or decided
+        (``"auto"``).
     validation : {"block", "continued", "full"}, default="block"
         How a candidate is scored in the inner search (normalized RMSE of an
         open-loop simulation of the outputs):
@@ -126,8 +127,13 @@ class HiddenStateSINDy(DynamicsEstimator):
     n_substeps : int, default=1
         Integration steps per sample in simulations.
     integrator : {"rk4", "euler"}, default="rk4"
-    input_hold : {"zoh", "linear"}, default="zoh"
-        Input interpolation between samples in simulations.
+    input_hold : {"zoh", "linear", "auto"}, default="auto"
+        Input interpolation between samples in simulations. ``"auto"`` (the
+        default since 0.2; ``"zoh"`` before): the hold whose model simulates
+        the validation block best, decided with the library (or as one more
+        dimension of the inner search when it runs); ``input_hold_`` says
+        which. Too short a record for a validation block takes ``"linear"``
+        and the default library's own degree.
     bounds : (lower, upper) or None, default=None
         State bounds for simulations (scalars or one per state), instead of
         the strategy's own (``structure_.bounds``); None keeps the strategy's.
@@ -141,7 +147,11 @@ class HiddenStateSINDy(DynamicsEstimator):
         ``normalize``): the library's features of the centred, scaled states
         and inputs, each target divided by its root mean square, the
         coefficients mapped back exactly to the user's units.
-    refine : OutputErrorRefinement, PredictionErrorRefinement or None, default=None
+    refine : OutputErrorRefinement, PredictionErrorRefinement, "auto" or None, default="auto"
+        ``"auto"`` (the default since 0.2; None before): an
+        ``OutputErrorRefinement()`` when the chosen model is compiled (built
+        from terms: exact sensitivities), none otherwise (a Python right-hand
+        side refines by finite differences, far slower).
         Refine the final model by its open-loop simulation error on the
         training record (:class:`~sindybench.refine.OutputErrorRefinement`;
         or by its prediction error,
@@ -168,10 +178,15 @@ class HiddenStateSINDy(DynamicsEstimator):
     params_ : dict
         All physical parameters of the final model (given and searched).
     best_params_ : dict
-        Values of the best trial (``hidden__<name>`` for physical parameters);
-        empty when nothing was searched.
+        Values of the best trial (``hidden__<name>`` for physical parameters),
+        and what the ``"auto"`` parameters decided (``input_hold``,
+        ``library__degree``); empty when nothing was searched or decided.
     search_results_ : list of (dict, float)
-        Every trial's values and validation score (normalized RMSE).
+        Every trial's values and validation score (normalized RMSE); without
+        a search, every candidate of the ``"auto"`` parameters.
+    input_hold_ : str
+        The input hold the model simulates with (what ``input_hold="auto"``
+        decided, else ``input_hold``).
     library_, optimizer_, differentiation_ : fitted components
     coef_ : ndarray of shape (n_learned, n_library_terms)
         Learned coefficients, one row per learned state.
@@ -285,7 +300,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         "show_progress_bar": Constraint(check_bool),
         "initial_state": Constraint(check_option, options=_INITIAL_STATES),
         "input_hold": Constraint(check_option, options=(*HOLDS, AUTO)),
-        "refine": Constraint(_check_refine_param),
+        "refine": Constraint(check_refine_param),
     }
 
     # ------------------------------------------------------------------ checks
@@ -400,7 +415,7 @@ class HiddenStateSINDy(DynamicsEstimator):
                 )
             n_rows = n if self.refit else n_fit
         elif grid:
-            best_params, search_results, n_rows = self._auto_settings(grid, hidden, X, y, dt, derivative)
+            best_params, search_results, n_rows = decide(self, grid, hidden, X, y, dt, derivative)
         cand = self._candidate(hidden, best_params, X, y, dt, n_rows, derivative)
         cand.derivative.pin(None)
         # the records' states stacked; x0_ is the first record's
@@ -464,29 +479,6 @@ class HiddenStateSINDy(DynamicsEstimator):
             derivative = Derivative(differentiation, dt)
         return fit_candidate(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
                              self._simulation(dt, hold), normalize=est_values.get("normalize", self.normalize))
-
-    def _auto_settings(self, grid, hidden, X, y, dt, derivative):
-        """``(best_params, search_results, n_rows)`` of the ``"auto"`` candidates, each scored on the validation block.
-
-        A record too short for a validation block, or a grid whose every
-        candidate fails, takes the grid's last entry (the fallback) and all the rows.
-        """
-        n = [y_r.shape[0] for y_r in y]
-        try:
-            n_fit = [n_r - self._n_validation(n_r) for n_r in n]
-        except ValueError:
-            return dict(grid[-1]), [], n
-        if len(grid) == 1:
-            return dict(grid[0]), [], n
-        objective = SearchObjective(lambda values: self._candidate(hidden, values, X, y, dt, n_fit, derivative),
-                                    hidden, X, y, n_fit, self.validation)
-        with np.errstate(all="ignore"):
-            results = [(dict(values), float(objective(values))) for values in grid]
-        best = min(range(len(grid)), key=lambda i: (results[i][1], -i))  # a tie: the later (richer) candidate
-        if results[best][1] >= SEARCH_PENALTY:
-            best = len(grid) - 1
-        logger.info("auto settings: %s (validation %s)", grid[best], [round(r[1], 4) for r in results])
-        return dict(grid[best]), results, (n if self.refit else n_fit)
 
     def _refine(self, hidden, cand, X, y, held=(), refine=None):
         """The candidate refined by simulation error, its refined first state and the refinement record.

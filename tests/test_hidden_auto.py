@@ -137,3 +137,19 @@ def test_order_one_strategy_and_no_inputs(rng):
     model = HiddenStateSINDy(dt=DT, hidden=DerivativeHiddenState(order=1), refine=None,
                              show_progress_bar=False).fit(None, y)
     assert {v["input_hold"] for v, _ in model.search_results_} == {"zoh"}
+
+
+def test_auto_skips_a_refinement_the_strategy_cannot_set_up(rng):
+    from sindybench.hidden import LatentHiddenState
+    from sindybench.libraries import SqrtLibrary
+
+    u = np.repeat(rng.uniform(1.0, 2.0, 10), 30)[:, None]
+    y = simulate(lambda x, v: -x + v, [1.0], u, 0.1)
+    kwargs = dict(hidden=LatentHiddenState(tau=1.0), library=SqrtLibrary(variables=[0, 1]), dt=0.1, n_trials=1,
+                  show_progress_bar=False)
+    model = HiddenStateSINDy(**kwargs).fit(u, y)  # no linear driver term: the latent gauge cannot be held
+    assert model.refinement_["status"] == -1 and "no linear term of column 2" in model.refinement_["message"]
+    from sindybench.refine import OutputErrorRefinement
+
+    with pytest.raises(ValueError, match="no linear term of column 2"):  # asked for, it must run
+        HiddenStateSINDy(refine=OutputErrorRefinement(), **kwargs).fit(u, y)

@@ -15,7 +15,9 @@ estimator's defaults since version 0.2 (see the user guide's "Defaults"):
 * :func:`candidate_settings`: the library and the hold of one candidate;
 * :func:`auto_refinement`: ``refine="auto"`` refines by simulation error when
   the model is compiled (exact sensitivities) and skips it otherwise (a Python
-  right-hand side refines by finite differences, hundreds of times slower).
+  right-hand side refines by finite differences, hundreds of times slower); a
+  model the strategy cannot refine (a latent state without its gauge term) is
+  kept as fitted, the reason in ``refinement_["message"]``.
 """
 
 import logging

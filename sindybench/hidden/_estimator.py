@@ -426,7 +426,12 @@ class HiddenStateSINDy(DynamicsEstimator):
         refine = auto_refinement(self.refine, cand.dynamics)
         if refine is not None:
             head = ([X_r[:k] for X_r, k in zip(X, n_rows)], [y_r[:k] for y_r, k in zip(y, n_rows)])
-            cand, x0_refined, refinement = self._refine(hidden, cand, *head, refine=refine)
+            try:
+                cand, x0_refined, refinement = self._refine(hidden, cand, *head, refine=refine)
+            except ValueError as exc:  # "auto" refines what can be refined; a refinement asked for must run
+                if not is_auto(self.refine):
+                    raise
+                x0_refined, refinement = None, {"status": -1, "message": f"skipped (refine='auto'): {exc}"}
             if x0_refined is not None:  # the refined model's own trajectories replace the reconstruction
                 x0 = x0_refined[0]
                 states = np.vstack([cand.dynamics.simulate(X_r, x0_r, on_divergence="nan")
@@ -458,10 +463,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         return est, optimizer, differentiation
 
     def _simulation(self, dt, input_hold=None):
-        """The simulation settings of this estimator's dynamics (see :func:`structure_dynamics`).
-
-        The hold is ``input_hold``, else the fitted ``input_hold_`` (what ``"auto"`` decided), else the parameter.
-        """
+        """Simulation settings of the dynamics; the hold: ``input_hold``, else ``input_hold_``, else the parameter."""
         hold = input_hold or getattr(self, "input_hold_", None) or self.input_hold
         return dict(dt=dt, n_substeps=self.n_substeps, input_hold=hold, max_abs=self.max_abs,
                     method=self.integrator, bounds=self.bounds)

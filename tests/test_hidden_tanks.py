@@ -101,7 +101,8 @@ def test_search_and_predict_refine_through_the_one_estimator(smooth_tanks, monke
         return real(*args, **kwargs)
 
     monkeypatch.setattr(refinement, "estimate_initial_state", spy)
-    model = HiddenStateSINDy(**BEFORE_AUTO, hidden=TanksHiddenState(k1=system.k1, k2=system.k2), library=SqrtLibrary(variables=[0, 1]),
+    model = HiddenStateSINDy(**BEFORE_AUTO,
+                             hidden=TanksHiddenState(k1=system.k1, k2=system.k2), library=SqrtLibrary(variables=[0, 1]),
                              dt=1.0, n_substeps=4, validation="block", n_trials=4, random_state=0).fit(u, y)
     assert len(calls) == 4 and all(c["free_x0"].tolist() == [1] for c in calls)
     calls.clear()
@@ -143,14 +144,16 @@ def test_negative_levels_are_refused(tanks_data):
 def test_one_input_one_output_only(tanks_data):
     _, u, y, _ = tanks_data
     with pytest.raises(ValueError, match="one input and one output"):
-        HiddenStateSINDy(**BEFORE_AUTO, hidden=TanksHiddenState(k1=0.04, k2=0.03, x0=3.0), dt=DT).fit(u, np.hstack([y, y]))
+        HiddenStateSINDy(**BEFORE_AUTO,
+                         hidden=TanksHiddenState(k1=0.04, k2=0.03, x0=3.0), dt=DT).fit(u, np.hstack([y, y]))
 
 
 def test_ratio_search(tanks_data):
     """k1 and k2 / k1 searched (the valley of good (k1, k2) along one axis), whole-record validation."""
     system, u, y, x = tanks_data
     hidden = TanksHiddenState(ratio_bounds=(0.3, 3.0), k_bounds=(0.01, 0.1))
-    model = HiddenStateSINDy(**BEFORE_AUTO, hidden=hidden, library=SqrtLibrary(variables=[0, 1]), dt=DT, n_substeps=4, n_trials=40,
+    model = HiddenStateSINDy(**BEFORE_AUTO,
+                             hidden=hidden, library=SqrtLibrary(variables=[0, 1]), dt=DT, n_substeps=4, n_trials=40,
                              local_trials=10, validation="full", random_state=0).fit(u, y)
     assert set(model.best_params_) == {"hidden__k1", "hidden__ratio", "hidden__x0"}
     assert set(model.params_) == {"k1", "k2", "x0"}

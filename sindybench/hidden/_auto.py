@@ -150,9 +150,11 @@ def decide(estimator, grid, hidden, X, y, dt, derivative):
 
     Each candidate is ``estimator._candidate`` fitted without the validation
     block of each record and scored as a trial of the inner search. A record
-    too short for a validation block, or a grid whose every candidate fails,
-    takes the grid's last entry (the fallback) and all the rows; otherwise the
-    rows are all of them with ``refit`` (the chosen settings are fitted again).
+    too short for a validation block, a fallback (the grid's last entry,
+    tried first) that raises an error (a divergence is a score, not an error),
+    or a grid whose every candidate diverges takes the fallback and all the
+    rows; otherwise the rows are all of them with ``refit`` (the chosen
+    settings are fitted again).
     """
     n = [y_r.shape[0] for y_r in y]
     try:
@@ -163,8 +165,13 @@ def decide(estimator, grid, hidden, X, y, dt, derivative):
         return dict(grid[0]), [], n
     objective = SearchObjective(lambda values: estimator._candidate(hidden, values, X, y, dt, n_fit, derivative),
                                 hidden, X, y, n_fit, estimator.validation)
+    results = [None] * len(grid)
     with np.errstate(all="ignore"):
-        results = [(dict(values), float(objective(values))) for values in grid]
+        for i in [len(grid) - 1, *range(len(grid) - 1)]:  # the fallback first: its error ends the decision
+            results[i] = (dict(grid[i]), float(objective(grid[i])))
+            if objective.first_error is not None and i == len(grid) - 1:
+                logger.info("auto settings: the fallback %s failed (%s)", grid[i], objective.first_error)
+                return dict(grid[i]), [], n  # the fit on all rows raises the error, as the defaults before 0.2 did
     best = min(range(len(grid)), key=lambda i: (results[i][1], -i))  # a tie: the later (richer) candidate
     if results[best][1] >= SEARCH_PENALTY:
         best = len(grid) - 1

@@ -14,7 +14,12 @@ validation block is the last 20 % of the estimation record.
 
 Usage (from the repository root)::
 
-    SINDYBENCH_DATA=../shared/data python benchmarks/bench_defaults.py [--benchmarks tanks emps ...]
+    SINDYBENCH_DATA=../shared/data PYTHONPATH=. python benchmarks/bench_defaults.py [--benchmarks tanks emps ...] \\
+        [--configs "ARX()" "HiddenStateSINDy() (0.2: auto library and hold, FD4, auto refine)"]
+
+(``PYTHONPATH=.``: the checkout's ``sindybench``, not another installed copy.) The last column
+says what ``HiddenStateSINDy``'s ``"auto"`` parameters decided, on the validation fit and on the
+full fit.
 """
 
 import argparse
@@ -28,25 +33,43 @@ import numpy as np
 from sindybench import STLS, HiddenStateSINDy, SINDy
 from sindybench.baselines import ARX
 from sindybench.differentiation import FiniteDifference, Spectral
+from sindybench.hidden import DerivativeHiddenState
+from sindybench.libraries import PolynomialLibrary
 from sindybench.refine import OutputErrorRefinement
 from sindybench.experiments import evaluate, get_benchmark, load_data, test_sets
 
 OLD = dict(input_hold="zoh", differentiation=FiniteDifference(accuracy=2))  # the defaults before 0.2
 NEW = dict(input_hold="linear", differentiation=FiniteDifference(accuracy=4))
+QUIET = dict(show_progress_bar=False)
+#: HiddenStateSINDy's defaults before 0.2: the strategy's library, zero-order hold, FiniteDifference(), no refinement
+HIDDEN_01 = dict(library=None, refine=None, **OLD, **QUIET)
 CONFIGS = {
     "ARX()": lambda dt: ARX(),
-    "SINDy, 0.1 defaults (zoh, FD2, threshold 0.1)": lambda dt: SINDy(dt=dt, normalize=False, **OLD),
-    "SINDy linear, FD4": lambda dt: SINDy(dt=dt, normalize=False, **NEW),
+    "SINDy() (zoh, FD2, threshold 0.1)": lambda dt: SINDy(dt=dt),
+    "SINDy linear, FD4": lambda dt: SINDy(dt=dt, **NEW),
     "SINDy normalize, threshold 0.05": lambda dt: SINDy(dt=dt, normalize=True, optimizer=STLS(threshold=0.05), **OLD),
     "SINDy linear, FD4, normalize, threshold 0.05":
         lambda dt: SINDy(dt=dt, normalize=True, optimizer=STLS(threshold=0.05), **NEW),
-    "HiddenStateSINDy, 0.1 defaults (zoh, FD2, least squares)": lambda dt: HiddenStateSINDy(dt=dt, **OLD),
-    "HiddenStateSINDy linear, FD4": lambda dt: HiddenStateSINDy(dt=dt, **NEW),
-    "HiddenStateSINDy linear, FD4, normalize, threshold 0.05":
-        lambda dt: HiddenStateSINDy(dt=dt, normalize=True, optimizer=STLS(threshold=0.05), **NEW),
-    "HiddenStateSINDy linear, Spectral, n_substeps=4":
-        lambda dt: HiddenStateSINDy(dt=dt, input_hold="linear", differentiation=Spectral(), n_substeps=4),
-    "HiddenStateSINDy linear, FD4, refine": lambda dt: HiddenStateSINDy(dt=dt, refine=OutputErrorRefinement(), **NEW),
+    "SINDy linear, FD4, refine": lambda dt: SINDy(dt=dt, refine=OutputErrorRefinement(), **NEW),
+    "HiddenStateSINDy, 0.1 defaults (zoh, FD2, poly2, least squares)": lambda dt: HiddenStateSINDy(dt=dt, **HIDDEN_01),
+    "HiddenStateSINDy() (0.2: auto library and hold, FD4, auto refine)":
+        lambda dt: HiddenStateSINDy(dt=dt, **QUIET),
+    "HiddenStateSINDy auto library and hold, FD4, no refinement": lambda dt: HiddenStateSINDy(dt=dt, refine=None, **QUIET),
+    "HiddenStateSINDy linear, FD4, poly2": lambda dt: HiddenStateSINDy(dt=dt, library=None, refine=None, **NEW, **QUIET),
+    "HiddenStateSINDy linear, FD4, poly1": lambda dt: HiddenStateSINDy(
+        dt=dt, library=PolynomialLibrary(degree=1), refine=None, **NEW, **QUIET),
+    "HiddenStateSINDy linear, FD4, poly2, refine":
+        lambda dt: HiddenStateSINDy(dt=dt, library=None, refine=OutputErrorRefinement(), **NEW, **QUIET),
+    "HiddenStateSINDy linear, FD4, normalize, threshold 0.05": lambda dt: HiddenStateSINDy(
+        dt=dt, library=None, refine=None, normalize=True, optimizer=STLS(threshold=0.05), **NEW, **QUIET),
+    "HiddenStateSINDy linear, Spectral, n_substeps=4": lambda dt: HiddenStateSINDy(
+        dt=dt, library=None, refine=None, input_hold="linear", differentiation=Spectral(), n_substeps=4, **QUIET),
+    "HiddenStateSINDy order 1 (auto library, hold, refine)":
+        lambda dt: HiddenStateSINDy(dt=dt, hidden=DerivativeHiddenState(order=1), **QUIET),
+    "HiddenStateSINDy order 3 (auto library, hold, refine)":
+        lambda dt: HiddenStateSINDy(dt=dt, hidden=DerivativeHiddenState(order=3), **QUIET),
+    "HiddenStateSINDy() with refine max_samples=5000":
+        lambda dt: HiddenStateSINDy(dt=dt, refine=OutputErrorRefinement(max_samples=5000), **QUIET),
 }
 
 NAMES = {"tanks": "cascaded-tanks", "bouc-wen": "bouc-wen", "emps": "emps", "pick-and-place": "pick-and-place",
@@ -92,13 +115,13 @@ def _score(model, u, y, n_init, score_from):
 
 
 def _fit(make, dt, u, y):
-    start = time.perf_counter()
+    start = time.process_time()  # CPU seconds of this process (run with one thread: NUMBA/OMP/OPENBLAS_NUM_THREADS=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         try:
-            return make(dt).fit(u, y), time.perf_counter() - start
+            return make(dt).fit(u, y), time.process_time() - start
         except Exception as exc:  # a configuration that fails is a result
-            return exc, time.perf_counter() - start
+            return exc, time.process_time() - start
 
 
 def measure(name, record, configs=CONFIGS):
@@ -108,11 +131,23 @@ def measure(name, record, configs=CONFIGS):
     for label, make in configs.items():
         model, _ = _fit(make, dt, u_tr, y_tr)
         val = None if isinstance(model, Exception) else _score(model, u_va, y_va, n_init, n_init)
+        chosen = _chosen(model)
         model, cpu = _fit(make, dt, u_est, y_est)
         scores = {key: (None if isinstance(model, Exception) else _score(model, u, y, k, s))
                   for key, (u, y, k, s) in tests.items()}
-        rows.append((name, label, val, scores, cpu, None if not isinstance(model, Exception) else str(model)))
+        error = str(model) if isinstance(model, Exception) else None
+        rows.append((name, label, val, scores, cpu, error, chosen, _chosen(model)))
     return rows
+
+
+def _chosen(model):
+    """What a HiddenStateSINDy's "auto" parameters decided (hold, library degree, refined); "" for the others."""
+    if not hasattr(model, "input_hold_"):
+        return ""
+    degree = getattr(model.library_, "degree", "?")
+    status = (model.refinement_ or {}).get("status", -1)
+    refined = ", refined" if status >= 0 else (", refinement skipped" if model.refinement_ else "")
+    return f"{model.input_hold_}, poly{degree}{refined}"
 
 
 def _fmt(v):
@@ -122,15 +157,18 @@ def _fmt(v):
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--benchmarks", nargs="*", default=[*NAMES, "silverbox"])
+    parser.add_argument("--configs", nargs="*", default=None, help="labels of CONFIGS to run (default: all)")
     args = parser.parse_args(argv)
-    print("| benchmark | configuration | validation RMSE | test RMSE | fit wall s |")
-    print("| --- | --- | --- | --- | --- |")
+    configs = CONFIGS if not args.configs else {k: CONFIGS[k] for k in args.configs}
+    print("| benchmark | configuration | validation RMSE | test RMSE | fit CPU s | chosen (validation fit; full fit) |")
+    print("| --- | --- | --- | --- | --- | --- |")
     for name in args.benchmarks:
         record = silverbox_record() if name == "silverbox" else registry_record(name)
-        for bench, label, val, scores, cpu, error in measure(name, record):
+        for bench, label, val, scores, cpu, error, chosen_val, chosen in measure(name, record, configs):
             tests = ", ".join(f"{k} {_fmt(v)}" for k, v in scores.items())
             note = f" (failed: {error[:60]})" if error else ""
-            print(f"| {bench} | {label} | {_fmt(val)} | {tests}{note} | {cpu:.2f} |", flush=True)
+            choice = f"{chosen_val}; {chosen}" if chosen else ""
+            print(f"| {bench} | {label} | {_fmt(val)} | {tests}{note} | {cpu:.2f} | {choice} |", flush=True)
 
 
 if __name__ == "__main__":

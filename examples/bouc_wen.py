@@ -56,7 +56,7 @@ def make_model(hidden, n_rows, **kwargs):
         dt=1.0 / 750.0,
         n_substeps=2,
         input_hold="linear",  # a held force lags half a sample
-        **kwargs,
+        **{"library": None, "refine": None, **kwargs},  # the strategy's library; the refined row refines
     )
 
 

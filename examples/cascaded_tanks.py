@@ -33,6 +33,7 @@ from sklearn.base import clone
 from sindybench import STLS, SINDy
 from sindybench.baselines import ARX
 from sindybench.datasets import load_cascaded_tanks
+from sindybench.differentiation import FiniteDifference
 from sindybench.hidden import HiddenStateSINDy, TanksHiddenState
 from sindybench.libraries import ConcatLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary
 from sindybench.metrics import fit_index, r2, rmse
@@ -60,6 +61,7 @@ hidden = HiddenStateSINDy(
     n_trials=60 if QUICK else 100,
     local_trials=20 if QUICK else 33,  # Nelder-Mead refinement of the best TPE candidates
     random_state=0,
+    differentiation=FiniteDifference(), input_hold="zoh", refine=None,  # held input; refined below
 ).fit(u, y)
 # the overflow regime of the upper tank ([x1>=10], [x1>=10] u0: its spill into the lower tank),
 # then the coefficients, k1, k2 and both initial levels refined by the simulation error (with a budget of

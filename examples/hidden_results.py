@@ -26,7 +26,7 @@ import numpy as np
 
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.datasets import load_bouc_wen, load_cascaded_tanks, load_pick_and_place
-from sindybench.differentiation import SavitzkyGolay, Spectral
+from sindybench.differentiation import FiniteDifference, SavitzkyGolay, Spectral
 from sindybench.hidden import BoucWenHiddenState, DerivativeHiddenState, TanksHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.metrics import fit_index, r2, rmse
@@ -58,6 +58,7 @@ def pick_and_place(seeds, n_trials):
             validation_size=n_val, n_trials=n_trials, random_state=seed,
             search_params={"differentiation__window_length": [7, 11, 15, 21, 31],
                            "optimizer__threshold": (1e-2, 1e2, True)},
+            input_hold="zoh", refine=None,
         ).fit(u, y)
         _report(f"pick-and-place, 2nd order (seed {seed}, {n_trials} trials)", model, data.test,
                 time.perf_counter() - start)
@@ -72,6 +73,7 @@ def cascaded_tanks(seeds, n_trials):
             hidden=TanksHiddenState(k_bounds=(0.02, 0.08), ratio_bounds=(0.3, 3.0), output_bounds=(0.0, 10.0)),
             optimizer=STLS(threshold=0.0), dt=data.train.dt, validation_size=n_val, validation="full",
             n_trials=n_trials, local_trials=n_trials // 3, random_state=seed, n_substeps=4,
+            differentiation=FiniteDifference(), input_hold="zoh", refine=None,
         ).fit(u, y)
         _report(f"cascaded tanks, hidden x1 (seed {seed}, {n_trials} trials)", model, data.test,
                 time.perf_counter() - start)
@@ -97,6 +99,7 @@ def bouc_wen(seeds, n_trials):
                 # 2.5-3.0e-5 / 1.7e-5 / 1.0-1.1e-4 against 4.4-6.0e-5 / 2.7-3.3e-5 / 1.0-1.4e-4.
                 differentiation=Spectral(cutoff=150.0), dt=data.dt,
                 validation_size=n_val, n_trials=trials, random_state=seed, n_substeps=2, input_hold="linear",
+                library=None, refine=None,
             ).fit(est.u, est.y)
             seconds = time.perf_counter() - start
             print(f"Bouc-Wen, m, c, k {label} (seed {seed}, {trials} trials, {seconds:.1f} s)")

@@ -40,6 +40,7 @@ import numpy as np
 
 from sindybench import STLS
 from sindybench.datasets import load_cascaded_tanks
+from sindybench.differentiation import FiniteDifference
 from sindybench.estimation import estimate_noise, extended_kalman_filter, linearize, model_step
 from sindybench.export import to_casadi
 from sindybench.hidden import HiddenStateSINDy, TanksHiddenState
@@ -53,7 +54,7 @@ model = HiddenStateSINDy(
     hidden=TanksHiddenState(bounds=BOUNDS, k_bounds=(0.02, 0.08), ratio_bounds=(0.3, 3.0), output_bounds=BOUNDS),
     optimizer=STLS(threshold=0.0), dt=data.dt, n_substeps=4, validation_size=len(data.validation.y),
     validation="full", n_trials=30 if QUICK else 100, local_trials=10 if QUICK else 33, random_state=0,
-    show_progress_bar=False,
+    show_progress_bar=False, differentiation=FiniteDifference(), input_hold="zoh", refine=None,
 ).fit(data.estimation.u, data.estimation.y)
 model
 

@@ -64,7 +64,7 @@ pipe = Pipeline([
     ("inputs", StandardScaler()),  # transforms X, the inputs; y (the measured output) passes through
     ("sindy", HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=2),
                                optimizer=STLS(threshold=0.1), differentiation=TotalVariation(gamma=1e-4),
-                               dt=data.dt)),
+                               dt=data.dt, input_hold="zoh", refine=None)),
 ])
 pipe
 

@@ -458,7 +458,8 @@ def lag_model():
     x = simulate(TermsRHS.from_equations([{lin(0): -1.0, lin(1): 1.0}, {lin(1): -0.5, lin(2): 1.0}]),
                  2 * u[0, 0] * np.ones(2), u, 0.1, n_substeps=4)
     model = HiddenStateSINDy(hidden=LatentHiddenState(tau=2.0), library=PolynomialLibrary(degree=1),
-                             optimizer=STLS(threshold=0.05), dt=0.1, n_trials=1).fit(u, x[:, :1])
+                             optimizer=STLS(threshold=0.05), dt=0.1, n_trials=1, input_hold="zoh",
+                             refine=None).fit(u, x[:, :1])
     return model, u, x
 
 

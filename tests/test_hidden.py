@@ -38,7 +38,7 @@ def oscillator(rng):
 
 def _model(**kw):
     params = dict(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=1),
-                  optimizer=STLS(threshold=0.05), dt=DT)
+                  optimizer=STLS(threshold=0.05), dt=DT, input_hold="zoh", refine=None)  # nothing decided by "auto"
     params.update(kw)
     return HiddenStateSINDy(**params)
 
@@ -181,7 +181,7 @@ def test_search_params_jointly_and_diverging_trials(oscillator):
     assert len(scores) == 12 and np.isfinite(scores).all()
     assert np.any(scores == 1e3) and scores.min() < 1.0  # bad trials were scored, good ones won
     assert model.params_["a"] > 0
-    assert set(model.best_params_) == {"hidden__a", "hidden__x0", "optimizer__threshold"}
+    assert set(model.best_params_) == {"hidden__a", "hidden__x0", "optimizer__threshold", "input_hold"}  # "auto"
     assert 1e-4 <= model.best_params_["optimizer__threshold"] <= 1e-1
     assert model.optimizer_.threshold == model.best_params_["optimizer__threshold"]
     assert model.optimizer.threshold == 0.0  # fit never changes a hyperparameter

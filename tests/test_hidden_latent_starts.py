@@ -31,7 +31,7 @@ def _model(dt, n, start, n_latent=1, refine=None, n_trials=6):
         hidden=LatentHiddenState(n_latent=n_latent, bounds={"tau": (0.05, 20.0, True)}, start=start),
         library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=1e-4),
         differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4, validation_size=n // 4,
-        validation="full", n_trials=n_trials, random_state=0,
+        validation="full", n_trials=n_trials, random_state=0, input_hold="zoh",  # step inputs: held
         refine=refine or OutputErrorRefinement(prune=0.05, max_nfev=100), initial_state="fit")
 
 
@@ -188,7 +188,7 @@ def test_thermal_lag_feeding_a_saturation(rng):
     model = HiddenStateSINDy(
         hidden=LatentHiddenState(bounds={"tau": (0.1, 20.0, True)}, start="auto"), library=library,
         optimizer=STLS(threshold=1e-3), differentiation=SavitzkyGolay(window_length=11), dt=dt, n_substeps=4,
-        validation_size=n // 4, validation="full", n_trials=8, random_state=0,
+        validation_size=n // 4, validation="full", n_trials=8, random_state=0, input_hold="zoh",
         refine=OutputErrorRefinement(prune=0.05, max_nfev=200), initial_state="fit").fit(u, y)
     scores = [s["score"] for s in model.starts_]
     assert all(np.isfinite(scores)) and scores[0] == min(scores)  # the input lag wins here

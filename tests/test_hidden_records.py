@@ -41,7 +41,7 @@ def records():
 def _model(**kwargs):
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=2),
                             optimizer=STLS(threshold=0.05), differentiation=SavitzkyGolay(15, polyorder=3), dt=DT,
-                            show_progress_bar=False, **kwargs)
+                            show_progress_bar=False, **{"input_hold": "zoh", "refine": None, **kwargs})  # no "auto"
 
 
 def _error(model):

@@ -78,7 +78,7 @@ def _searched(show):
     y = np.cos(t)[:, None]
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=1), library=PolynomialLibrary(degree=1),
                             optimizer=STLS(), search_params={"optimizer__threshold": (1e-3, 1.0, True)}, n_trials=5,
-                            random_state=0, dt=0.01, show_progress_bar=show), u, y
+                            random_state=0, dt=0.01, show_progress_bar=show, input_hold="zoh", refine=None), u, y
 
 
 def test_inner_search_bar(monkeypatch):

@@ -11,6 +11,7 @@ from sklearn.model_selection import GridSearchCV, KFold
 import sindybench.refine._core as core
 import sindybench.refine._problem as problem_mod
 from sindybench import STLS, HiddenStateSINDy
+from sindybench.differentiation import FiniteDifference
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import PolynomialLibrary
 from sindybench.libraries._terms import POW
@@ -383,7 +384,8 @@ def test_hidden_state_sindy_bad_refine_and_initial_state(duffing):
 # ------------------------------------------------------------ estimator use
 def msd_model(**refine):
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=1),
-                            optimizer=STLS(threshold=0.05), dt=DT, refine=OutputErrorRefinement(**refine))
+                            optimizer=STLS(threshold=0.05), dt=DT, refine=OutputErrorRefinement(**refine),
+                            input_hold="zoh", differentiation=FiniteDifference())  # the data's hold
 
 
 @pytest.fixture

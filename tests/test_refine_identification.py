@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from sindybench import STLS, HiddenStateSINDy
-from sindybench.differentiation import SavitzkyGolay
+from sindybench.differentiation import FiniteDifference, SavitzkyGolay
 from sindybench.hidden import BoucWenHiddenState, DerivativeHiddenState, TanksHiddenState
 from sindybench.libraries import ABS_POW, POW, SIGN, PolynomialLibrary, SqrtLibrary, TermsLibrary
 from sindybench.refine import OutputErrorRefinement, PredictionErrorRefinement
@@ -58,7 +58,8 @@ def oscillator(rng, n, dt, friction=0.0):
 
 def derivative_model(library, threshold, refine=None, n_substeps=1):
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=library,
-                            optimizer=STLS(threshold=threshold), dt=0.05, refine=refine, n_substeps=n_substeps)
+                            optimizer=STLS(threshold=threshold), dt=0.05, refine=refine, n_substeps=n_substeps,
+                            input_hold="zoh", differentiation=FiniteDifference())  # the data's hold
 
 
 def test_derivative_hidden_state_refined_within_one_percent(rng):
@@ -179,7 +180,7 @@ def tanks_model(system, factors, refine=None):
     hidden = TanksHiddenState(k1=system.k1 * factors[0], k2=system.k2 * factors[1], x0=5.0,
                               output_bounds=(0.0, 10.0))
     return HiddenStateSINDy(hidden=hidden, library=SqrtLibrary(variables=[0, 1]), dt=TANKS_DT, n_substeps=4,
-                            refine=refine)
+                            refine=refine, input_hold="zoh", differentiation=FiniteDifference())  # the data's hold
 
 
 def test_tanks_hidden_lag_constants_refined(rng):

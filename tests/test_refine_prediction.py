@@ -8,6 +8,7 @@ from sklearn.exceptions import ConvergenceWarning
 
 from sindybench import STLS, HiddenStateSINDy, SINDy, load_model
 from sindybench.io import save_model
+from sindybench.differentiation import FiniteDifference
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.libraries import ConcatLibrary, CustomLibrary, PolynomialLibrary
 from sindybench.dynamics import Dynamics
@@ -181,7 +182,7 @@ def _pendulum_model(refine):
     library = ConcatLibrary([PolynomialLibrary(degree=1, include_bias=False),
                              CustomLibrary(functions=[np.sin], names=["sin({})"], variables=[0])])
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=library, optimizer=STLS(threshold=0.1),
-                            dt=DT_PEND, refine=refine)
+                            dt=DT_PEND, refine=refine, input_hold="zoh", differentiation=FiniteDifference())
 
 
 def _row(model):
@@ -218,7 +219,8 @@ def test_van_der_pol_with_hidden_velocity():
     y = x[:, :1] + 0.02 * np.std(x[:, 0]) * rng.normal(size=(2000, 1))
     model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=3),
                              optimizer=STLS(threshold=0.1), dt=0.05,
-                             refine=PredictionErrorRefinement(max_nfev=100, prune=0.02)).fit(u, y)
+                             refine=PredictionErrorRefinement(max_nfev=100, prune=0.02),
+                             input_hold="zoh", differentiation=FiniteDifference()).fit(u, y)
     row = {k: v for k, v in _row(model).items() if v != 0}
     assert set(row) == {"y0", "y0'", "u0", "y0^2 y0'"}
     for name, value in (("y0", -1.0), ("y0'", 1.0), ("u0", 0.5), ("y0^2 y0'", -1.0)):

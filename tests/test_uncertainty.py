@@ -17,6 +17,7 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from sindybench import STLS, DivergenceWarning, HiddenStateSINDy, SINDy, load_model
 from sindybench.baselines import ARX, NNARX
+from sindybench.differentiation import FiniteDifference
 from sindybench.hidden import DerivativeHiddenState, TanksHiddenState
 from sindybench.libraries import POW, PolynomialLibrary, SqrtLibrary
 from sindybench.refine import OutputErrorRefinement
@@ -124,7 +125,8 @@ def tanks_record(n=500):
 def tanks_model(system, max_nfev=60):
     hidden = TanksHiddenState(k1=system.k1 * 1.1, k2=system.k2 * 0.95, x0=5.0, output_bounds=(0.0, 10.0))
     return HiddenStateSINDy(hidden=hidden, library=SqrtLibrary(variables=[0, 1]), dt=TANKS_DT, n_substeps=4,
-                            refine=OutputErrorRefinement(max_nfev=max_nfev, n_segments=5))
+                            refine=OutputErrorRefinement(max_nfev=max_nfev, n_segments=5),
+                            input_hold="zoh", differentiation=FiniteDifference())
 
 
 def test_tanks_intervals_cover_the_physical_parameters_and_coefficients(n_runs, runslow):
@@ -219,7 +221,8 @@ def test_ensemble_of_a_derivative_hidden_state_model():
     x = simulate(rhs, [0.0, 0.0], u, DT)
     y = x[:, :1] + noise(np.random.default_rng(2), len(x), 0.001 * np.std(x[:, 0]))
     model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=1),
-                             optimizer=STLS(threshold=0.05), dt=DT, refine=OutputErrorRefinement(max_nfev=30))
+                             optimizer=STLS(threshold=0.05), dt=DT, refine=OutputErrorRefinement(max_nfev=30),
+                             input_hold="zoh", differentiation=FiniteDifference())
     ens = BootstrapEnsemble(model, n_members=8, random_state=0).fit(u, y)
     names = list(ens.estimator_.library_.get_feature_names_out(["y0", "y0'", "u0"]))
     p = dict(zip(names, ens.inclusion_probabilities_[0]))

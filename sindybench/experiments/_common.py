@@ -5,11 +5,22 @@ Every factory has the signature ``make(random_state, quick, dt, n_val)`` of
 that describing a benchmark never pulls in all of the library.
 """
 
-__all__ = ["IDENTIFIED", "arx_model", "arx_space", "identified", "nnarx_model", "nnarx_space", "refinement", "sindy_model",
-           "stls_space"]
+__all__ = ["IDENTIFIED", "arx_model", "arx_space", "hidden_defaults_01", "identified", "nnarx_model", "nnarx_space",
+           "refinement", "sindy_model", "stls_space"]
 
 #: simulation-error refinement budget (simulations per round) of a default and a quick run
 REFINE_NFEV, REFINE_NFEV_QUICK = 30, 5
+
+
+def hidden_defaults_01():
+    """The :class:`~sindybench.HiddenStateSINDy` defaults before 0.2, which the rows written before it pin.
+
+    Since 0.2 ``input_hold`` and ``refine`` default to ``"auto"`` and ``differentiation`` to
+    ``FiniteDifference(accuracy=4)``; a row that relied on the old defaults passes these, so its scores stay.
+    """
+    from ..differentiation import FiniteDifference
+
+    return {"differentiation": FiniteDifference(), "input_hold": "zoh", "refine": None}
 
 
 def refinement(**kwargs):

@@ -40,7 +40,7 @@ def _naive(*, random_state, quick, dt, n_val, n_samples):
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=2),
                             optimizer=STLS(threshold=1e-3, normalize_columns=True),
                             differentiation=Spectral(cutoff=150.0), dt=dt,
-                            input_hold="linear", n_substeps=2)
+                            input_hold="linear", n_substeps=2, refine=None)
 
 
 def _hidden(fixed):
@@ -57,6 +57,7 @@ def _hidden(fixed):
             differentiation=Spectral(cutoff=150.0),  # the training multisine excites 5-150 Hz: keep that band
             dt=dt, n_substeps=2, input_hold="linear",  # a held force lags half a sample (see BoucWenHiddenState)
             validation_size=n_val, n_trials=10 if quick else 30, random_state=random_state,
+            library=None, refine=None,  # the defaults before 0.2: the strategy's library, no refinement
         )
 
     return make

@@ -8,8 +8,8 @@ samples of the estimation record, validation: its last 256, test: the
 1024-sample validation record (Ts = 4 s), simulated from its first samples.
 """
 
-from ._common import (REFINE_NFEV_QUICK, arx_model, arx_space, identified, nnarx_model, nnarx_space, refinement,
-                      sindy_model,
+from ._common import (REFINE_NFEV_QUICK, arx_model, arx_space, hidden_defaults_01, identified, nnarx_model,
+                      nnarx_space, refinement, sindy_model,
                       stls_space)
 from ._spec import Benchmark, ModelSpec
 
@@ -76,7 +76,7 @@ def _second_order(*, random_state, quick, dt, n_val, n_samples):
     from ..hidden import DerivativeHiddenState
 
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=_poly(),
-                            optimizer=STLS(threshold=0.01), dt=dt)
+                            optimizer=STLS(threshold=0.01), dt=dt, **hidden_defaults_01())
 
 
 def _hidden(library):
@@ -102,7 +102,7 @@ def _hidden(library):
             hidden=TanksHiddenState(bounds=_BOUNDS, k_bounds=_K1, ratio_bounds=_RATIO, output_bounds=_BOUNDS),
             library=None if library is None else library(), optimizer=STLS(threshold=0.0), dt=dt, n_substeps=4,
             validation_size=n_val, validation="full", n_trials=_TRIALS_QUICK if quick else _TRIALS,
-            local_trials=(_TRIALS_QUICK if quick else _TRIALS) // 3, random_state=random_state,
+            local_trials=(_TRIALS_QUICK if quick else _TRIALS) // 3, random_state=random_state, **hidden_defaults_01(),
         )
 
     return make
@@ -165,6 +165,7 @@ def latent_tanks_model(dt=4.0, *, validation_size=256, random_state=0, n_trials=
         validation_size=validation_size, validation="full", n_trials=n_trials, local_trials=20,
         search_params={"optimizer__threshold": LogUniform(1e-5, 1e-1)}, random_state=random_state,
         refine=OutputErrorRefinement(prune=0.1, max_nfev=max_nfev), initial_state="fit",
+        **{k: v for k, v in hidden_defaults_01().items() if k != "refine"},
     )
 
 

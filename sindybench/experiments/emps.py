@@ -107,7 +107,7 @@ def _second_order_with(library, threshold=0.0):
 
         return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=library(),
                                 optimizer=STLS(threshold=threshold, alpha=1e-8),
-                                differentiation=_differentiation(), dt=dt)
+                                differentiation=_differentiation(), dt=dt, input_hold="zoh", refine=None)
 
     return make
 

@@ -51,7 +51,7 @@ def _second_order_with(library):
 
         return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=library(),
                                 optimizer=STLS(threshold=0.1, alpha=1e-6),
-                                differentiation=TotalVariation(gamma=1e-3), dt=dt)
+                                differentiation=TotalVariation(gamma=1e-3), dt=dt, input_hold="zoh", refine=None)
 
     return make
 

@@ -94,7 +94,7 @@ def _second_order_with(library, threshold=0.0):
         return HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=library(),
                                 optimizer=STLS(threshold=threshold, alpha=1e-8, normalize_columns=True),
                                 differentiation=_differentiation(), dt=dt, input_hold=INPUT_HOLD,
-                                n_substeps=N_SUBSTEPS)
+                                n_substeps=N_SUBSTEPS, refine=None)
 
     return make
 

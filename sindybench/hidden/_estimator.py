@@ -18,8 +18,9 @@ from .._records import in_record
 from ..differentiation import FiniteDifference, as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name
-from ..search import SEARCH_PENALTY, check_search_space, minimize
+from ..search import SEARCH_PENALTY, Categorical, check_search_space, minimize
 from ._augmentation import DerivativeHiddenState
+from ._auto import AUTO, HOLDS, auto_grid, auto_refinement, candidate_settings, check_refine_param, decide, is_auto
 from ._base import Design, HiddenStrategy
 from ._candidate import Candidate, candidate_initial_state, fit_candidate, structure_dynamics
 from ._derivative import Derivative
@@ -60,23 +61,29 @@ class HiddenStateSINDy(DynamicsEstimator):
     hidden : HiddenStrategy, default=DerivativeHiddenState(order=2)
         The strategy (None means the default); its parameters are
         searchable (``hidden__order``).
-    library : transformer, default=None
+    library : transformer, "auto" or None, default="auto"
         Candidate functions of ``Z = [states, inputs]``; None means the
         strategy's ``default_library()`` (it depends on the strategy, so it
-        is chosen in ``fit``). pysindy libraries are wrapped.
+        is chosen in ``fit``). ``"auto"`` (the default since 0.2): that
+        library, or when it is a ``PolynomialLibrary`` each of its degrees
+        from 1 up, the one whose model simulates the validation block best
+        (when the inner search runs, the strategy's library itself). pysindy
+        libraries are wrapped.
     optimizer : regressor, default=STLS(threshold=0.0)
         Sparse regressor with ``coef_`` (n_targets, n_features); the default
         is plain least squares (None means the same), and
         ``optimizer__threshold`` sets sparsity in the units of your problem.
-    differentiation : object, default=FiniteDifference()
+    differentiation : object, default=FiniteDifference(accuracy=4)
         Derivative method with ``derivative(y, *, dt, order)`` (see
         :mod:`sindybench.differentiation`); None means finite differences.
+        The default was ``FiniteDifference()`` (accuracy 2) before 0.2.
     dt : float, default=None
         Sampling interval (required, here or in ``fit``).
     validation_size : float or int, default=0.2
         Validation block at the end of the training data: a fraction in
         (0, 1) or a number of samples (at the end of each record, with
-        several records). Used only when something is searched.
+        several records). Used only when something is searched or decided
+        (``"auto"``).
     validation : {"block", "continued", "full"}, default="block"
         How a candidate is scored in the inner search (normalized RMSE of an
         open-loop simulation of the outputs):
@@ -120,8 +127,13 @@ class HiddenStateSINDy(DynamicsEstimator):
     n_substeps : int, default=1
         Integration steps per sample in simulations.
     integrator : {"rk4", "euler"}, default="rk4"
-    input_hold : {"zoh", "linear"}, default="zoh"
-        Input interpolation between samples in simulations.
+    input_hold : {"zoh", "linear", "auto"}, default="auto"
+        Input interpolation between samples in simulations. ``"auto"`` (the
+        default since 0.2; ``"zoh"`` before): the hold whose model simulates
+        the validation block best, decided with the library (or as one more
+        dimension of the inner search when it runs); ``input_hold_`` says
+        which. Too short a record for a validation block takes ``"linear"``
+        and the default library's own degree.
     bounds : (lower, upper) or None, default=None
         State bounds for simulations (scalars or one per state), instead of
         the strategy's own (``structure_.bounds``); None keeps the strategy's.
@@ -135,7 +147,11 @@ class HiddenStateSINDy(DynamicsEstimator):
         ``normalize``): the library's features of the centred, scaled states
         and inputs, each target divided by its root mean square, the
         coefficients mapped back exactly to the user's units.
-    refine : OutputErrorRefinement, PredictionErrorRefinement or None, default=None
+    refine : OutputErrorRefinement, PredictionErrorRefinement, "auto" or None, default="auto"
+        ``"auto"`` (the default since 0.2; None before): an
+        ``OutputErrorRefinement()`` when the chosen model is compiled (built
+        from terms: exact sensitivities), none otherwise (a Python right-hand
+        side refines by finite differences, far slower).
         Refine the final model by its open-loop simulation error on the
         training record (:class:`~sindybench.refine.OutputErrorRefinement`;
         or by its prediction error,
@@ -162,10 +178,15 @@ class HiddenStateSINDy(DynamicsEstimator):
     params_ : dict
         All physical parameters of the final model (given and searched).
     best_params_ : dict
-        Values of the best trial (``hidden__<name>`` for physical parameters);
-        empty when nothing was searched.
+        Values of the best trial (``hidden__<name>`` for physical parameters),
+        and what the ``"auto"`` parameters decided (``input_hold``,
+        ``library__degree``); empty when nothing was searched or decided.
     search_results_ : list of (dict, float)
-        Every trial's values and validation score (normalized RMSE).
+        Every trial's values and validation score (normalized RMSE); without
+        a search, every candidate of the ``"auto"`` parameters.
+    input_hold_ : str
+        The input hold the model simulates with (what ``input_hold="auto"``
+        decided, else ``input_hold``).
     library_, optimizer_, differentiation_ : fitted components
     coef_ : ndarray of shape (n_learned, n_library_terms)
         Learned coefficients, one row per learned state.
@@ -225,9 +246,9 @@ class HiddenStateSINDy(DynamicsEstimator):
         self,
         *,
         hidden=DerivativeHiddenState(order=2),
-        library=None,
+        library="auto",
         optimizer=STLS(threshold=0.0),
-        differentiation=FiniteDifference(),
+        differentiation=FiniteDifference(accuracy=4),
         dt=None,
         validation_size=0.2,
         validation="block",
@@ -239,12 +260,12 @@ class HiddenStateSINDy(DynamicsEstimator):
         show_progress_bar=True,
         n_substeps=1,
         integrator="rk4",
-        input_hold="zoh",
+        input_hold="auto",
         bounds=None,
         max_abs=1e6,
         input_delay=0,
         normalize=False,
-        refine=None,
+        refine="auto",
         initial_state="strategy",
     ):
         self.hidden = hidden
@@ -278,6 +299,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         "refit": Constraint(check_bool),
         "show_progress_bar": Constraint(check_bool),
         "initial_state": Constraint(check_option, options=_INITIAL_STATES),
+        "input_hold": Constraint(check_option, options=(*HOLDS, AUTO)),
+        "refine": Constraint(check_refine_param),
     }
 
     # ------------------------------------------------------------------ checks
@@ -364,6 +387,9 @@ class HiddenStateSINDy(DynamicsEstimator):
                 hidden._validate_data(X_r, y_r)
         space = {_HIDDEN_PREFIX + k: dim for k, dim in hidden.search_space().items()}
         space.update(est_space)
+        if space and is_auto(self.input_hold) and X[0].shape[1]:
+            space["input_hold"] = Categorical(list(HOLDS))  # "auto": the inner search decides the hold too
+        grid = auto_grid(self, hidden, X[0].shape[1], searched=bool(space))
         n = [y_r.shape[0] for y_r in y]
         best_params, search_results = {}, []
         n_rows = n
@@ -388,6 +414,8 @@ class HiddenStateSINDy(DynamicsEstimator):
                     f"block; expected bounds of the searched parameters that contain a stable model.{first}"
                 )
             n_rows = n if self.refit else n_fit
+        elif grid:
+            best_params, search_results, n_rows = decide(self, grid, hidden, X, y, dt, derivative)
         cand = self._candidate(hidden, best_params, X, y, dt, n_rows, derivative)
         cand.derivative.pin(None)
         # the records' states stacked; x0_ is the first record's
@@ -395,15 +423,22 @@ class HiddenStateSINDy(DynamicsEstimator):
         x0 = np.asarray(cand.designs[0].states[0], dtype=float).copy()
         scaling = scaling_record(np.hstack([states, np.vstack(X)])) if self.normalize else None  # [x, u], all records
         refinement = None
-        if self.refine is not None:
+        refine = auto_refinement(self.refine, cand.dynamics)
+        if refine is not None:
             head = ([X_r[:k] for X_r, k in zip(X, n_rows)], [y_r[:k] for y_r, k in zip(y, n_rows)])
-            cand, x0_refined, refinement = self._refine(hidden, cand, *head)
+            try:
+                cand, x0_refined, refinement = self._refine(hidden, cand, *head, refine=refine)
+            except ValueError as exc:  # "auto" refines what can be refined; a refinement asked for must run
+                if not is_auto(self.refine):
+                    raise
+                x0_refined, refinement = None, {"status": -1, "message": f"skipped (refine='auto'): {exc}"}
             if x0_refined is not None:  # the refined model's own trajectories replace the reconstruction
                 x0 = x0_refined[0]
                 states = np.vstack([cand.dynamics.simulate(X_r, x0_r, on_divergence="nan")
                                     for X_r, x0_r in zip(X, x0_refined)])
 
         self.best_params_, self.search_results_ = best_params, search_results
+        self.input_hold_ = cand.dynamics.input_hold
         self.hidden_ = hidden
         self.params_ = dict(cand.params)
         self.library_, self.optimizer_, self.differentiation_ = cand.library, cand.optimizer, cand.differentiation
@@ -423,28 +458,31 @@ class HiddenStateSINDy(DynamicsEstimator):
 
     def _components(self, est_values):
         est = clone(self).set_params(**est_values) if est_values else self
-        library = est.library if est.library is not None else None
         optimizer = clone(est.optimizer) if est.optimizer is not None else STLS(threshold=0.0)
         differentiation = clone(as_differentiation(est.differentiation))
-        return library, optimizer, differentiation
+        return est, optimizer, differentiation
 
-    def _simulation(self, dt):
-        """The simulation settings of this estimator's dynamics (see :func:`structure_dynamics`)."""
-        return dict(dt=dt, n_substeps=self.n_substeps, input_hold=self.input_hold, max_abs=self.max_abs,
+    def _simulation(self, dt, input_hold=None):
+        """Simulation settings of the dynamics; the hold: ``input_hold``, else ``input_hold_``, else the parameter."""
+        hold = input_hold or getattr(self, "input_hold_", None) or self.input_hold
+        return dict(dt=dt, n_substeps=self.n_substeps, input_hold=hold, max_abs=self.max_abs,
                     method=self.integrator, bounds=self.bounds)
 
     def _candidate(self, hidden, values, X, y, dt, n_rows, derivative=None):
         """The candidate of ``values``; ``X``, ``y`` and ``n_rows`` are lists, one entry per record."""
         hvals = {k[len(_HIDDEN_PREFIX) :]: v for k, v in values.items() if k.startswith(_HIDDEN_PREFIX)}
         est_values = {k: v for k, v in values.items() if not k.startswith(_HIDDEN_PREFIX)}
-        library, optimizer, differentiation = self._components(est_values)
-        library = clone(as_library(library if library is not None else hidden.default_library()))
+        auto_keys = ("input_hold", "library__degree") if is_auto(self.library) else ("input_hold",)
+        est, optimizer, differentiation = self._components(
+            {k: v for k, v in est_values.items() if k not in auto_keys})
+        library, hold, _ = candidate_settings(est, hidden, est_values)
+        library = clone(as_library(library))
         if derivative is None:
             derivative = Derivative(differentiation, dt)
         return fit_candidate(hidden, hidden.resolve_params(hvals), library, optimizer, derivative, X, y, n_rows,
-                             self._simulation(dt), normalize=est_values.get("normalize", self.normalize))
+                             self._simulation(dt, hold), normalize=est_values.get("normalize", self.normalize))
 
-    def _refine(self, hidden, cand, X, y, held=()):
+    def _refine(self, hidden, cand, X, y, held=(), refine=None):
         """The candidate refined by simulation error, its refined first state and the refinement record.
 
         A model whose simulation of the training record diverges cannot be
@@ -452,13 +490,13 @@ class HiddenStateSINDy(DynamicsEstimator):
         with a warning. ``X`` and ``y`` are lists of records; the refined
         first states are an array (n_records, n_states).
         """
-        simulation = self._simulation(cand.dynamics.dt)
+        simulation = self._simulation(cand.dynamics.dt, cand.dynamics.input_hold)
         n_outputs, n_inputs = y[0].shape[1], X[0].shape[1]
         problem = refinement_problem(cand, hidden, n_outputs, n_inputs)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            result, record = self._run_refinement(cand.dynamics, X, y, **problem)
-        fallback = getattr(hidden, "diverging_refinement", lambda refine: None)(self.refine)
+            result, record = self._run_refinement(cand.dynamics, X, y, refine=refine, **problem)
+        fallback = getattr(hidden, "diverging_refinement", lambda refine: None)(refine)
         if result is None and fallback is not None and cand.dynamics.compiled:  # the start diverges: prediction error
             result, record = self._run_refinement(cand.dynamics, X, y, refine=fallback, **problem)
             caught = [w for w in caught if "refinement skipped" not in str(w.message)]
@@ -480,7 +518,7 @@ class HiddenStateSINDy(DynamicsEstimator):
             states[0] = x0_new
             moved = cand._replace(coef=coef, designs=(cand.design._replace(states=states),),
                                   dynamics=structure_dynamics(cand.structure, cand.library, coef, simulation))
-            moved, x0_again, again = self._refine(hidden, moved, X, y, held=mixing_held)
+            moved, x0_again, again = self._refine(hidden, moved, X, y, held=mixing_held, refine=refine)
             if again.get("status", -1) >= 0 and again["cost"] <= summary["cost"] * (1 + 1e-3) + 1e-15:
                 return moved, x0_again, again
         if held:

@@ -33,6 +33,10 @@ Stored ``fitted`` entries (a new fitted attribute goes into both functions;
 ``scaling``
     ``scaling_`` (null without ``normalize``; absent in older files, which
     load with ``normalize=False``).
+``input_hold``
+    ``input_hold_``, the hold the model simulates with (what ``input_hold="auto"``
+    decided); absent in files written before 0.2, which simulate with the
+    ``input_hold`` parameter they stored.
 """
 
 import math
@@ -47,6 +51,8 @@ from ..io import check_limit, check_params, encode_array, encode_value, fitted_t
 from ..libraries import check_terms, fitted_library_from_dict, fitted_library_to_dict, terms_to_json
 from ..libraries._spec import MAX_COLUMNS
 from .._covariance import check_refinement_record
+from ..differentiation import FiniteDifference
+from ._auto import HOLDS, is_auto
 from ._base import HiddenStrategy, Structure
 from ._parametric import MAX_GRID_POINTS as MAX_GRID  # grid points a strategy's initial-state search may ask for
 
@@ -182,6 +188,7 @@ def hidden_sindy_to_dict(model):
         "output_1d": bool(model._y_1d),
         "refinement": encode_value(model.refinement_, "fitted.refinement"),
         "scaling": encode_value(model.scaling_, "fitted.scaling"),
+        "input_hold": model.input_hold_,
     }
 
 
@@ -216,6 +223,28 @@ def _check_physical(hidden, params):
         clone(hidden).set_params(**own)._validate()
     except (ValueError, TypeError, KeyError) as exc:
         raise ValueError(f"fitted.params: the {type(hidden).__name__} parameters {params} are refused: {exc}") from exc
+
+
+def _load_input_hold(model, fitted):
+    """``input_hold_``, the hold the model simulates with, and the parameters of a file written before 0.2.
+
+    Such a file has no ``fitted.input_hold``: it simulates with its ``input_hold``
+    parameter, and a parameter it did not store (so that loading gave it the
+    current default) takes the default of its time: ``input_hold="zoh"``,
+    ``library=None``, ``refine=None``, ``differentiation=FiniteDifference()``.
+    """
+    if "input_hold" in fitted.data:
+        model.input_hold_ = fitted.str("input_hold")
+        if model.input_hold_ not in HOLDS:
+            raise ValueError(f"fitted.input_hold: expected one of {list(HOLDS)}; got {model.input_hold_!r}.")
+        return
+    old = {"input_hold": "zoh", "library": None, "refine": None}  # "auto" did not exist before 0.2
+    model.set_params(**{k: v for k, v in old.items() if is_auto(getattr(model, k))})
+    fd = model.differentiation
+    if (type(fd) is FiniteDifference and fd.accuracy == 4 and type(model.differentiation_) is FiniteDifference
+            and model.differentiation_.accuracy == 2):
+        model.differentiation = FiniteDifference()  # the default before 0.2, as fitted
+    model.input_hold_ = model.input_hold
 
 
 def hidden_sindy_from_dict(model, fitted):
@@ -263,6 +292,7 @@ def hidden_sindy_from_dict(model, fitted):
     model._y_1d = fitted.bool("output_1d")
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
     load_scaling(model, fitted)
+    _load_input_hold(model, fitted)
     _check_states(model.states_)
     _check_fixed_params(hidden, model.params_, model.refinement_ is not None)
     model._rebuild_model()

@@ -7,12 +7,14 @@ import pytest
 
 import sindybench.refine._core as core
 from sindybench import STLS, HiddenStateSINDy
+from sindybench.differentiation import FiniteDifference
 from sindybench.hidden import BoucWenHiddenState, ParametricHiddenState
 from sindybench.libraries import POW, PolynomialLibrary
 from sindybench.refine import OutputErrorRefinement
 from sindybench.simulate import TermsRHS, simulate
 
 DT = 0.05
+OLD = {"differentiation": FiniteDifference(), "input_hold": "zoh"}  # the settings these fits were written with
 pytestmark = pytest.mark.filterwarnings("ignore:the refinement stopped on its evaluation budget")
 
 
@@ -70,7 +72,7 @@ def test_no_hidden_module_is_entered_per_evaluation(monkeypatch, hidden, path, n
     u, y = _record()
     u, y = u[:n], y[:n]
     model = HiddenStateSINDy(hidden=hidden, library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=0.05),
-                             dt=DT, n_trials=1, random_state=0, refine=OutputErrorRefinement(max_nfev=3))
+                             dt=DT, n_trials=1, random_state=0, refine=OutputErrorRefinement(max_nfev=3), **OLD)
     modules = _modules_per_evaluation(monkeypatch, model, u, y)
     assert model.refinement_["jacobian"] == path and list(model.refinement_["physical"]) in (["m", "c", "k"], ["a"])
     assert "sindybench.refine._parametrized" in modules  # the view builds every evaluation's model
@@ -81,7 +83,7 @@ def test_a_strategy_without_a_declared_map_is_called_back(monkeypatch):
     """The measurement sees the climb back into hidden/ where a strategy gives no map (so it can fail)."""
     u, y = _record()
     model = HiddenStateSINDy(hidden=_Undeclared(m=1.0, c=0.5, k=4.0), library=PolynomialLibrary(degree=2),
-                             optimizer=STLS(threshold=0.05), dt=DT, refine=OutputErrorRefinement(max_nfev=4))
+                             optimizer=STLS(threshold=0.05), dt=DT, refine=OutputErrorRefinement(max_nfev=4), **OLD)
     modules = _modules_per_evaluation(monkeypatch, model, u, y)
     assert {"sindybench.hidden._refinement", "sindybench.hidden._bouc_wen"} <= modules
 

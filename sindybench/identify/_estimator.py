@@ -119,7 +119,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     3. *refine*: the parsimonious pick of stage 2, then its Pareto front
        (sparsest first), then the best ones (``n_refine`` in all), refined
        by their simulation error
-       (``refinement``) and scored on all blocks again.
+       (``refinement``) and scored on all blocks again; the pick is refined
+       with the other input hold too (when the hold is searched), since
+       equation-error fits seldom tell the holds apart.
 
     Halving by blocks rather than by training length because a candidate's
     cost is one equation-error fit and one simulation per block: the cheap
@@ -417,12 +419,18 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                                                          [rows[i]["n_terms"] for i in scored])]
                 order = [pick] + front + scored  # the pick, then the front sparsest first, then the best
                 scored = [i for k, i in enumerate(order) if i not in order[:k]]
-            third = scored[: budget.take(min(self.n_refine, len(scored)))]
+            third = [(rows[i], libraries[i]) for i in scored[: budget.take(min(self.n_refine, len(scored)))]]
+            if third and self.input_hold is None and X.shape[1] > 0:
+                # the pick with the other hold too: equation-error fits seldom tell the holds apart, refined ones do
+                twin = dict(third[0][0], input_hold={"zoh": "linear", "linear": "zoh"}[third[0][0]["input_hold"]])
+                key = lambda r: tuple(r[k] for k in _STRUCTURE + ("threshold",))  # noqa: E731
+                if all(key(r) != key(twin) for r, _ in third) and budget.take(1):
+                    third.insert(1, (twin, third[0][1]))
             refinement = self._refinement(n)
             bar.total += len(third)
-            for i, result in zip(third, parallel(_full, [(rows[i], libraries[i], ctx, refinement) for i in third])):
+            for (_, library), result in zip(third, parallel(_full, [(r, lib, ctx, refinement) for r, lib in third])):
                 rows.append(result)
-                libraries.append(libraries[i])
+                libraries.append(library)
                 bar.update()
         table = _table(rows, self.n_blocks)
         full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms for r in rows])

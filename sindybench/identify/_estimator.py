@@ -121,7 +121,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
        by their simulation error
        (``refinement``) and scored on all blocks again; the pick is refined
        with the other input hold too (when the hold is searched), since
-       equation-error fits seldom tell the holds apart.
+       equation-error fits seldom tell the holds apart, and that one is
+       chosen only when it validates better by more than the pick's
+       standard error (its status says so otherwise).
 
     Halving by blocks rather than by training length because a candidate's
     cost is one equation-error fit and one simulation per block: the cheap
@@ -420,20 +422,22 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 order = [pick] + front + scored  # the pick, then the front sparsest first, then the best
                 scored = [i for k, i in enumerate(order) if i not in order[:k]]
             third = [(rows[i], libraries[i]) for i in scored[: budget.take(min(self.n_refine, len(scored)))]]
-            if third and self.input_hold is None and X.shape[1] > 0:
-                # the pick with the other hold too: equation-error fits seldom tell the holds apart, refined ones do
-                twin = dict(third[0][0], input_hold={"zoh": "linear", "linear": "zoh"}[third[0][0]["input_hold"]])
-                key = lambda r: tuple(r[k] for k in _STRUCTURE + ("threshold",))  # noqa: E731
-                if all(key(r) != key(twin) for r, _ in third) and budget.take(1):
-                    third.insert(1, (twin, third[0][1]))
+            twin = _hold_twin(third) if self.input_hold is None and X.shape[1] > 0 else None
+            if twin is not None and budget.take(1):
+                third.insert(1, twin)
+            else:
+                twin = None
             refinement = self._refinement(n)
             bar.total += len(third)
             for (_, library), result in zip(third, parallel(_full, [(r, lib, ctx, refinement) for r, lib in third])):
                 rows.append(result)
                 libraries.append(library)
                 bar.update()
+            if twin is not None:
+                _confirm_hold(rows[-len(third)], rows[-len(third) + 1])
         table = _table(rows, self.n_blocks)
-        full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms for r in rows])
+        full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms
+                         and not r.get("excluded") for r in rows])
         mean = np.where(full, table["mean_validation_error"], np.inf)
         if not np.any(np.isfinite(mean)):
             reasons = sorted({r["status"] for r in rows if r["status"] != "ok"})[:3] or [
@@ -505,6 +509,25 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         """The chosen model's equations (see its ``equations``)."""
         check_is_fitted(self)
         return self.best_estimator_.equations(**kwargs)
+
+
+def _hold_twin(third):
+    """The first candidate to refine with the other input hold (equation-error fits seldom tell the holds apart)."""
+    if not third:
+        return None
+    row, library = third[0]
+    twin = dict(row, input_hold={"zoh": "linear", "linear": "zoh"}[row["input_hold"]])
+    key = lambda r: tuple(r[k] for k in _STRUCTURE + ("threshold",))  # noqa: E731
+    return None if any(key(r) == key(twin) for r, _ in third) else (twin, library)
+
+
+def _confirm_hold(pick, twin):
+    """The other hold replaces the pick's only when it validates better by more than the pick's standard error."""
+    errors = np.asarray(pick["errors"], dtype=float)
+    if np.all(np.isfinite(errors)) and np.mean(twin["errors"]) >= np.mean(errors) - np.std(errors) / np.sqrt(
+            errors.size):
+        twin["excluded"] = True
+        twin["status"] = "not chosen: the other input hold, not better than the pick's by a standard error"
 
 
 def _table(rows, n_blocks):

@@ -90,13 +90,10 @@ def fit_index(y, y_hat):
     return float(100.0 * (1.0 - np.linalg.norm(y - y_hat) / np.linalg.norm(y - np.mean(y, axis=0))))
 
 
-def test_fit(model, u, y):
+def fit_on_test(model, u, y):
     """Fit index of the model's open-loop simulation of a test record, started from its first ``N_INIT`` samples."""
     y_hat = model.predict(u, y_init=y[:N_INIT])
     return fit_index(y[N_INIT:], np.asarray(y_hat).reshape(y.shape)[N_INIT:])
-
-
-test_fit.__test__ = False  # a helper, not a test
 
 
 def support(model):
@@ -136,7 +133,7 @@ def _check(name, **kwargs):
             assert chosen[term] == pytest.approx(value, rel=0.03), term
     reference = hand_built(model, name, u, y)
     assert set(support(reference)) == set(truth)
-    fit, best = test_fit(model, u_test, y_test), test_fit(reference, u_test, y_test)
+    fit, best = fit_on_test(model, u_test, y_test), fit_on_test(reference, u_test, y_test)
     assert best > 99.0  # the hand-built model of the truth's family is near perfect at this noise
     assert fit >= best - 1.0
 

@@ -434,7 +434,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 libraries.append(library)
                 bar.update()
             if twin is not None:
-                _confirm_hold(rows[-len(third)], rows[-len(third) + 1])
+                rows[-len(third) + 1] = _confirm_hold(rows[-len(third)], rows[-len(third) + 1])
         table = _table(rows, self.n_blocks)
         full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms
                          and not r.get("excluded") for r in rows])
@@ -522,12 +522,13 @@ def _hold_twin(third):
 
 
 def _confirm_hold(pick, twin):
-    """The other hold replaces the pick's only when it validates better by more than the pick's standard error."""
+    """The twin's row as the choice sees it: the other hold replaces the pick's only when better by a standard error."""
     errors = np.asarray(pick["errors"], dtype=float)
     if np.all(np.isfinite(errors)) and np.mean(twin["errors"]) >= np.mean(errors) - np.std(errors) / np.sqrt(
             errors.size):
-        twin["excluded"] = True
-        twin["status"] = "not chosen: the other input hold, not better than the pick's by a standard error"
+        return dict(twin, excluded=True,
+                    status="not chosen: the other input hold, not better than the pick's by a standard error")
+    return twin
 
 
 def _table(rows, n_blocks):

@@ -112,6 +112,16 @@ def test_detect_saturation_finds_the_level_and_fraction(rng):
     assert f_low == pytest.approx(np.mean(y <= -0.7), abs=0.01)
 
 
+def test_detect_saturation_of_a_noisy_output(rng):
+    """The extreme of a noisy saturated output is a noise sample beyond the level: the pile-up is found all the same."""
+    t = np.arange(5000) * DT
+    clipped = np.minimum(np.sin(t), 0.9) + 1e-3 * rng.standard_normal(5000)
+    (found,) = detect_saturation(clipped[:, None])
+    assert found[:2] == (0, "upper") and found[2] == pytest.approx(0.9, abs=5e-4)
+    assert found[3] == pytest.approx(np.mean(np.sin(t) >= 0.9), abs=0.01)
+    assert detect_saturation(np.sin(t)[:, None] + 1e-3 * rng.standard_normal((5000, 1))) == []
+
+
 def test_advice_proposes_an_indicator_at_the_saturation_level(rng):
     u = _held_input(rng, 3000)
     y = np.minimum(_first_order(u, 0), 0.3) + 5.0

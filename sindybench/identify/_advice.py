@@ -367,6 +367,9 @@ def detect_saturation(y, *, min_fraction=0.005, ratio=4.0):
     deviations if larger) is compared with the fraction in the next band of
     the same width: a smooth signal (a sine near its peak) has at most about
     2.4 times as many at its extreme; a saturated one has a point mass there.
+    The extreme of a noisy saturated output is a noise sample about ``tol``
+    beyond the level, so bands twice as wide are compared too; a pile-up found
+    only so is reported at the median of the samples within ``2 tol`` of the extreme.
 
     Parameters
     ----------
@@ -394,10 +397,12 @@ def detect_saturation(y, *, min_fraction=0.005, ratio=4.0):
             continue
         tol = max(1e-3 * span, 3 * _noise_std(v) if v.size > 2 else 0.0)
         for side, extreme, dist in (("upper", v.max(), v.max() - v), ("lower", v.min(), v - v.min())):
-            at = np.mean(dist <= tol)
-            near = np.mean((dist > tol) & (dist <= 2 * tol))
-            if at >= min_fraction and at > ratio * near:
-                found.append((j, side, float(extreme), float(at)))
+            for width in (tol, 2 * tol):  # the extreme itself, then a noisy level (the extreme ~ tol beyond it)
+                band = dist <= width
+                at = np.mean(band)
+                if at >= min_fraction and at > ratio * np.mean((dist > width) & (dist <= 2 * width)):
+                    found.append((j, side, float(extreme if width == tol else np.median(v[band])), float(at)))
+                    break
     return found
 
 

@@ -15,8 +15,8 @@ from ._resume import CandidateStore, fingerprint
 from ._search import describe_blocks, pareto_front, parsimonious_index, record_folds, segments, stls_threshold
 from ._space import n_terms
 from ._space import ALL_FAMILIES, FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
-from ._stages import (STRUCTURE, Budget, parallel_map, run_stage, score_candidate, screen_structure, store_full,
-                      store_screen, stored_full, stored_screen)
+from ._stages import (STRUCTURE, Budget, confirm_hold, hold_twin, parallel_map, run_stage, score_candidate,
+                      screen_structure, store_full, store_screen, stored_full, stored_screen)
 
 __all__ = ["IdentifyCV", "identify"]
 
@@ -56,7 +56,11 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     3. *refine*: the parsimonious pick of stage 2, then its Pareto front
        (sparsest first), then the best ones (``n_refine`` in all), refined
        by their simulation error
-       (``refinement``) and scored on all blocks again.
+       (``refinement``) and scored on all blocks again; the pick is refined
+       with the other input hold too (when the hold is searched), since
+       equation-error fits seldom tell the holds apart, and that one is
+       chosen only when it validates better by more than the pick's
+       standard error (its status says so otherwise).
 
     Halving by blocks rather than by training length because a candidate's
     cost is one equation-error fit and one simulation per block: the cheap
@@ -422,17 +426,25 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                                                          [rows[i]["n_terms"] for i in scored])]
                 order = [pick] + front + scored  # the pick, then the front sparsest first, then the best
                 scored = [i for k, i in enumerate(order) if i not in order[:k]]
-            third = scored[: budget.take(min(self.n_refine, len(scored)))]
+            third = [(rows[i], libraries[i]) for i in scored[: budget.take(min(self.n_refine, len(scored)))]]
+            twin = hold_twin(third) if self.input_hold is None and X_all.shape[1] > 0 else None
+            if twin is not None and budget.take(1):
+                third.insert(1, twin)
+            else:
+                twin = None
             refinement = self._refinement(n)
             bar.total += len(third)
-            calls = [(rows[i], libraries[i], ctx, refinement) for i in third]
+            calls = [(r, lib, ctx, refinement) for r, lib in third]
             results = run_stage(score_candidate, calls, stored_scores, store_scores, parallel)
-            for i, result in zip(third, results):
+            for (_, library), result in zip(third, results):
                 rows.append(result)
-                libraries.append(libraries[i])
+                libraries.append(library)
                 bar.update()
+            if twin is not None:
+                rows[-len(third) + 1] = confirm_hold(rows[-len(third)], rows[-len(third) + 1])
         table = _table(rows, len(folds))
-        full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms for r in rows])
+        full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms
+                         and not r.get("excluded") for r in rows])
         mean = np.where(full, table["mean_validation_error"], np.inf)
         if not np.any(np.isfinite(mean)):
             reasons = sorted({r["status"] for r in rows if r["status"] != "ok"})[:3] or [

@@ -15,8 +15,8 @@ from ._resume import CandidateStore
 from ._search import evaluate, path_thresholds, segments, stls_threshold
 from ._space import LATENT_FAMILIES, make_estimator
 
-__all__ = ["STRUCTURE", "Budget", "parallel_map", "run_stage", "score_candidate", "screen_structure", "store_full",
-           "store_screen", "stored_full", "stored_screen"]
+__all__ = ["STRUCTURE", "Budget", "confirm_hold", "hold_twin", "parallel_map", "run_stage", "score_candidate",
+           "screen_structure", "store_full", "store_screen", "stored_full", "stored_screen"]
 
 # the settings that make a structure (the threshold and the refinement make a candidate of it)
 STRUCTURE = ("family", "library", "derivative", "input_hold", "input_delay")
@@ -137,3 +137,23 @@ def score_candidate(row, library, ctx, refinement):
     refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
     return dict(struct, threshold=row["threshold"], refine=refined,
                 stage="refine" if refinement is not None else "blocks", **result)
+
+
+def hold_twin(third):
+    """The first candidate to refine with the other input hold (equation-error fits seldom tell the holds apart)."""
+    if not third:
+        return None
+    row, library = third[0]
+    twin = dict(row, input_hold={"zoh": "linear", "linear": "zoh"}[row["input_hold"]])
+    key = lambda r: tuple(r[k] for k in STRUCTURE + ("threshold",))  # noqa: E731
+    return None if any(key(r) == key(twin) for r, _ in third) else (twin, library)
+
+
+def confirm_hold(pick, twin):
+    """The twin's row as the choice sees it: the other hold replaces the pick's only when better by a standard error."""
+    errors = np.asarray(pick["errors"], dtype=float)
+    if np.all(np.isfinite(errors)) and np.mean(twin["errors"]) >= np.mean(errors) - np.std(errors) / np.sqrt(
+            errors.size):
+        return dict(twin, excluded=True,
+                    status="not chosen: the other input hold, not better than the pick's by a standard error")
+    return twin

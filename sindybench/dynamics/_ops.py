@@ -3,9 +3,12 @@
 The operations themselves (value, derivative, text, LaTeX, SymPy and CasADi forms) are the
 entries of :data:`~._optable.OPERATIONS` (:mod:`._optable`). :func:`op_value` and
 :func:`op_derivative` are written from that table when this module is imported (numba needs
-one static branch per code), inline into every compiled user of the terms: the NumPy
+one static branch per code) and are called by every compiled user of the terms: the NumPy
 evaluation (:func:`evaluate_kernel`, :func:`evaluate_jacobian_kernel`), the simulator and the
-sensitivity kernel. Each takes ``user``, the address of the compiled table of user operations
+sensitivity kernel. These scalar functions are ordinary numba calls, not ``inline="always"``:
+LLVM inlines them into each kernel all the same (the same code and bits), while numba's own
+inlining re-ran its front end on every copy (about 20 % of the simulator's and the filter's
+compilation; ``benchmarks/bench_compile.py``). Each takes ``user``, the address of the compiled table of user operations
 (:func:`~sindybench.dynamics.user_table`), which they call for a code ``>= USER``.
 :func:`apply_factor` and :func:`apply_op` multiply a factor into a product, an indicator
 (``gate``, ``STEP``) making it 0 outside its interval whatever the other factors are.
@@ -123,7 +126,7 @@ def _dispatch(kind):
     function = names[f"op_{kind}"]
     function.__doc__ = ("Value of the factor ``op(v)``." if kind == "value" else
                         "Derivative of the factor ``op(v)`` with respect to ``v``; ``value`` is :func:`op_value`'s.")
-    return njit(inline="always")(function)  # inlined into cached kernels; never compiled on its own
+    return njit(function)  # compiled with its first caller (exec'd: no file to cache); the callers' caches hold it
 
 
 op_value = _dispatch("value")
@@ -135,13 +138,13 @@ def _gate_test():
     codes = [op.code for op in OPERATIONS if op.gate]
     names = {}
     exec("def is_gate(o):\n    return " + (" or ".join(f"o == {c}" for c in codes) or "False"), names)  # noqa: S102
-    return njit(inline="always")(names["is_gate"])
+    return njit(names["is_gate"])
 
 
 is_gate = _gate_test()
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def apply_factor(value, o, fv):
     """``value`` times a factor of value ``fv``; outside an indicator (``STEP``) the product is 0 whatever ``value`` is."""
     if is_gate(o):
@@ -149,7 +152,7 @@ def apply_factor(value, o, fv):
     return value * fv
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def apply_op(value, o, v, a, b, user):
     """``apply_factor(value, o, op_value(o, v, a, b, user))`` (one copy of the dispatch: compiled once)."""
     return apply_factor(value, o, op_value(o, v, a, b, user))

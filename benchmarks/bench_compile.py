@@ -41,6 +41,7 @@ import json
 import os
 import re
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -120,7 +121,9 @@ def _run(tree, script, cache):
     return result
 
 
-def measure(tree, name, label):
+def measure(tree, name, label, warmed=None):
+    """Cold and warm runs of a scenario; with ``warmed`` (a cache that ``sindybench.warm`` filled), a third run
+    on a copy of it: the first call after the set-up's warm-up."""
     with tempfile.TemporaryDirectory() as cache:
         cold = _run(tree, _script(name), cache)
         warm = _run(tree, _script(name), cache)
@@ -128,7 +131,28 @@ def measure(tree, name, label):
           f"{cold['cpu'] - warm['cpu']:6.2f} s  ratio {cold['cpu'] / warm['cpu']:6.2f}x  (whole process "
           f"{cold['process']:6.2f} / {warm['process']:6.2f} s = {cold['process'] / warm['process']:5.2f}x; wall "
           f"{cold['wall']:6.2f} / {warm['wall']:6.2f} s)", flush=True)
+    if warmed is not None:
+        with tempfile.TemporaryDirectory() as folder:
+            cache = Path(folder) / "cache"
+            shutil.copytree(warmed, cache)
+            after = _run(tree, _script(name), cache)
+        print(f"  {label:9s} {name:15s} after python -m sindybench.warm {after['cpu']:6.2f} s  compile "
+              f"{after['cpu'] - warm['cpu']:6.2f} s  ratio {after['cpu'] / warm['cpu']:6.2f}x", flush=True)
     return cold, warm
+
+
+def _warm_cache(tree, cache):
+    """Fill ``cache`` with ``python -m sindybench.warm --jobs 1``; print its CPU and wall seconds."""
+    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache), "PYTHONDONTWRITEBYTECODE": "1"}
+    for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        env[name] = "1"
+    before, start = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
+    subprocess.run([sys.executable, "-m", "sindybench.warm", "--jobs", "1"], env=env, cwd=tempfile.gettempdir(),
+                   check=True, capture_output=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    print(f"  python -m sindybench.warm --jobs 1 on an empty cache: {cpu:.1f} s CPU, {time.perf_counter() - start:.0f} s "
+          "wall", flush=True)
 
 
 def _export(rev, folder):
@@ -141,6 +165,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", default=",".join(SCENARIOS), help="comma-separated scenarios")
     parser.add_argument("--reference", default=None, help="also time this git revision (e.g. main)")
+    parser.add_argument("--warm", action="store_true", help="also time each scenario after python -m sindybench.warm")
     args = parser.parse_args()
     names = [n for n in args.only.split(",") if n]
     unknown = sorted(set(names) - set(SCENARIOS))
@@ -148,13 +173,15 @@ def main():
         parser.error(f"unknown scenarios {unknown}; expected some of {list(SCENARIOS)}")
     print("CPU seconds of each entry point (fresh NUMBA_CACHE_DIR = cold, then the same cache = warm)")
     cur, ref = {}, {}
-    with tempfile.TemporaryDirectory() as folder:
+    with tempfile.TemporaryDirectory() as folder, tempfile.TemporaryDirectory() as warmed:
         if args.reference:
             _export(args.reference, folder)
+        if args.warm:
+            _warm_cache(ROOT, warmed)
         for name in names:  # reference and this tree back to back, scenario by scenario
             if args.reference:
                 ref[name] = measure(Path(folder), name, "reference")
-            cur[name] = measure(ROOT, name, "this tree")
+            cur[name] = measure(ROOT, name, "this tree", warmed if args.warm else None)
     if args.reference:
         print(f"compile seconds (cold - warm CPU), this tree / reference {args.reference}:")
         for name in names:

@@ -151,8 +151,8 @@ def _warm_cache(tree, cache):
                    check=True, capture_output=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
-    print(f"  python -m sindybench.warm --jobs 1 on an empty cache: {cpu:.1f} s CPU, {time.perf_counter() - start:.0f} s "
-          "wall", flush=True)
+    wall = time.perf_counter() - start
+    print(f"  python -m sindybench.warm --jobs 1 on an empty cache: {cpu:.1f} s CPU, {wall:.0f} s wall", flush=True)
 
 
 def _export(rev, folder):

@@ -62,7 +62,8 @@ def test_real_calls_after_the_warm_up_compile_nothing_new():
     grew = {name: (before.get(name, 0), n) for name, n in after.items() if n > max(before.get(name, 0), 1)}
     assert grew == {}
     used = ("estimation._kalman._filter", "estimation._kalman._smooth", "estimation._predict._k_step",
-            "dynamics._kernels.run_state_into", "dynamics._kernels.run_sensitivity_into", "dynamics._ops.evaluate_kernel")
+            "dynamics._kernels.run_state_into", "dynamics._kernels.run_sensitivity_into",
+            "dynamics._ops.evaluate_kernel")
     assert all(before.get(f"sindybench.{name}", 0) >= 1 for name in used)  # the warm-up compiled them
 
 

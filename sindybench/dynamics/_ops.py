@@ -7,9 +7,9 @@ one static branch per code) and are called by every compiled user of the terms: 
 evaluation (:func:`evaluate_kernel`, :func:`evaluate_jacobian_kernel`), the simulator and the
 sensitivity kernel. These scalar functions are ordinary numba calls, not ``inline="always"``:
 LLVM inlines them into each kernel all the same (the same code and bits), while numba's own
-inlining re-ran its front end on every copy (16-45 % of the first call's
-compilation; ``benchmarks/bench_compile.py``). Each takes ``user``, the address of the compiled table of user operations
-(:func:`~sindybench.dynamics.user_table`), which they call for a code ``>= USER``.
+inlining re-ran its front end on every copy (16-45 % of the first call's compilation;
+``benchmarks/bench_compile.py``). Each takes ``user``, the address of the compiled table of
+user operations (:func:`~sindybench.dynamics.user_table`), which they call for a code ``>= USER``.
 :func:`apply_factor` and :func:`apply_op` multiply a factor into a product, an indicator
 (``gate``, ``STEP``) making it 0 outside its interval whatever the other factors are.
 """

@@ -21,19 +21,25 @@ shared machine the load drifts: compare neighbours). Also printed: the whole chi
 (interpreter start and imports included), the measure of "a script's CPU time".
 Numba, BLAS and OpenMP run on one thread.
 
-Measured (``--reference df2cee8``, the code before issue 26 item 5; one run on the shared 2-core
-machine at a load of 5-9; compile = cold - warm CPU of the entry point)::
+``--warm`` also fills a cache with ``python -m sindybench.warm --jobs 1`` once (its CPU printed) and times each
+scenario in a new process on a copy of it: the first call after the set-up's warm-up.
 
-    quickstart      7.76 / 8.58 s = 0.90   (cold / warm CPU 4.97x, before 5.30x; whole process 4.18x)
-    predict         2.45 / 2.68 s = 0.92
-    refine          7.82 / 8.05 s = 0.97
-    filter          9.54 / 13.77 s = 0.69
-    estimate_noise 12.92 / 15.43 s = 0.84
-    k_step         14.53 / 17.48 s = 0.83
+Measured (``--warm --reference 9776474``, the code before the scalar helpers stopped being inlined by numba; one
+run on the shared 2-core machine at a load of 12-18; CPU seconds; compile = cold - warm CPU of the entry point)::
+
+    scenario        compile before -> after   warm CPU   cold/warm after   after the warm-up / warm
+    quickstart       8.45 ->  6.35 s           19.55 s    1.32x             1.02x
+    fit              0.51 ->  0.56 s            0.24 s    3.35x             0.97x
+    predict          2.67 ->  1.45 s            0.01 s                      0.88x
+    refine           7.75 ->  5.04 s            0.05 s                      0.98x
+    filter          10.60 ->  8.90 s            0.03 s                      0.97x
+    estimate_noise  14.14 -> 11.13 s            0.15 s                      0.99x  (compile 0.00 s)
+    k_step          17.10 -> 11.74 s            0.03 s                      1.00x
+    python -m sindybench.warm --jobs 1 on an empty cache: 51.1 s CPU, once
 
 Usage (from the repository root)::
 
-    SINDYBENCH_DATA=../shared/data python benchmarks/bench_compile.py [--only quickstart,filter] [--reference main]
+    SINDYBENCH_DATA=../shared/data python benchmarks/bench_compile.py [--only quickstart,filter] [--reference main] [--warm]
 """
 
 import argparse

@@ -39,7 +39,7 @@ run on the shared 2-core machine at a load of 12-18; CPU seconds; compile = cold
 
 Usage (from the repository root)::
 
-    SINDYBENCH_DATA=../shared/data python benchmarks/bench_compile.py [--only quickstart,filter] [--reference main] [--warm]
+    SINDYBENCH_DATA=../shared/data python benchmarks/bench_compile.py [--only quickstart] [--reference main] [--warm]
 """
 
 import argparse

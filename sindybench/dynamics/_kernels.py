@@ -71,7 +71,7 @@ def _clip(x, lo, hi):
             x[i] = hi[i]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _invalid(v, max_abs):
     return not (abs(v) <= max_abs and abs(v) < np.inf)
 

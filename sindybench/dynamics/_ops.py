@@ -5,10 +5,12 @@ entries of :data:`~._optable.OPERATIONS` (:mod:`._optable`). :func:`op_value` an
 :func:`op_derivative` are written from that table when this module is imported (numba needs
 one static branch per code) and are called by every compiled user of the terms: the NumPy
 evaluation (:func:`evaluate_kernel`, :func:`evaluate_jacobian_kernel`), the simulator and the
-sensitivity kernel. These scalar functions are ordinary numba calls, not ``inline="always"``:
-LLVM inlines them into each kernel all the same (the same code and bits), while numba's own
-inlining re-ran its front end on every copy (16-45 % of the first call's compilation;
-``benchmarks/bench_compile.py``). Each takes ``user``, the address of the compiled table of
+sensitivity kernel. These two are ordinary numba calls, not ``inline="always"``: LLVM
+inlines them into each kernel all the same (the same bits and speed), while numba's own
+inlining re-ran its front end on every copy (16-46 % of the first call's compilation;
+``benchmarks/bench_compile.py``). The smaller helpers (:func:`apply_factor`, :func:`apply_op`,
+``power``, the divergence test) stay inlined by numba: called, they made the free run 5 %
+slower. Each takes ``user``, the address of the compiled table of
 user operations (:func:`~sindybench.dynamics.user_table`), which they call for a code ``>= USER``.
 :func:`apply_factor` and :func:`apply_op` multiply a factor into a product, an indicator
 (``gate``, ``STEP``) making it 0 outside its interval whatever the other factors are.
@@ -138,13 +140,13 @@ def _gate_test():
     codes = [op.code for op in OPERATIONS if op.gate]
     names = {}
     exec("def is_gate(o):\n    return " + (" or ".join(f"o == {c}" for c in codes) or "False"), names)  # noqa: S102
-    return njit(names["is_gate"])
+    return njit(inline="always")(names["is_gate"])
 
 
 is_gate = _gate_test()
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def apply_factor(value, o, fv):
     """``value`` times a factor of value ``fv``; outside an indicator (``STEP``) the product is 0 whatever ``value`` is."""
     if is_gate(o):
@@ -152,7 +154,7 @@ def apply_factor(value, o, fv):
     return value * fv
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def apply_op(value, o, v, a, b, user):
     """``apply_factor(value, o, op_value(o, v, a, b, user))`` (one copy of the dispatch: compiled once)."""
     return apply_factor(value, o, op_value(o, v, a, b, user))

@@ -79,7 +79,7 @@ class Operation(NamedTuple):
     gate: bool = False
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def power(v, p):
     """``v ** p``, with the small integer powers as products (``v ** 0 = 1`` for every ``v``, NaN included)."""
     if p == 1.0:

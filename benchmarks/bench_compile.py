@@ -24,17 +24,19 @@ Numba, BLAS and OpenMP run on one thread.
 ``--warm`` also fills a cache with ``python -m sindybench.warm --jobs 1`` once (its CPU printed) and times each
 scenario in a new process on a copy of it: the first call after the set-up's warm-up.
 
-Measured (``--warm --reference 9776474``, the code before the scalar helpers stopped being inlined by numba; one
-run on the shared 2-core machine at a load of 12-18; CPU seconds; compile = cold - warm CPU of the entry point)::
+Measured (reference 9776474, the code before, with ``--warm --reference 9776474``; this tree in a second run
+``--only ...`` minutes later; the shared 2-core machine at a load of 12-18; CPU seconds; compile = cold - warm CPU
+of the entry point; "after the warm-up" measured on the commit before, which differed only in inlining, not
+in what the cache holds)::
 
     scenario        compile before -> after   warm CPU   cold/warm after   after the warm-up / warm
-    quickstart       8.45 ->  6.35 s           19.55 s    1.32x             1.02x
-    fit              0.51 ->  0.56 s            0.24 s    3.35x             0.97x
-    predict          2.67 ->  1.45 s            0.01 s                      0.88x
-    refine           7.75 ->  5.04 s            0.05 s                      0.98x
-    filter          10.60 ->  8.90 s            0.03 s                      0.97x
-    estimate_noise  14.14 -> 11.13 s            0.15 s                      0.99x  (compile 0.00 s)
-    k_step          17.10 -> 11.74 s            0.03 s                      1.00x
+    quickstart       8.45 ->  4.76 s           20.92 s    1.23x             1.02x
+    fit              0.51 ->  0.39 s            0.23 s    2.72x             0.97x
+    predict          2.67 ->  1.69 s            0.01 s                      0.88x
+    refine           7.75 ->  5.20 s            0.05 s                      0.98x
+    filter          10.60 ->  8.01 s            0.02 s                      0.97x
+    estimate_noise  14.14 -> 10.10 s            0.13 s                      0.99x  (compile 0.00 s)
+    k_step          17.10 -> 11.19 s            0.03 s                      1.00x
     python -m sindybench.warm --jobs 1 on an empty cache: 51.1 s CPU, once
 
 Usage (from the repository root)::

@@ -3,7 +3,7 @@
 numba compiles each kernel on its first call and caches the machine code (``cache=True``:
 ``__pycache__`` beside the module, or ``NUMBA_CACHE_DIR``), so a new environment, CI run or
 notebook kernel on a new machine pays the compilation once: the first ``estimate_noise``
-about 10 s of CPU, the first refinement about 7 s. ``python -m sindybench.warm`` (or
+about 10 s of CPU, the first refinement about 5 s. ``python -m sindybench.warm`` (or
 :func:`warm`) pays it ahead, as the last step of the set-up: it runs every public entry point
 that reaches a compiled kernel (fit, predict, the output- and prediction-error refinements,
 the extended Kalman filter, the RTS smoother, ``estimate_noise``, the k-step prediction) once

@@ -21,19 +21,27 @@ shared machine the load drifts: compare neighbours). Also printed: the whole chi
 (interpreter start and imports included), the measure of "a script's CPU time".
 Numba, BLAS and OpenMP run on one thread.
 
-Measured (``--reference df2cee8``, the code before issue 26 item 5; one run on the shared 2-core
-machine at a load of 5-9; compile = cold - warm CPU of the entry point)::
+``--warm`` also fills a cache with ``python -m sindybench.warm --jobs 1`` once (its CPU printed) and times each
+scenario in a new process on a copy of it: the first call after the set-up's warm-up.
 
-    quickstart      7.76 / 8.58 s = 0.90   (cold / warm CPU 4.97x, before 5.30x; whole process 4.18x)
-    predict         2.45 / 2.68 s = 0.92
-    refine          7.82 / 8.05 s = 0.97
-    filter          9.54 / 13.77 s = 0.69
-    estimate_noise 12.92 / 15.43 s = 0.84
-    k_step         14.53 / 17.48 s = 0.83
+Measured (reference 9776474, the code before, with ``--warm --reference 9776474``; this tree in a second run
+``--only ...`` minutes later; the shared 2-core machine at a load of 12-18; CPU seconds; compile = cold - warm CPU
+of the entry point; "after the warm-up" measured on the commit before, which differed only in inlining, not
+in what the cache holds)::
+
+    scenario        compile before -> after   warm CPU   cold/warm after   after the warm-up / warm
+    quickstart       8.45 ->  4.76 s           20.92 s    1.23x             1.02x
+    fit              0.51 ->  0.39 s            0.23 s    2.72x             0.97x
+    predict          2.67 ->  1.69 s            0.01 s                      0.88x
+    refine           7.75 ->  5.20 s            0.05 s                      0.98x
+    filter          10.60 ->  8.01 s            0.02 s                      0.97x
+    estimate_noise  14.14 -> 10.10 s            0.13 s                      0.99x  (compile 0.00 s)
+    k_step          17.10 -> 11.19 s            0.03 s                      1.00x
+    python -m sindybench.warm --jobs 1 on an empty cache: 51.1 s CPU, once
 
 Usage (from the repository root)::
 
-    SINDYBENCH_DATA=../shared/data python benchmarks/bench_compile.py [--only quickstart,filter] [--reference main]
+    SINDYBENCH_DATA=../shared/data python benchmarks/bench_compile.py [--only quickstart] [--reference main] [--warm]
 """
 
 import argparse
@@ -41,6 +49,7 @@ import json
 import os
 import re
 import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -120,7 +129,9 @@ def _run(tree, script, cache):
     return result
 
 
-def measure(tree, name, label):
+def measure(tree, name, label, warmed=None):
+    """Cold and warm runs of a scenario; with ``warmed`` (a cache that ``sindybench.warm`` filled), a third run
+    on a copy of it: the first call after the set-up's warm-up."""
     with tempfile.TemporaryDirectory() as cache:
         cold = _run(tree, _script(name), cache)
         warm = _run(tree, _script(name), cache)
@@ -128,7 +139,28 @@ def measure(tree, name, label):
           f"{cold['cpu'] - warm['cpu']:6.2f} s  ratio {cold['cpu'] / warm['cpu']:6.2f}x  (whole process "
           f"{cold['process']:6.2f} / {warm['process']:6.2f} s = {cold['process'] / warm['process']:5.2f}x; wall "
           f"{cold['wall']:6.2f} / {warm['wall']:6.2f} s)", flush=True)
+    if warmed is not None:
+        with tempfile.TemporaryDirectory() as folder:
+            cache = Path(folder) / "cache"
+            shutil.copytree(warmed, cache)
+            after = _run(tree, _script(name), cache)
+        print(f"  {label:9s} {name:15s} after python -m sindybench.warm {after['cpu']:6.2f} s  compile "
+              f"{after['cpu'] - warm['cpu']:6.2f} s  ratio {after['cpu'] / warm['cpu']:6.2f}x", flush=True)
     return cold, warm
+
+
+def _warm_cache(tree, cache):
+    """Fill ``cache`` with ``python -m sindybench.warm --jobs 1``; print its CPU and wall seconds."""
+    env = {**os.environ, "PYTHONPATH": str(tree), "NUMBA_CACHE_DIR": str(cache), "PYTHONDONTWRITEBYTECODE": "1"}
+    for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+        env[name] = "1"
+    before, start = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
+    subprocess.run([sys.executable, "-m", "sindybench.warm", "--jobs", "1"], env=env, cwd=tempfile.gettempdir(),
+                   check=True, capture_output=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime
+    wall = time.perf_counter() - start
+    print(f"  python -m sindybench.warm --jobs 1 on an empty cache: {cpu:.1f} s CPU, {wall:.0f} s wall", flush=True)
 
 
 def _export(rev, folder):
@@ -141,6 +173,7 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--only", default=",".join(SCENARIOS), help="comma-separated scenarios")
     parser.add_argument("--reference", default=None, help="also time this git revision (e.g. main)")
+    parser.add_argument("--warm", action="store_true", help="also time each scenario after python -m sindybench.warm")
     args = parser.parse_args()
     names = [n for n in args.only.split(",") if n]
     unknown = sorted(set(names) - set(SCENARIOS))
@@ -148,13 +181,15 @@ def main():
         parser.error(f"unknown scenarios {unknown}; expected some of {list(SCENARIOS)}")
     print("CPU seconds of each entry point (fresh NUMBA_CACHE_DIR = cold, then the same cache = warm)")
     cur, ref = {}, {}
-    with tempfile.TemporaryDirectory() as folder:
+    with tempfile.TemporaryDirectory() as folder, tempfile.TemporaryDirectory() as warmed:
         if args.reference:
             _export(args.reference, folder)
+        if args.warm:
+            _warm_cache(ROOT, warmed)
         for name in names:  # reference and this tree back to back, scenario by scenario
             if args.reference:
                 ref[name] = measure(Path(folder), name, "reference")
-            cur[name] = measure(ROOT, name, "this tree")
+            cur[name] = measure(ROOT, name, "this tree", warmed if args.warm else None)
     if args.reference:
         print(f"compile seconds (cold - warm CPU), this tree / reference {args.reference}:")
         for name in names:

@@ -3,10 +3,15 @@
 The operations themselves (value, derivative, text, LaTeX, SymPy and CasADi forms) are the
 entries of :data:`~._optable.OPERATIONS` (:mod:`._optable`). :func:`op_value` and
 :func:`op_derivative` are written from that table when this module is imported (numba needs
-one static branch per code), inline into every compiled user of the terms: the NumPy
+one static branch per code) and are called by every compiled user of the terms: the NumPy
 evaluation (:func:`evaluate_kernel`, :func:`evaluate_jacobian_kernel`), the simulator and the
-sensitivity kernel. Each takes ``user``, the address of the compiled table of user operations
-(:func:`~sindybench.dynamics.user_table`), which they call for a code ``>= USER``.
+sensitivity kernel. These two are ordinary numba calls, not ``inline="always"``: LLVM
+inlines them into each kernel all the same (the same bits and speed), while numba's own
+inlining re-ran its front end on every copy (16-46 % of the first call's compilation;
+``benchmarks/bench_compile.py``). The smaller helpers (:func:`apply_factor`, :func:`apply_op`,
+``power``, the divergence test) stay inlined by numba: called, they made the free run 5 %
+slower. Each takes ``user``, the address of the compiled table of
+user operations (:func:`~sindybench.dynamics.user_table`), which they call for a code ``>= USER``.
 :func:`apply_factor` and :func:`apply_op` multiply a factor into a product, an indicator
 (``gate``, ``STEP``) making it 0 outside its interval whatever the other factors are.
 """
@@ -123,7 +128,7 @@ def _dispatch(kind):
     function = names[f"op_{kind}"]
     function.__doc__ = ("Value of the factor ``op(v)``." if kind == "value" else
                         "Derivative of the factor ``op(v)`` with respect to ``v``; ``value`` is :func:`op_value`'s.")
-    return njit(inline="always")(function)  # inlined into cached kernels; never compiled on its own
+    return njit(function)  # compiled with its first caller (exec'd: no file to cache); the callers' caches hold it
 
 
 op_value = _dispatch("value")

@@ -20,7 +20,7 @@ STEP      ``1`` if ``a <= z <= b``, else 0   0                                  
 subset of Python that numba compiles: the compiled dispatch of :mod:`._ops` (``op_value``,
 ``op_derivative``) is written from this table, each function's body one branch (so the
 kernels compile exactly the code of one hand-written ``if`` chain), and every compiled user
-of the terms (features, simulator, sensitivities, one-step map) inlines it. ``text``, ``latex``, ``sympy`` and ``casadi`` write the factor for
+of the terms (features, simulator, sensitivities, one-step map) calls it. ``text``, ``latex``, ``sympy`` and ``casadi`` write the factor for
 :func:`~sindybench.libraries.term_name`, :func:`~sindybench.libraries.term_latex`,
 :func:`~sindybench.libraries.term_sympy` and :func:`~sindybench.export.to_casadi`; the CasADi
 form is the simulator's value with the simulator's derivative (a ``SQRT`` clipped at ``a``
@@ -35,7 +35,7 @@ the product is 0 whatever the other factors are (``inf * 0`` is not NaN).
 call :func:`power` and ``np``) and an :class:`Operation` with the next free code below :data:`~sindybench.dynamics.USER`,
 appended to :data:`OPERATIONS` (codes are stored in model files: never renumber one). Then
 give it a name in :mod:`sindybench.dynamics` and delete the ``__pycache__`` folders of
-``sindybench/dynamics`` (numba's cache does not see a change in an inlined function).
+``sindybench/dynamics`` (numba's cache of a kernel does not see a change in a function it calls).
 """
 
 import math

@@ -15,9 +15,13 @@ __all__ = ["k_step_rmse", "predict_k_step", "smooth_initial_state"]
 
 
 @njit(cache=True)
-def _k_step(xf, u, dt, k, sm, oidx, out):
-    """``out[t] = x[t + k][oidx]`` simulated from ``xf[t]``; -1 or the first ``t`` whose run diverged."""
-    _, z, theta, K, _, _ = step_workspace(sm, u.shape[1])
+def _k_step(xf, u, dt, k, sm, oidx, work, out):
+    """``out[t] = x[t + k][oidx]`` simulated from ``xf[t]``; -1 or the first ``t`` whose run diverged.
+
+    ``work``: the integrator's ``(z, theta, K)``, allocated by NumPy (``step_workspace`` run as Python:
+    called from here it was one more compiled function, about 0.4 s of the first call).
+    """
+    z, theta, K = work
     n = xf.shape[1]
     x = np.empty(n)
     window = np.empty((k + 1, u.shape[1]))
@@ -92,7 +96,8 @@ def predict_k_step(model, X, y, k, *, Q, R, x0=None, P0=None):
     res = extended_kalman_filter(m, X, y, Q=Q, R=R, x0=x0, P0=P0)
     out = np.empty((n_samples - k, len(m.output_index)))
     oidx = np.asarray(m.output_index, dtype=np.int64)
-    t = _k_step(res.states, X, m.dt, k, m.step_model(), oidx, out)
+    sm = m.step_model()
+    t = _k_step(res.states, X, m.dt, k, sm, oidx, step_workspace.py_func(sm, X.shape[1])[1:4], out)
     if t >= 0:
         raise SimulationError(f"the {k}-step prediction from sample {t} diverged.", step=int(t))
     return out

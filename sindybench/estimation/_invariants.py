@@ -111,7 +111,8 @@ def latent_invariants(model, u_op, *, y_guess=None, rtol=1e-6):
     ...     return np.array([-x[0] + x[1], -0.5 * x[1] + u[0]])
     >>> x = simulate(truth, 2 * u[0, 0] * np.ones(2), u, 0.1, n_substeps=4)  # from rest
     >>> model = HiddenStateSINDy(hidden=LatentHiddenState(tau=2.0), library=PolynomialLibrary(degree=1),
-    ...                          optimizer=STLS(threshold=0.05), dt=0.1, n_trials=1).fit(u, x[:, :1])
+    ...                          optimizer=STLS(threshold=0.05), dt=0.1, n_trials=1,
+    ...                          input_hold="zoh").fit(u, x[:, :1])  # the hold the data were simulated with
     >>> inv = latent_invariants(model, [1.0])
     >>> np.sort(inv["poles"].real).round(2).tolist(), inv["gain"].round(2).tolist()
     ([-1.0, -0.5], [[2.0]])

@@ -148,11 +148,11 @@ def _worker_setup(lock_file, log_level, log_to_stderr, optuna_verbosity, prefix)
 
 def _in_worker(index, benchmark, data, folder, settings, setup):
     _worker_setup(*setup, prefix=benchmark.name)
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     # one BLAS thread, as in the serial run (a thread count would change the rounding of the results)
     with threadpool_limits(limits=1, user_api="blas"):
         results = run_and_write(benchmark, data, folder, **settings)
-    return index, results, time.perf_counter() - start
+    return index, results, time.perf_counter() - start, time.process_time() - cpu
 
 
 def _parent_setup(lock_file):
@@ -187,8 +187,8 @@ def run_in_workers(benchmarks, data, staging, n_workers, *, costs, settings):
                                      settings, setup) for i in order)
         parallel = Parallel(n_jobs=n_workers, backend="loky", batch_size=1, pre_dispatch="n_jobs",
                             return_as="generator_unordered")
-        for count, (i, results, seconds) in enumerate(parallel(tasks), 1):
+        for count, (i, results, seconds, cpu) in enumerate(parallel(tasks), 1):
             done[i] = results
-            logger.info("done %d/%d: %s in %.0f s (%.0f s since the start)", count, len(benchmarks),
-                        benchmarks[i].title, seconds, time.perf_counter() - start)
+            logger.info("done %d/%d: %s in %.0f s, %.0f s of CPU (%.0f s since the start)", count, len(benchmarks),
+                        benchmarks[i].name, seconds, cpu, time.perf_counter() - start)
     return done

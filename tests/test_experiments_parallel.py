@@ -62,15 +62,17 @@ def test_a_parallel_run_writes_the_files_of_a_serial_run(tmp_path, caplog):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["parallel", "serial"]  # no staging folder left
 
 
-def test_a_failing_benchmark_in_a_worker_leaves_no_files(tmp_path):
-    def broken(**kwargs):
-        raise RuntimeError("no data in this worker")
+def test_a_benchmark_that_stops_in_a_worker_stops_the_run_and_leaves_no_files(tmp_path):
+    from sindybench.experiments import ModelSpec
+
+    def lost(**kwargs):  # a storage that stops answering stops the run (a failing model does not)
+        raise ConnectionError("the storage stopped answering in the worker")
 
     toys = _toys()
-    toys[1] = dataclasses.replace(toys[1], load=broken)
+    toys[1] = dataclasses.replace(toys[1], models=(ModelSpec("lost", "Lost", lost),))
     (tmp_path / "out").mkdir()
     (tmp_path / "out" / "keep.txt").write_text("mine")
-    with pytest.raises(RuntimeError, match="no data in this worker"):
+    with pytest.raises(ConnectionError, match="stopped answering in the worker"):
         run_benchmarks(toys, tmp_path / "out", quick=True, jobs=2)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
     assert [p.name for p in (tmp_path / "out").iterdir()] == ["keep.txt"]

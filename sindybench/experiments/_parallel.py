@@ -32,7 +32,7 @@ from ._report import write_results
 from ._runner import run_benchmark, test_sets
 
 __all__ = ["lock_numba_cache", "longest_first", "numba_cache_lockable", "run_and_write", "run_in_workers",
-           "worker_count"]
+           "run_serially", "worker_count"]
 
 logger = logging.getLogger(__name__)
 
@@ -146,13 +146,34 @@ def _worker_setup(lock_file, log_level, log_to_stderr, optuna_verbosity, prefix)
         optuna.logging.set_verbosity(optuna_verbosity)
 
 
+def _timed(index, benchmark, data, folder, settings):
+    """``(index, results, wall seconds, CPU seconds of this process)`` of :func:`run_and_write`."""
+    start, cpu = time.perf_counter(), time.process_time()
+    results = run_and_write(benchmark, data, folder, **settings)
+    return index, results, time.perf_counter() - start, time.process_time() - cpu
+
+
+def _log_done(count, total, benchmark, seconds, cpu, start):
+    logger.info("done %d/%d: %s in %.0f s, %.0f s of CPU (%.0f s since the start)", count, total, benchmark.name,
+                seconds, cpu, time.perf_counter() - start)
+
+
 def _in_worker(index, benchmark, data, folder, settings, setup):
     _worker_setup(*setup, prefix=benchmark.name)
-    start, cpu = time.perf_counter(), time.process_time()
     # one BLAS thread, as in the serial run (a thread count would change the rounding of the results)
     with threadpool_limits(limits=1, user_api="blas"):
-        results = run_and_write(benchmark, data, folder, **settings)
-    return index, results, time.perf_counter() - start, time.process_time() - cpu
+        return _timed(index, benchmark, data, folder, settings)
+
+
+def run_serially(benchmarks, data, staging, *, settings):
+    """Run ``benchmarks`` one after the other in this process; as :func:`run_in_workers` otherwise."""
+    done, start = [], time.perf_counter()
+    for i, benchmark in enumerate(benchmarks):
+        logger.info("== %s ==", benchmark.title)
+        _, results, seconds, cpu = _timed(i, benchmark, data[benchmark.name], Path(staging) / benchmark.name, settings)
+        done.append(results)
+        _log_done(i + 1, len(benchmarks), benchmark, seconds, cpu, start)
+    return done
 
 
 def _parent_setup(lock_file):
@@ -189,6 +210,5 @@ def run_in_workers(benchmarks, data, staging, n_workers, *, costs, settings):
                             return_as="generator_unordered")
         for count, (i, results, seconds, cpu) in enumerate(parallel(tasks), 1):
             done[i] = results
-            logger.info("done %d/%d: %s in %.0f s, %.0f s of CPU (%.0f s since the start)", count, len(benchmarks),
-                        benchmarks[i].name, seconds, cpu, time.perf_counter() - start)
+            _log_done(count, len(benchmarks), benchmarks[i], seconds, cpu, start)
     return done

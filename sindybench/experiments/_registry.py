@@ -7,7 +7,7 @@ from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
-from ._parallel import numba_cache_lockable, run_and_write, run_in_workers, worker_count
+from ._parallel import numba_cache_lockable, run_in_workers, run_serially, worker_count
 from ._report import check_output_dir, staged_output_dir
 from ._report import write_report as _write_report
 from ._runner import load_data
@@ -109,10 +109,7 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
             all_results = run_in_workers(benchmarks, data, tmp, n_workers, costs=[b.cost for b in benchmarks],
                                          settings=settings)
         else:
-            all_results = []
-            for benchmark in benchmarks:
-                logger.info("== %s ==", benchmark.title)
-                all_results.append(run_and_write(benchmark, data[benchmark.name], tmp / benchmark.name, **settings))
+            all_results = run_serially(benchmarks, data, tmp, settings=settings)
         if write_report_md:
             _write_report(all_results, tmp / "report.md", wall_time_s=time.perf_counter() - start)
     if write_report_md:

@@ -47,9 +47,10 @@ def _toys():
 
 
 def test_a_parallel_run_writes_the_files_of_a_serial_run(tmp_path, caplog):
-    serial = run_benchmarks(_toys(), tmp_path / "serial", quick=True, seed=2, jobs=1)
+    # the bars asked for (drawn only on a terminal) are a parameter of the saved models: the same in both runs
+    serial = run_benchmarks(_toys(), tmp_path / "serial", quick=True, seed=2, jobs=1, show_progress_bar=True)
     with caplog.at_level("INFO", logger="sindybench"):
-        parallel = run_benchmarks(_toys(), tmp_path / "parallel", quick=True, seed=2, jobs=2)
+        parallel = run_benchmarks(_toys(), tmp_path / "parallel", quick=True, seed=2, jobs=2, show_progress_bar=True)
     assert serial.name == parallel.name == "report.md"
     a, b = _files(tmp_path / "serial"), _files(tmp_path / "parallel")
     assert sorted(a) == sorted(b) and "toy-slow/models/sindy_poly.json" in a

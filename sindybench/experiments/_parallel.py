@@ -28,6 +28,7 @@ from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
+from .._progress import ENV_VAR as PROGRESS_ENV_VAR
 from ._report import write_results
 from ._runner import run_benchmark, test_sets
 
@@ -132,6 +133,8 @@ def numba_cache_lockable():
 def _worker_setup(lock_file, log_level, log_to_stderr, optuna_verbosity, prefix):
     """In a worker: Ctrl-C is the parent's to handle, numba's cache saves under the run's lock, logs as the parent's."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers and says "interrupted" once
+    # no bars (two would garble one line); the estimators keep show_progress_bar, so the model files stay the same
+    os.environ[PROGRESS_ENV_VAR] = "0"
     lock_numba_cache(lock_file)
     root = logging.getLogger("sindybench")
     if log_to_stderr:  # the command's log lines, each naming its benchmark
@@ -196,7 +199,6 @@ def run_in_workers(benchmarks, data, staging, n_workers, *, costs, settings):
     """
     from joblib import Parallel, delayed
 
-    settings = dict(settings, show_progress_bar=False)  # two bars redrawing one line would garble it
     order = longest_first(costs)
     done = [None] * len(benchmarks)
     start = time.perf_counter()

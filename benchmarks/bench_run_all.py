@@ -11,7 +11,7 @@ scores are the same (they must be: the order of the benchmarks changes no number
 
 Usage (from the repository root, with the benchmark records in SINDYBENCH_DATA)::
 
-    SINDYBENCH_DATA=../shared/data python benchmarks/bench_run_all.py [--warm] [--repeat N] [--reference REV]
+    SINDYBENCH_DATA=../shared/data python benchmarks/bench_run_all.py [--warm] [--quick] [--repeat N] [--reference REV]
 
 The machine may be shared: compare runs made back to back, and repeat (``--repeat``, alternating
 the runs) to see the spread; the load average before each run is printed.
@@ -69,10 +69,12 @@ def main(argv=None):
     parser.add_argument("--warm", action="store_true", help="fill each copy's numba cache before the timed runs")
     parser.add_argument("--repeat", type=int, default=1, help="timed runs of each configuration, alternating")
     parser.add_argument("--reference", default=None, help="a git revision to time serially too")
+    parser.add_argument("--quick", action="store_true", help="time 'run all --quick' (a smoke run) instead")
     args = parser.parse_args(argv)
-    configs = {"serial": ("--jobs", "1"), "parallel": ("--jobs", "-1")}
+    quick = ("--quick",) if args.quick else ()
+    configs = {"serial": ("--jobs", "1", *quick), "parallel": ("--jobs", "-1", *quick)}
     if args.reference:
-        configs["reference"] = ()
+        configs["reference"] = quick
     with tempfile.TemporaryDirectory(prefix="bench-run-all-") as tmp:
         tmp = Path(tmp)
         walls, cpus, results = ({name: [] for name in configs} for _ in range(3))
@@ -90,7 +92,7 @@ def main(argv=None):
                 results[name] = _results(tmp / f"out-{name}-{i}")
                 print(f"run {i}: {name:9s} {' '.join(extra) or '(serial)':8s} wall {wall:6.1f} s, CPU {cpu:6.1f} s "
                       f"(load average before: {load:.2f})", flush=True)
-        cache = "warm numba cache" if args.warm else "fresh numba cache"
+        cache = ("warm numba cache" if args.warm else "fresh numba cache") + (", --quick" if args.quick else "")
         serial, parallel = min(walls["serial"]), min(walls["parallel"])
         print(f"\nsindybench run all ({cache}), best of {args.repeat}: serial {serial:.1f} s, parallel "
               f"{parallel:.1f} s, ratio {serial / parallel:.2f}x; CPU {min(cpus['serial']):.1f} s vs "

@@ -1,24 +1,27 @@
-"""Wall time of the main job, ``sindybench run all``, against a reference revision, side by side.
+"""Wall time of the main job, ``sindybench run all``, one benchmark after the other against all at once.
 
-The reference revision's package is exported (``git archive``) into a temporary folder and both
-versions run the same command with the same interpreter, one after the other in this one
-process's children, after a warm-up (``run all --quick --trials 1``) that fills each tree's numba
-cache. Prints each wall time, their ratio, and each run's per-model fit times with the NN-ARX
-share of the wall time.
+Runs ``sindybench run all --jobs 1`` (serial, in one process) and ``--jobs -1`` (one worker
+process per core, the longest benchmark first) with the same interpreter, one after the other
+in this process's children, each in its own copy of the package (``sindybench/`` without its
+``__pycache__``), so each starts, as on a fresh checkout, with an empty numba cache (``--warm``
+fills each copy's cache first with ``run all --quick --trials 1``). Prints each wall time and
+CPU time, their ratio, each benchmark's own wall time in each run, and whether the two runs'
+scores are the same (they must be: the order of the benchmarks changes no number). With
+``--reference REV`` the package of a git revision runs serially too, as a third column.
 
 Usage (from the repository root, with the benchmark records in SINDYBENCH_DATA)::
 
-    SINDYBENCH_DATA=../shared/data .venv/bin/python benchmarks/bench_run_all.py [--reference REV] [--repeat N]
+    SINDYBENCH_DATA=../shared/data python benchmarks/bench_run_all.py [--warm] [--quick] [--repeat N] [--reference REV]
 
-The default reference, b9f177e, is the main job before issue 12 (NN-ARX with the BLAS thread
-count left to OpenBLAS and trained in double precision). The machine may be shared: compare
-runs made back to back, and repeat (``--repeat``, alternating reference and current) to see the
-spread.
+The machine may be shared: compare runs made back to back, and repeat (``--repeat``, alternating
+the runs) to see the spread; the load average before each run is printed.
 """
 
 import argparse
 import json
 import os
+import resource
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -28,62 +31,82 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 
 
+def _copy(folder):
+    shutil.copytree(ROOT / "sindybench", folder / "sindybench", ignore=shutil.ignore_patterns("__pycache__"))
+
+
 def _export(rev, folder):
     archive = subprocess.run(["git", "-C", str(ROOT), "archive", rev, "sindybench"], check=True, capture_output=True)
     subprocess.run(["tar", "-x", "-C", str(folder)], input=archive.stdout, check=True)
 
 
 def _run(tree, out, *extra):
+    """``(wall seconds, CPU seconds of the command and its workers)`` of one ``run all``."""
     env = {**os.environ, "PYTHONPATH": str(tree), "MPLBACKEND": "Agg"}
+    env.pop("NUMBA_CACHE_DIR", None)  # the cache in the copy's own __pycache__ folders
     if env.get("SINDYBENCH_DATA"):  # the runs start in another folder
         env["SINDYBENCH_DATA"] = str(Path(env["SINDYBENCH_DATA"]).resolve())
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     subprocess.run([sys.executable, "-m", "sindybench.cli", "run", "all", "--no-progress", "-q", "--out", str(out),
                     *extra], check=True, env=env, cwd=tree, stdout=subprocess.DEVNULL)
-    return time.perf_counter() - start
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def _fit_times(out):
-    times = {}
-    for results in sorted(Path(out).glob("*/results.json")):
-        data = json.loads(results.read_text())
-        for model in data["models"]:
-            times[f"{data['benchmark']}/{model['key']}"] = model["fit_time_s"] or 0.0
-    return times
+def _results(out):
+    return {p.parent.name: json.loads(p.read_text()) for p in sorted(Path(out).glob("*/results.json"))}
+
+
+def _scores(results):
+    return {(name, m["key"], test): s.get(metric) for name, r in results.items() for m in r["models"]
+            for test, s in m["scores"].items() for metric in ("rmse", "r2", "fit_index")}
 
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--reference", default="b9f177e", help="git revision to compare with (default: b9f177e)")
-    parser.add_argument("--repeat", type=int, default=1, help="runs of each version, alternating (default: 1)")
+    parser.add_argument("--warm", action="store_true", help="fill each copy's numba cache before the timed runs")
+    parser.add_argument("--repeat", type=int, default=1, help="timed runs of each configuration, alternating")
+    parser.add_argument("--reference", default=None, help="a git revision to time serially too")
+    parser.add_argument("--quick", action="store_true", help="time 'run all --quick' (a smoke run) instead")
     args = parser.parse_args(argv)
+    quick = ("--quick",) if args.quick else ()
+    configs = {"serial": ("--jobs", "1", *quick), "parallel": ("--jobs", "-1", *quick)}
+    if args.reference:
+        configs["reference"] = quick
     with tempfile.TemporaryDirectory(prefix="bench-run-all-") as tmp:
         tmp = Path(tmp)
-        reference = tmp / "reference"
-        reference.mkdir()
-        _export(args.reference, reference)
-        trees = {"reference": reference, "current": ROOT}
-        for name, tree in trees.items():  # fill the numba caches of both trees
-            _run(tree, tmp / f"warm-{name}", "--quick", "--trials", "1")
-        walls, fits = {name: [] for name in trees}, {}
+        walls, cpus, results = ({name: [] for name in configs} for _ in range(3))
         for i in range(args.repeat):
-            for name, tree in trees.items():
-                out = tmp / f"{name}-{i}"
-                walls[name].append(_run(tree, out))
-                fits[name] = _fit_times(out)
-                print(f"run {i}: {name:9s} {walls[name][-1]:6.1f} s", flush=True)
-        ref, cur = min(walls["reference"]), min(walls["current"])
-        print(f"\nsindybench run all, best of {args.repeat}: reference ({args.reference}) {ref:.1f} s, "
-              f"current {cur:.1f} s, ratio {ref / cur:.2f}x")
-        print(f"\n{'model (last run)':40s} {'reference':>10s} {'current':>10s}")
-        for key in sorted(set(fits["reference"]) | set(fits["current"])):
-            ref_fit, cur_fit = fits["reference"].get(key), fits["current"].get(key)
-            cells = [f"{v:9.1f}s" if v is not None else f"{'-':>10s}" for v in (ref_fit, cur_fit)]
-            print(f"{key:40s} {cells[0]} {cells[1]}")
-        for name in trees:
-            nn = sum(v for k, v in fits[name].items() if k.endswith("/nnarx"))
-            print(f"{name}: NN-ARX fits {nn:.1f} s = {100 * nn / walls[name][-1]:.0f} % of the wall time "
-                  f"{walls[name][-1]:.1f} s")
+            for name, extra in configs.items():
+                tree = tmp / f"{name}-{i}"
+                tree.mkdir()
+                _export(args.reference, tree) if name == "reference" else _copy(tree)
+                if args.warm:
+                    _run(tree, tmp / f"warm-{name}-{i}", "--quick", "--trials", "1", *extra)
+                load = os.getloadavg()[0]
+                wall, cpu = _run(tree, tmp / f"out-{name}-{i}", *extra)
+                walls[name].append(wall)
+                cpus[name].append(cpu)
+                results[name] = _results(tmp / f"out-{name}-{i}")
+                print(f"run {i}: {name:9s} {' '.join(extra) or '(serial)':8s} wall {wall:6.1f} s, CPU {cpu:6.1f} s "
+                      f"(load average before: {load:.2f})", flush=True)
+        cache = ("warm numba cache" if args.warm else "fresh numba cache") + (", --quick" if args.quick else "")
+        serial, parallel = min(walls["serial"]), min(walls["parallel"])
+        print(f"\nsindybench run all ({cache}), best of {args.repeat}: serial {serial:.1f} s, parallel "
+              f"{parallel:.1f} s, ratio {serial / parallel:.2f}x; CPU {min(cpus['serial']):.1f} s vs "
+              f"{min(cpus['parallel']):.1f} s")
+        if args.reference:
+            print(f"reference {args.reference} (serial): {min(walls['reference']):.1f} s")
+        print(f"\n{'benchmark (last run), its own wall time':40s}" + "".join(f"{name:>11s}" for name in configs))
+        for bench in sorted(results["serial"]):
+            cells = "".join(f"{results[name][bench]['wall_time_s']:10.1f}s" if bench in results[name] else f"{'-':>11s}"
+                            for name in configs)
+            print(f"{bench:40s}{cells}")
+        same = _scores(results["serial"]) == _scores(results["parallel"])
+        print(f"\nscores of the serial and the parallel run {'identical' if same else 'DIFFER'} "
+              f"({len(_scores(results['serial']))} scores)")
 
 
 if __name__ == "__main__":

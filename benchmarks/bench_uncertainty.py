@@ -2,8 +2,9 @@
 
 The model is the study's refined cascaded-tanks row (``hidden_tanks_refined``: the hidden upper
 tank with the searched ``k1, k2`` and start level held, the default library, refined by
-simulation error), rebuilt from the baseline model file (``--model``, default
-``/work/baseline_results/cascaded-tanks/models/hidden_tanks_refined.json``) and fitted on the
+simulation error), rebuilt from the model file of a ``run all`` (``--model``, default
+``sindybench_results/cascaded-tanks/models/hidden_tanks_refined.json``, the command's default
+output folder) and fitted on the
 benchmark's estimation record (1024 samples). Printed side by side in one process:
 
 1. the wall time of its refinement (:func:`~sindybench.refine.refine_simulation_error` with the
@@ -54,7 +55,7 @@ from sindybench.datasets import load_cascaded_tanks  # noqa: E402
 from sindybench.refine import Shooting  # noqa: E402
 from sindybench.uncertainty import BootstrapEnsemble  # noqa: E402
 
-MODEL = "/work/baseline_results/cascaded-tanks/models/hidden_tanks_refined.json"
+MODEL = os.path.join("sindybench_results", "cascaded-tanks", "models", "hidden_tanks_refined.json")
 
 
 def best_time(func, repeat):
@@ -151,6 +152,9 @@ def main():
     if a.conformal:
         conformal_cost(a.conformal, a.repeat)
         return
+    if not os.path.isfile(a.model):
+        parser.error(f"no model file {a.model}: run 'sindybench run cascaded-tanks' first, or pass --model FILE "
+                     "(the hidden_tanks_refined.json of a run's models/ folder)")
     saved = load_model(a.model)
     data = load_cascaded_tanks().estimation
     u, y = data.u.reshape(len(data.u), -1), data.y.reshape(len(data.y), -1)

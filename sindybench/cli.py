@@ -11,6 +11,7 @@ Examples
 .. code-block:: console
 
     $ sindybench run all                       # default budgets (a few minutes on 2 cores)
+    $ sindybench run all --jobs 1              # the benchmarks one after the other, in this process
     $ sindybench run cascaded-tanks --quick    # a smoke run, seconds
     $ sindybench run bouc-wen --trials 200 --storage sqlite:///bw.db --n-jobs 2
     $ sindybench simulate out/cascaded-tanks/models/arx.json --input u.csv --output y.csv --y-init y0.csv
@@ -99,6 +100,9 @@ def build_parser():
     run.add_argument("--storage", type=_storage, default=None, metavar="URL",
                      help="Optuna storage URL, e.g. sqlite:///study.db, to resume or share searches")
     run.add_argument("--n-jobs", type=_n_jobs, default=1, metavar="J", help="parallel trials per search")
+    run.add_argument("--jobs", type=_n_jobs, default=-1, metavar="J",
+                     help="benchmarks run at once, each in a worker process, the longest first (default: -1, one "
+                     "per core; 1: one after the other in this process); the files are the same either way")
     run.add_argument("--out", type=Path, default=Path("sindybench_results"), metavar="DIR",
                      help="output folder (default: ./sindybench_results)")
     run.add_argument("--quick", action="store_true", help="small budgets: a smoke run of a few minutes")
@@ -158,7 +162,7 @@ def _run(args):
     start = time.perf_counter()
     report = run_benchmarks(
         benchmarks, args.out, trials=args.trials, seed=args.seed, quick=args.quick, storage=args.storage,
-        n_jobs=args.n_jobs, data_home=args.data_home, download_if_missing=not args.no_download,
+        n_jobs=args.n_jobs, jobs=args.jobs, data_home=args.data_home, download_if_missing=not args.no_download,
         show_progress_bar=not (args.no_progress or args.quiet), write_report=args.benchmark == "all",
     )
     elapsed = time.perf_counter() - start

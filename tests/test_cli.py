@@ -160,16 +160,16 @@ def test_refinement_row_without_its_model_fails_cleanly():
 
 
 def test_runner_failure_leaves_no_files(tmp_path, monkeypatch):
-    import sindybench.experiments._registry as registry
+    import sindybench.experiments._parallel as runner
 
-    real = registry.run_benchmark
+    real = runner.run_benchmark
 
     def second_fails(benchmark, **kwargs):
         if benchmark.name == "toy2":
             raise RuntimeError("boom in the second benchmark")
         return real(benchmark, **kwargs)
 
-    monkeypatch.setattr(registry, "run_benchmark", second_fails)
+    monkeypatch.setattr(runner, "run_benchmark", second_fails)
     (tmp_path / "out").mkdir()
     (tmp_path / "out" / "keep.txt").write_text("user file")
     with pytest.raises(RuntimeError, match="boom"):

@@ -7,9 +7,10 @@ from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
-from ._report import check_output_dir, staged_output_dir, write_results
+from ._parallel import numba_cache_lockable, run_in_workers, run_serially, worker_count
+from ._report import check_output_dir, staged_output_dir
 from ._report import write_report as _write_report
-from ._runner import load_data, run_benchmark, test_sets
+from ._runner import load_data
 
 __all__ = ["BENCHMARKS", "get_benchmark", "run_benchmarks"]
 
@@ -43,7 +44,7 @@ def get_benchmark(name):
     return importlib.import_module(BENCHMARKS[name]).BENCHMARK
 
 
-def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage=None, n_jobs=1,
+def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage=None, n_jobs=1, jobs=1,
                    data_home=None, download_if_missing=True, show_progress_bar=False, write_report=None):
     """Run several benchmarks and write their results under ``out``.
 
@@ -62,6 +63,11 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
     out : path-like
     trials, seed, quick, storage, n_jobs, show_progress_bar
         Passed to :func:`run_benchmark`.
+    jobs : int, default=1
+        Benchmarks run at once, each in a worker process, the longest (by
+        ``Benchmark.cost``) first; ``-1``: one per core. The files are
+        those of a run of one benchmark after the other (the times they
+        report aside); ``1`` runs them one after the other in this process.
     data_home : path-like, optional
     download_if_missing : bool, default=True
     write_report : bool, optional
@@ -79,6 +85,7 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
 
     check_storage(storage)
     check_integer(seed, "seed", low=0, high=MAX_SEED - 1)
+    n_workers = worker_count(jobs, len(benchmarks))
     out = Path(out)
     write_report_md = len(benchmarks) > 1 if write_report is None else write_report
     entries = {"report.md": "file"} if write_report_md else {}
@@ -89,22 +96,20 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
     data = {b.name: load_data(b, data_home=data_home, download_if_missing=download_if_missing) for b in benchmarks}
     if storage is not None:
         make_storage(storage)  # a database that cannot be opened fails here, before any training
+    settings = dict(trials=trials, seed=seed, quick=quick, storage=storage, n_jobs=n_jobs,
+                    show_progress_bar=show_progress_bar)
+    if n_workers > 1 and not numba_cache_lockable():
+        logger.warning("one benchmark after the other: this numba has no cache method to lock for two processes")
+        n_workers = 1
     start = time.perf_counter()
-    all_results = []
     # one BLAS thread: the study's products are small, so threads only add overhead (many times over on a
     # busy machine), and a thread count would change the rounding of the results
     with staged_output_dir(out) as tmp, threadpool_limits(limits=1, user_api="blas"):
-        for benchmark in benchmarks:
-            logger.info("== %s ==", benchmark.title)
-            results, fitted, simulations = run_benchmark(
-                benchmark, data=data[benchmark.name], trials=trials, seed=seed, quick=quick, storage=storage,
-                n_jobs=n_jobs, show_progress_bar=show_progress_bar,
-            )
-            folder = tmp / benchmark.name
-            folder.mkdir()
-            tests = {k: v for k, v in test_sets(data[benchmark.name]).items() if k in results["test_sets"]}
-            all_results.append(write_results(results, fitted, simulations, tests, folder,
-                                             hysteresis_test=benchmark.hysteresis_test))
+        if n_workers > 1:
+            all_results = run_in_workers(benchmarks, data, tmp, n_workers, costs=[b.cost for b in benchmarks],
+                                         settings=settings)
+        else:
+            all_results = run_serially(benchmarks, data, tmp, settings=settings)
         if write_report_md:
             _write_report(all_results, tmp / "report.md", wall_time_s=time.perf_counter() - start)
     if write_report_md:

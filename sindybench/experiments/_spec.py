@@ -128,6 +128,9 @@ class Benchmark:
         0 skips the band, with ``band_skip_reason`` in the report).
     band_skip_reason : str
         Why the band is skipped or smaller, for the report.
+    cost : float
+        Roughly the seconds of one core a default run takes (measured); only
+        orders the benchmarks that run at once, the longest first.
     """
 
     name: str
@@ -145,6 +148,7 @@ class Benchmark:
     band_members: int = 10
     band_members_quick: int = 5
     band_skip_reason: str = ""
+    cost: float = 1.0
 
     def model(self, key):
         """Return the model spec called ``key``."""

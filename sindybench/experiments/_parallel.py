@@ -1,0 +1,216 @@
+"""Run several benchmarks at once: one worker process per benchmark, the longest first.
+
+``sindybench run all`` spends minutes of one core per benchmark, and the benchmarks share
+nothing but the code: each is loaded, searched, fitted, scored and written on its own. So
+they run in worker processes (joblib's loky backend), the longest first (a greedy
+longest-processing-time schedule: the next benchmark goes to the first worker that is free),
+and each worker writes its benchmark's files into the run's staging folder. The results
+come back in the benchmarks' own order, so ``report.md`` and every file are the same as
+those of a run of one benchmark after the other (the times they report aside).
+
+Each worker compiles the numba kernels it needs, and saves them in numba's on-disk cache,
+which both workers share. Numba saves a kernel by reading the function's index, adding its
+entry and writing the index back: two processes saving two specializations of one function
+at once can both take the same data file, and the index can then point one signature at
+the other's machine code (numba issue #10128). The workers of a run therefore save into
+the cache under one file lock (:func:`lock_numba_cache`); reading the cache needs no lock
+(numba replaces its files atomically).
+"""
+
+import functools
+import logging
+import os
+import signal
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from threadpoolctl import threadpool_limits
+
+from .._progress import ENV_VAR as PROGRESS_ENV_VAR
+from ._report import write_results
+from ._runner import run_benchmark, test_sets
+
+__all__ = ["lock_numba_cache", "longest_first", "numba_cache_lockable", "run_and_write", "run_in_workers",
+           "run_serially", "worker_count"]
+
+logger = logging.getLogger(__name__)
+
+# the save method whose read-modify-write of the index the lock covers (None: this numba has no such method)
+_NUMBA_SAVE = ("numba.core.caching", "IndexDataCacheFile", "save")
+
+
+def longest_first(costs):
+    """The order in which to start jobs of the given ``costs``: the longest first, ties in their given order.
+
+    Handing the next job to the first free worker in this order is the greedy
+    longest-processing-time schedule, within 4/3 of the shortest possible wall
+    time (Graham, 1969).
+
+    Examples
+    --------
+    >>> longest_first([11.6, 73.3, 39.0, 38.0, 73.3])
+    [1, 4, 2, 3, 0]
+    """
+    return sorted(range(len(costs)), key=lambda i: (-costs[i], i))
+
+
+def worker_count(jobs, n_tasks):
+    """The number of worker processes for ``n_tasks`` jobs: ``jobs`` (``-1``: every core), at most ``n_tasks``.
+
+    Examples
+    --------
+    >>> worker_count(1, 6), worker_count(4, 2)
+    (1, 2)
+    >>> worker_count(0, 6)
+    Traceback (most recent call last):
+    ...
+    ValueError: jobs must be a positive integer or -1 (every core); got 0.
+    """
+    from joblib import cpu_count
+
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or jobs == 0 or jobs < -1:
+        raise ValueError(f"jobs must be a positive integer or -1 (every core); got {jobs!r}.")
+    return max(1, min(cpu_count() if jobs == -1 else jobs, n_tasks))
+
+
+def run_and_write(benchmark, data, folder, **settings):
+    """Run one benchmark (:func:`run_benchmark` with ``settings``) and write its files into ``folder``.
+
+    Returns
+    -------
+    dict
+        The results with the written files (:func:`write_results`).
+    """
+    results, fitted, simulations = run_benchmark(benchmark, data=data, **settings)
+    folder = Path(folder)
+    folder.mkdir()
+    tests = {k: v for k, v in test_sets(data).items() if k in results["test_sets"]}
+    return write_results(results, fitted, simulations, tests, folder, hysteresis_test=benchmark.hysteresis_test)
+
+
+def lock_numba_cache(path):
+    """Make this process save numba's cache entries under the file lock ``path``; False if numba has no hook.
+
+    Every process that calls it with the same ``path`` saves one at a time
+    (see the module text). Calling it again changes the lock file.
+    """
+    import importlib
+
+    from filelock import FileLock
+
+    module, name, method = _NUMBA_SAVE
+    try:
+        cls = getattr(importlib.import_module(module), name)
+        save = getattr(cls, method)
+    except (ImportError, AttributeError):
+        return False
+    original = getattr(save, "__wrapped__", save)
+    lock = FileLock(os.fspath(path))
+
+    @functools.wraps(original)
+    def save_locked(self, key, data):
+        with lock:
+            return original(self, key, data)
+
+    save_locked.lock_file = os.fspath(path)
+    setattr(cls, method, save_locked)
+    return True
+
+
+def numba_cache_lockable():
+    """Whether :func:`lock_numba_cache` finds numba's save method (else benchmarks run one after the other)."""
+    import importlib
+
+    module, name, method = _NUMBA_SAVE
+    try:
+        return hasattr(getattr(importlib.import_module(module), name), method)
+    except ImportError:
+        return False
+
+
+def _worker_setup(lock_file, log_level, log_to_stderr, optuna_verbosity, prefix):
+    """In a worker: Ctrl-C is the parent's to handle, numba's cache saves under the run's lock, logs as the parent's."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent stops the workers and says "interrupted" once
+    # no bars (two would garble one line); the estimators keep show_progress_bar, so the model files stay the same
+    os.environ[PROGRESS_ENV_VAR] = "0"
+    lock_numba_cache(lock_file)
+    root = logging.getLogger("sindybench")
+    if log_to_stderr:  # the command's log lines, each naming its benchmark
+        handler = logging.StreamHandler(sys.stderr)
+        handler.setFormatter(logging.Formatter(f"[{prefix}] %(message)s"))
+        root.handlers[:] = [handler]
+        root.propagate = False
+    root.setLevel(log_level)
+    if optuna_verbosity is not None:
+        import optuna
+
+        optuna.logging.set_verbosity(optuna_verbosity)
+
+
+def _timed(index, benchmark, data, folder, settings):
+    """``(index, results, wall seconds, CPU seconds of this process)`` of :func:`run_and_write`."""
+    start, cpu = time.perf_counter(), time.process_time()
+    results = run_and_write(benchmark, data, folder, **settings)
+    return index, results, time.perf_counter() - start, time.process_time() - cpu
+
+
+def _log_done(count, total, benchmark, seconds, cpu, start):
+    logger.info("done %d/%d: %s in %.0f s, %.0f s of CPU (%.0f s since the start)", count, total, benchmark.name,
+                seconds, cpu, time.perf_counter() - start)
+
+
+def _in_worker(index, benchmark, data, folder, settings, setup):
+    _worker_setup(*setup, prefix=benchmark.name)
+    # one BLAS thread, as in the serial run (a thread count would change the rounding of the results)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _timed(index, benchmark, data, folder, settings)
+
+
+def run_serially(benchmarks, data, staging, *, settings):
+    """Run ``benchmarks`` one after the other in this process; as :func:`run_in_workers` otherwise."""
+    done, start = [], time.perf_counter()
+    for i, benchmark in enumerate(benchmarks):
+        logger.info("== %s ==", benchmark.title)
+        _, results, seconds, cpu = _timed(i, benchmark, data[benchmark.name], Path(staging) / benchmark.name, settings)
+        done.append(results)
+        _log_done(i + 1, len(benchmarks), benchmark, seconds, cpu, start)
+    return done
+
+
+def _parent_setup(lock_file):
+    root = logging.getLogger("sindybench")
+    optuna = sys.modules.get("optuna")
+    verbosity = optuna.logging.get_verbosity() if optuna is not None else None
+    return lock_file, root.getEffectiveLevel(), bool(root.handlers), verbosity
+
+
+def run_in_workers(benchmarks, data, staging, n_workers, *, costs, settings):
+    """Run ``benchmarks`` in ``n_workers`` processes, the longest (by ``costs``) first.
+
+    Each writes into ``staging/<benchmark name>``; the workers show no
+    progress bars (the log says when each benchmark starts and ends).
+
+    Returns
+    -------
+    list of dict
+        The written results (:func:`run_and_write`), in the order of ``benchmarks``.
+    """
+    from joblib import Parallel, delayed
+
+    order = longest_first(costs)
+    done = [None] * len(benchmarks)
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="sindybench-run-") as tmp:
+        setup = _parent_setup(Path(tmp) / "numba-cache.lock")
+        logger.info("%d benchmarks in %d worker processes, the longest first: %s", len(benchmarks), n_workers,
+                    ", ".join(benchmarks[i].name for i in order))
+        tasks = (delayed(_in_worker)(i, benchmarks[i], data[benchmarks[i].name], Path(staging) / benchmarks[i].name,
+                                     settings, setup) for i in order)
+        parallel = Parallel(n_jobs=n_workers, backend="loky", batch_size=1, pre_dispatch="n_jobs",
+                            return_as="generator_unordered")
+        for count, (i, results, seconds, cpu) in enumerate(parallel(tasks), 1):
+            done[i] = results
+            _log_done(count, len(benchmarks), benchmarks[i], seconds, cpu, start)
+    return done

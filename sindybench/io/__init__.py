@@ -2,7 +2,7 @@
 
 A model file is one JSON object (the *envelope*)::
 
-    {"format": "sindybench-model", "format_version": 2, "sindybench_version": "0.1.0",
+    {"format": "sindybench-model", "format_version": 2, "sindybench_version": "0.2.0",
      "class": "HiddenStateSINDy", "params": {...}, "fitted": {...}}
 
 ``params`` holds the estimator's constructor parameters (``get_params(deep=False)``),

@@ -25,18 +25,12 @@ BLAS run on one thread (``--threads`` to change). Run::
 """
 
 import argparse
-import os
 import sys
 
 
-def _pin_threads(argv):
-    """Numba reads its thread count at import: set it before sindybench is imported."""
-    threads = argv[argv.index("--threads") + 1] if "--threads" in argv else "1"
-    for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(name, threads)
+from _threads import pin_threads  # benchmarks/_threads.py, which imports no sindybench
 
-
-_pin_threads(sys.argv)
+pin_threads(sys.argv)
 
 import timeit  # noqa: E402
 

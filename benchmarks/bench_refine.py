@@ -23,20 +23,12 @@ scripts here. Needs the benchmark data (``SINDYBENCH_DATA``). Run::
 """
 
 import argparse
-import os
 import sys
 
 
-def _pin_threads(argv):
-    """Numba reads its thread count at import: set it before sindybench is imported."""
-    threads = "1"
-    if "--threads" in argv:
-        threads = argv[argv.index("--threads") + 1]
-    for name in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(name, threads)
+from _threads import pin_threads  # benchmarks/_threads.py, which imports no sindybench
 
-
-_pin_threads(sys.argv)
+pin_threads(sys.argv)
 
 import time  # noqa: E402
 

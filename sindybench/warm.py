@@ -18,10 +18,14 @@ a time in a process; each group is one process's work, and the cache is shared t
 
 import argparse
 import logging
+import os
+import tempfile
 import time
 import warnings
 
 import numpy as np
+
+from ._numba_cache import lock_numba_cache
 
 __all__ = ["warm"]
 
@@ -79,7 +83,9 @@ GROUPS = {"filter, estimate_noise, smoother, k-step": _filter_noise_k_step,
 """The kernel groups (most compilation first), each run once by :func:`warm`."""
 
 
-def _run(name):
+def _run(name, lock_file=None):
+    if lock_file is not None:  # processes compiling side by side save into numba's cache one at a time
+        lock_numba_cache(lock_file)
     start = time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a model of 60 samples: convergence and advice warnings are no news
@@ -110,7 +116,11 @@ def warm(*, n_jobs=None):
     from joblib import Parallel, delayed
 
     names = list(GROUPS)
-    seconds = Parallel(n_jobs=n_jobs)(delayed(_run)(name) for name in names)
+    if n_jobs in (None, 1):
+        return {name: _run(name) for name in names}
+    with tempfile.TemporaryDirectory(prefix="sindybench-warm-") as tmp:
+        lock_file = os.path.join(tmp, "numba-cache.lock")
+        seconds = Parallel(n_jobs=n_jobs)(delayed(_run)(name, lock_file) for name in names)
     return dict(zip(names, seconds))
 
 

@@ -14,7 +14,8 @@ from pathlib import Path
 import pytest
 
 from sindybench.experiments import run_benchmarks
-from sindybench.experiments._parallel import lock_numba_cache, longest_first, worker_count
+from sindybench._numba_cache import lock_numba_cache
+from sindybench.experiments._parallel import longest_first, worker_count
 from test_cli import _synthetic
 
 ROOT = Path(__file__).resolve().parents[1]

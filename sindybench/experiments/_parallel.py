@@ -9,15 +9,10 @@ come back in the benchmarks' own order, so ``report.md`` and every file are the 
 those of a run of one benchmark after the other (the times they report aside).
 
 Each worker compiles the numba kernels it needs, and saves them in numba's on-disk cache,
-which both workers share. Numba saves a kernel by reading the function's index, adding its
-entry and writing the index back: two processes saving two specializations of one function
-at once can both take the same data file, and the index can then point one signature at
-the other's machine code (numba issue #10128). The workers of a run therefore save into
-the cache under one file lock (:func:`lock_numba_cache`); reading the cache needs no lock
-(numba replaces its files atomically).
+which both workers share: they save under one file lock of the run
+(:func:`sindybench._numba_cache.lock_numba_cache`, which says why).
 """
 
-import functools
 import logging
 import os
 import signal
@@ -28,17 +23,14 @@ from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
+from .._numba_cache import lock_numba_cache
 from .._progress import ENV_VAR as PROGRESS_ENV_VAR
 from ._report import write_results
 from ._runner import run_benchmark, test_sets
 
-__all__ = ["lock_numba_cache", "longest_first", "numba_cache_lockable", "run_and_write", "run_in_workers",
-           "run_serially", "worker_count"]
+__all__ = ["longest_first", "run_and_write", "run_in_workers", "run_serially", "worker_count"]
 
 logger = logging.getLogger(__name__)
-
-# the save method whose read-modify-write of the index the lock covers (None: this numba has no such method)
-_NUMBA_SAVE = ("numba.core.caching", "IndexDataCacheFile", "save")
 
 
 def longest_first(costs):
@@ -88,46 +80,6 @@ def run_and_write(benchmark, data, folder, **settings):
     folder.mkdir()
     tests = {k: v for k, v in test_sets(data).items() if k in results["test_sets"]}
     return write_results(results, fitted, simulations, tests, folder, hysteresis_test=benchmark.hysteresis_test)
-
-
-def lock_numba_cache(path):
-    """Make this process save numba's cache entries under the file lock ``path``; False if numba has no hook.
-
-    Every process that calls it with the same ``path`` saves one at a time
-    (see the module text). Calling it again changes the lock file.
-    """
-    import importlib
-
-    from filelock import FileLock
-
-    module, name, method = _NUMBA_SAVE
-    try:
-        cls = getattr(importlib.import_module(module), name)
-        save = getattr(cls, method)
-    except (ImportError, AttributeError):
-        return False
-    original = getattr(save, "__wrapped__", save)
-    lock = FileLock(os.fspath(path))
-
-    @functools.wraps(original)
-    def save_locked(self, key, data):
-        with lock:
-            return original(self, key, data)
-
-    save_locked.lock_file = os.fspath(path)
-    setattr(cls, method, save_locked)
-    return True
-
-
-def numba_cache_lockable():
-    """Whether :func:`lock_numba_cache` finds numba's save method (else benchmarks run one after the other)."""
-    import importlib
-
-    module, name, method = _NUMBA_SAVE
-    try:
-        return hasattr(getattr(importlib.import_module(module), name), method)
-    except ImportError:
-        return False
 
 
 def _worker_setup(lock_file, log_level, log_to_stderr, optuna_verbosity, prefix):

@@ -7,7 +7,8 @@ from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
-from ._parallel import numba_cache_lockable, run_in_workers, run_serially, worker_count
+from .._numba_cache import numba_cache_lockable
+from ._parallel import run_in_workers, run_serially, worker_count
 from ._report import check_output_dir, staged_output_dir
 from ._report import write_report as _write_report
 from ._runner import load_data

@@ -27,11 +27,8 @@ def parallel_map(n_jobs):
     else from joblib's ``Parallel`` (imported here)."""
     if n_jobs in (None, 1):
         return lambda func, calls: (func(*args) for args in calls)
-    try:
-        from joblib import Parallel, delayed
-    except ImportError as exc:  # pragma: no cover - joblib comes with scikit-learn
-        raise ImportError("n_jobs != 1 needs joblib: pip install sindybench[parallel] (or pip install joblib).") \
-            from exc
+    from joblib import Parallel, delayed  # a base dependency
+
     return lambda func, calls: Parallel(n_jobs=n_jobs, return_as="generator")(delayed(func)(*args) for args in calls)
 
 

@@ -92,15 +92,6 @@ def _fit_member(estimator, X, y, y_1d):
         return f"{type(exc).__name__}: {exc}"
 
 
-def _joblib():
-    try:
-        import joblib
-    except ImportError as exc:  # pragma: no cover - joblib comes with scikit-learn
-        raise ImportError("n_jobs != 1 needs joblib: pip install sindybench[parallel] (or pip install joblib).") \
-            from exc
-    return joblib
-
-
 class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
     """Ensemble of refits on circular-block bootstraps of a model's simulation residuals.
 
@@ -207,7 +198,8 @@ class BootstrapEnsemble(SaveLoadMixin, BaseEstimator):
         if self.n_jobs in (None, 1):
             fits = [_fit_member(self.estimator, X, r, y_1d) for r in records]
         else:
-            joblib = _joblib()
+            import joblib  # a base dependency
+
             fits = joblib.Parallel(n_jobs=self.n_jobs)(joblib.delayed(_fit_member)(self.estimator, X, r, y_1d)
                                                        for r in records)
         members = [m for m in fits if not isinstance(m, str)]

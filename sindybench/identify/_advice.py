@@ -138,6 +138,12 @@ class DataAdvice:
     feedback_note : str or None
         Why the record cannot tell feedback (no residual noise; inputs their own
         past predicts, such as a periodic multisine).
+    poles : list of ndarray
+        Per output, the discrete poles of its own lags in an ARX model (orders
+        up to 8, the smallest within 1 % of the best held-out one-step error).
+    unstable, integrating : list of int
+        Outputs with a pole that grows within half the record, or that is
+        slower than half the record (an integrator, as far as the record tells).
     closed_loop : bool
         The record looks closed-loop: ``feedback`` below 0.001 and
         ``feedback_effect`` above 0.005 (see :func:`advice`).
@@ -171,6 +177,9 @@ class DataAdvice:
     feedback_effect: float = None
     feedback_note: str = None
     closed_loop: bool = False
+    poles: list = field(default_factory=list)
+    unstable: list = field(default_factory=list)
+    integrating: list = field(default_factory=list)
     bandwidth: np.ndarray = None
     samples_per_period: np.ndarray = None
     proposed_terms: list = field(default_factory=list)
@@ -493,6 +502,45 @@ def _feedback(X, y, nk, na=4, nb=10, n_future=10, ar_order=20):
     return p, 1.0 - rss_both / rss_past
 
 
+def _arx_poles(X, y, nk, orders=(1, 2, 3, 4, 6, 8), rtol=0.01):
+    """Discrete poles of each output's own lags in the ARX(n, n, ``nk``) model, ``n`` the smallest of ``orders``
+    whose held-out one-step error is within ``rtol`` of the best; an array per output."""
+    n_samples = y.shape[0]
+    fits = {}
+    for n in orders:
+        start = max(n, nk + n - 1)
+        n_fit = start + int((1 - _HELD_OUT) * (n_samples - start))
+        if n_fit - start < 4 * (n * (y.shape[1] + X.shape[1]) + 1) or n_samples - n_fit < 10:
+            break
+        phi = np.hstack([output_lags(y, n, start), input_lags(X, n, nk, start)])
+        target = y[start:]
+        coef, intercept, _ = least_squares(phi[: n_fit - start], target[: n_fit - start])
+        residual = target[n_fit - start:] - phi[n_fit - start:] @ coef - intercept
+        scale = np.where(np.var(target, axis=0) > 0, np.var(target, axis=0), 1.0)
+        fits[n] = (float(np.mean(np.mean(residual ** 2, axis=0) / scale)), coef)
+    if not fits:
+        return []
+    best = min(loss for loss, _ in fits.values())
+    n = min(k for k, (loss, _) in fits.items() if loss <= best * (1 + rtol) + 1e-15)
+    coef = fits[n][1]
+    m = y.shape[1]
+    return [np.roots(np.concatenate([[1.0], -coef[j: n * m: m, j]])) for j in range(m)]
+
+
+def _pole_findings(poles, dt, duration):
+    """``(unstable, integrating)`` output indices: a pole that grows within half the record, or one whose time
+    constant is longer than half the record (its free run drifts as an integrator's does)."""
+    unstable, integrating = [], []
+    for j, p in enumerate(poles):
+        p = p[np.abs(p) > 0]
+        rate = np.log(np.abs(p)) / dt  # the real part of the continuous pole
+        if np.any(rate > 2.0 / duration):
+            unstable.append(j)
+        elif np.any((np.abs(rate) <= 2.0 / duration) & (np.abs(np.angle(p)) < np.pi / 4)):
+            integrating.append(j)
+    return unstable, integrating
+
+
 def _bandwidth(y, dt, share=0.95):
     """Per output, the frequency below which ``share`` of its detrended power lies."""
     out = []
@@ -626,6 +674,15 @@ def advice(X, y, *, dt, max_delay=20, max_order=50):
             warn.append(f"the inputs react to the output's noise (their innovations explain {100 * effect:.1f} % of "
                         f"an ARX model's residual, F test p = {p_value:.2g}): the record looks closed-loop (feedback) "
                         "or its output was filtered non-causally; open-loop fits may be biased")
+    result.poles = _arx_poles(X, y, result.input_delay + (result.input_hold == "zoh")) if p else []
+    result.unstable, result.integrating = _pole_findings(result.poles, dt, n * dt)
+    for j in result.unstable:
+        warn.append(f"y{j}: an ARX model of the record has a pole that grows within half the record (max |pole| "
+                    f"{np.max(np.abs(result.poles[j])):.4f}): an open-loop unstable plant; free runs drift, so "
+                    "candidates are better ranked by their k-step prediction (criterion='k_step')")
+    for j in result.integrating:
+        warn.append(f"y{j}: an ARX model of the record has a pole slower than half the record (an integrator or "
+                    "nearly): free runs may drift, so k-step prediction may rank candidates better")
     result.bandwidth = _bandwidth(y, dt)
     with np.errstate(divide="ignore"):
         result.samples_per_period = 1.0 / (dt * result.bandwidth)

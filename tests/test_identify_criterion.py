@@ -54,6 +54,19 @@ def test_identify_ranks_an_unstable_record_by_k_step_prediction(rng):
     assert abs(a - 2.0) < 0.1 and abs(b - 3.0) < 0.15, eq  # the truth: y0' = 2 y0 + 3 u0
 
 
+def test_k_step_candidates_are_refined_by_prediction_error(rng):
+    u, y, dt = _unstable_under_feedback(rng)
+    with pytest.warns(UserWarning, match="-step prediction"):
+        search = IdentifyCV(dt=dt, families=["first_order"], libraries=["linear"], n_refine=1,
+                            show_progress_bar=False).fit(u, y)
+    table = search.cv_results_
+    refined = [i for i, stage in enumerate(table["stage"]) if stage == "refine"]
+    blocks = [table["mean_validation_error"][i] for i, stage in enumerate(table["stage"]) if stage == "blocks"]
+    assert table["status"][refined[0]] == "ok" and search.best_index_ == refined[0]
+    assert table["mean_validation_error"][refined[0]] < 0.9 * min(blocks)  # the prediction error refined it
+    assert search._refinement(1000, search.criterion_["horizon"]).horizon == search.criterion_["horizon"]
+
+
 def test_identify_keeps_the_free_run_on_a_stable_record():
     t = np.arange(1500) * 0.01
     u = (np.sin(t) + np.sin(2.3 * t))[:, None]

@@ -142,7 +142,10 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         unstable output (a free run of such a plant drifts whatever the
         model), else the free run; when the record looks integrating or
         closed-loop and the chosen free run does not beat the output's mean, a
-        warning says so. ``criterion_`` and ``identification_["criterion"]``
+        warning says so. Under the k-step criterion the refined candidates
+        are refined by their ``horizon``-step prediction error
+        (:class:`~sindybench.refine.PredictionErrorRefinement`) unless
+        ``refinement`` is given. ``criterion_`` and ``identification_["criterion"]``
         record the choice and why.
     horizon : int or None, default=None
         The k-step horizon in samples; None = a quarter of a period of the
@@ -466,7 +469,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 third.insert(1, twin)
             else:
                 twin = None
-            refinement = self._refinement(n)
+            refinement = self._refinement(n, horizon)
             bar.total += len(third)
             calls = [(r, lib, ctx, refinement) for r, lib in third]
             results = run_stage(score_candidate, calls, stored_scores, store_scores, parallel)
@@ -535,13 +538,17 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                           "(data advice): its free run drifts; rank the candidates by k-step prediction "
                           "(criterion='k_step')", UserWarning, stacklevel=3)
 
-    def _refinement(self, n_samples):
+    def _refinement(self, n_samples, horizon=None):
+        """The stage-3 refinement: the user's, else by simulation error, or by ``horizon``-step prediction error
+        when the candidates are ranked by their k-step prediction."""
         if self.refinement is not None:
             from sklearn.base import clone
 
             return clone(self.refinement)
-        from ..refine import OutputErrorRefinement
+        from ..refine import OutputErrorRefinement, PredictionErrorRefinement
 
+        if horizon is not None:
+            return PredictionErrorRefinement(horizon=horizon, max_nfev=20, max_samples=min(n_samples, 5000))
         return OutputErrorRefinement(max_nfev=20, max_samples=min(n_samples, 5000))
 
     def __sklearn_tags__(self):

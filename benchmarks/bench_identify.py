@@ -17,7 +17,7 @@ With ``--seeds 0-4`` (or ``0,3,7``) it fits every benchmark's identified row onc
 (``random_state``: the latent families' starts) instead, and prints per seed the chosen family,
 the number of terms, the test scores and the CPU time, then per test set the median and the
 worst seed and whether the worst is within 25 % of the median; ``--markdown FILE`` also writes
-that table (docs/identify_seeds.md is written so).
+that table (``docs/identify_seeds.rst``, included by docs/identify.rst, is written so).
 """
 
 import os
@@ -131,22 +131,35 @@ def run_seeds(name, seeds):
     return rows
 
 
-def seed_table(results):
-    """Markdown: per benchmark and test set, every seed's score, the median, the worst and the 25 % check."""
-    lines = ["| benchmark | test set | metric | " + " | ".join(f"seed {s}" for s, *_ in next(iter(results.values())))
-             + " | median | worst | worst within 25 % | families chosen |", ""]
-    lines[1] = "|" + "---|" * (lines[0].count("|") - 1)
-    for name, rows in results.items():
-        for test_name in rows[0][4]:
+def seed_rows(results):
+    """Per benchmark and test set: the header and rows of every seed's score, the median, the worst and the 25 % check."""
+    seeds = [r[0] for r in next(iter(results.values()))]
+    header = ["benchmark", "test set", "metric"] + [f"seed {s}" for s in seeds] + [
+        "median", "worst", "worst within 25 % of the median", "chosen (terms)"]
+    rows = []
+    for name, runs in results.items():
+        for test_name in runs[0][4]:
             metric = _metric(name, test_name)
-            vals = np.array([r[4][test_name] if r[4][test_name] is not None else np.nan for r in rows], float)
-            higher = metric == "fit_index"
+            vals = np.array([r[4][test_name] if r[4][test_name] is not None else np.nan for r in runs], float)
             median = float(np.nanmedian(vals))
-            worst = float(np.nanmin(vals) if higher else np.nanmax(vals))
+            worst = float(np.nanmin(vals) if metric == "fit_index" else np.nanmax(vals))
             ok = abs(worst - median) <= 0.25 * abs(median)
-            fams = ", ".join(sorted({f"{r[1]} ({r[2]} terms)" for r in rows}))
-            lines.append(f"| {name} | {test_name} | {metric} | " + " | ".join(f"{v:.4g}" for v in vals)
-                         + f" | {median:.4g} | {worst:.4g} | {'yes' if ok else 'no'} | {fams} |")
+            chosen = ", ".join(sorted({f"{r[1]} ({r[2]})" for r in runs}))
+            rows.append([name, test_name, metric] + [f"{v:.4g}" for v in vals]
+                        + [f"{median:.4g}", f"{worst:.4g}", "yes" if ok else "no", chosen])
+    return header, rows
+
+
+def seed_table(results, rst=False):
+    """The seed table as Markdown, or as an reStructuredText list-table (``rst``)."""
+    header, rows = seed_rows(results)
+    if rst:
+        lines = [".. list-table::", "   :header-rows: 1", ""]
+        for row in [header] + rows:
+            lines += [f"   * - {row[0]}"] + [f"     - {cell}" for cell in row[1:]]
+        return "\n".join(lines) + "\n"
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    lines += ["| " + " | ".join(row) + " |" for row in rows]
     return "\n".join(lines) + "\n"
 
 
@@ -157,16 +170,16 @@ def main(argv=None):
     parser.add_argument("benchmarks", nargs="*", default=sorted(BENCHMARKS))
     parser.add_argument("--families", default=None, help="comma-separated families to search (default: the row's)")
     parser.add_argument("--seeds", type=_seeds, default=None, help="e.g. 0-4: the identified rows at every seed")
-    parser.add_argument("--markdown", default=None, help="with --seeds: write the seed table to this file")
+    parser.add_argument("--markdown", default=None, help="with --seeds: write the seed table to this file (a .rst "
+                        "file gets an reStructuredText list-table)")
     args = parser.parse_args(argv)
     _warm_up()
     if args.seeds is not None:
         results = {name: run_seeds(name, args.seeds) for name in args.benchmarks}
-        table = seed_table(results)
-        print(table)
+        print(seed_table(results))
         if args.markdown:
             with open(args.markdown, "w") as f:
-                f.write(table)
+                f.write(seed_table(results, rst=args.markdown.endswith(".rst")))
         return
     for name in args.benchmarks:
         run(name, None if args.families is None else args.families.split(","))

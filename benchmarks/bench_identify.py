@@ -17,7 +17,7 @@ With ``--seeds 0-4`` (or ``0,3,7``) it fits every benchmark's identified row onc
 (``random_state``: the latent families' starts) instead, and prints per seed the chosen family,
 the number of terms, the test scores and the CPU time, then per test set the median and the
 worst seed and whether the worst is within 25 % of the median; ``--markdown FILE`` also writes
-that table (``docs/identify_seeds.rst``, included by docs/identify.rst, is written so).
+that table (``docs/identify_seeds.inc``, included by docs/identify.rst, is written so).
 """
 
 import os
@@ -170,8 +170,8 @@ def main(argv=None):
     parser.add_argument("benchmarks", nargs="*", default=sorted(BENCHMARKS))
     parser.add_argument("--families", default=None, help="comma-separated families to search (default: the row's)")
     parser.add_argument("--seeds", type=_seeds, default=None, help="e.g. 0-4: the identified rows at every seed")
-    parser.add_argument("--markdown", default=None, help="with --seeds: write the seed table to this file (a .rst "
-                        "file gets an reStructuredText list-table)")
+    parser.add_argument("--markdown", default=None, help="with --seeds: write the seed table to this file (a file not "
+                        "ending in .md gets an reStructuredText list-table)")
     args = parser.parse_args(argv)
     _warm_up()
     if args.seeds is not None:
@@ -179,7 +179,7 @@ def main(argv=None):
         print(seed_table(results))
         if args.markdown:
             with open(args.markdown, "w") as f:
-                f.write(seed_table(results, rst=args.markdown.endswith(".rst")))
+                f.write(seed_table(results, rst=not args.markdown.endswith(".md")))
         return
     for name in args.benchmarks:
         run(name, None if args.families is None else args.families.split(","))

@@ -9,6 +9,7 @@ from ._advice import (
     estimate_delay,
     excitation_order,
 )
+from ._criterion import k_step_error
 from ._estimator import IdentifyCV, identify
 
 __all__ = [
@@ -21,4 +22,5 @@ __all__ = [
     "estimate_delay",
     "excitation_order",
     "identify",
+    "k_step_error",
 ]

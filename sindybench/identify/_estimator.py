@@ -1,6 +1,7 @@
 """``IdentifyCV``: the structure search scored by simulation, as an estimator; ``identify``, its one-call form."""
 
 import math
+import warnings
 from functools import partial
 
 import numpy as np
@@ -11,6 +12,7 @@ from .._progress import progress_bar
 from .._records import check_record_lists, check_records
 from .._validation import (check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option,
                            check_positive, is_records)
+from ._criterion import CRITERIA, choose_criterion
 from ._resume import CandidateStore, fingerprint
 from ._search import describe_blocks, pareto_front, parsimonious_index, record_folds, segments, stls_threshold
 from ._space import n_terms
@@ -130,6 +132,24 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         max_samples=5000)``. Any object the estimators' ``refine`` takes (the
         hook for a prediction-error refinement of candidates whose free run
         diverges).
+    criterion : {"auto", "free_run", "k_step"}, default="auto"
+        How a candidate is scored on a validation block: its free run (RMSE
+        of the simulation over the output's standard deviation), or its
+        ``horizon``-step prediction (the block cut into windows restarted from
+        the measured output every ``horizon`` samples, see
+        :func:`~sindybench.identify.k_step_error`). ``"auto"``:
+        the k-step prediction when the data advice finds an open-loop
+        unstable output (a free run of such a plant drifts whatever the
+        model), else the free run; when the record looks integrating or
+        closed-loop and the chosen free run does not beat the output's mean, a
+        warning says so. Under the k-step criterion the refined candidates
+        are refined by their ``horizon``-step prediction error
+        (:class:`~sindybench.refine.PredictionErrorRefinement`) unless
+        ``refinement`` is given. ``criterion_`` and ``identification_["criterion"]``
+        record the choice and why.
+    horizon : int or None, default=None
+        The k-step horizon in samples; None = a quarter of a period of the
+        outputs' 95 % bandwidth (at least 5, at most a quarter of a block).
     n_init : int or None, default=None
         First samples of new data that start a simulation (the validation
         blocks start from as many); None = 20. Give the number a test
@@ -196,6 +216,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         Each fold's ``"train"`` and ``"validation"`` samples as text
         (``"record 1 [0, 700)"``); ``split<k>_validation_error`` of
         ``cv_results_`` is fold ``k``'s.
+    criterion_ : dict
+        ``name`` (``"free_run"`` or ``"k_step"``), ``horizon`` and ``reason``:
+        the score that ranked the candidates.
     n_resumed_ : int
         Candidates read back from ``storage`` instead of evaluated.
     n_features_in_ : int
@@ -222,8 +245,10 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                  input_delay=None, n_blocks=3, block_size=0.15, validation=None, max_path=12, screen_keep=1 / 3,
                  screen_window=8000, n_refine=4, max_terms=15, refinement=None, n_init=None, time_budget=None,
                  max_candidates=None, random_state=None, storage=None, study_name=None, n_jobs=None,
-                 show_progress_bar=True):
+                 show_progress_bar=True, criterion="auto", horizon=None):
         self.dt = dt
+        self.criterion = criterion
+        self.horizon = horizon
         self.families = families
         self.libraries = libraries
         self.derivatives = derivatives
@@ -265,6 +290,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             check_option(self.input_hold, "input_hold", _HOLDS)
         if self.input_delay is not None:
             check_integer(self.input_delay, "input_delay", low=0)
+        check_option(self.criterion, "criterion", CRITERIA)
+        if self.horizon is not None:
+            check_integer(self.horizon, "horizon", low=1)
         check_integer(self.n_blocks, "n_blocks", low=2)
         check_positive(self.block_size, "block_size")
         if self.block_size * self.n_blocks >= 0.9:
@@ -364,11 +392,20 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         budget = Budget(self.time_budget, self.max_candidates)
         scale = np.std(np.vstack(y_train) if several else y_train, axis=0)
         random_state = 0 if self.random_state is None else self.random_state
+        block_length = min(hi - lo for _, val in folds for _, lo, hi in val)
+        criterion, horizon, why = choose_criterion(self.criterion, settings["advice"], horizon=self.horizon,
+                                                   block_length=block_length)
+        if criterion == "k_step" and block_length < n_init + horizon:
+            raise ValueError(f"horizon={horizon} with n_init={n_init} needs validation blocks of at least "
+                             f"{n_init + horizon} samples; the shortest has {block_length}. Expected a shorter "
+                             "horizon or n_init, or larger blocks (block_size).")
         signature = {"data": fingerprint(X, y, dt), "validation": validation, "n_blocks": self.n_blocks,
                      "block_size": self.block_size, "n_init": n_init, "screen_window": self.screen_window,
                      "random_state": random_state, "refinement": repr(self.refinement)}
+        if horizon is not None:  # free-run stores keep their former signature
+            signature["horizon"] = horizon
         ctx = {"X": X, "y": y, "dt": dt, "settings": settings, "random_state": random_state, "folds": folds,
-               "n_init": n_init,
+               "n_init": n_init, "horizon": horizon,
                "scale": np.where(scale > 0, scale, 1.0), "window": self.screen_window, "deadline": budget.deadline,
                # with a candidate budget, the screening's paths take at most half of it
                "levels": self.max_path if self.max_candidates is None else max(
@@ -432,7 +469,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                 third.insert(1, twin)
             else:
                 twin = None
-            refinement = self._refinement(n)
+            refinement = self._refinement(n, horizon)
             bar.total += len(third)
             calls = [(r, lib, ctx, refinement) for r, lib in third]
             results = run_stage(score_candidate, calls, stored_scores, store_scores, parallel)
@@ -478,20 +515,40 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self.best_index_ = int(best)
         self.best_params_ = chosen
         self.pareto_front_ = front
+        self.criterion_ = {"name": criterion, "horizon": horizon, "reason": why}
         final.identification_ = {"settings": chosen, "data": settings, "blocks": blocks, "cv_results": table,
                                  "pareto_front": front, "best_index": int(best), "validation": validation,
-                                 "splits": splits}
+                                 "splits": splits, "criterion": dict(self.criterion_)}
+        self._warn_criterion(settings["advice"], float(mean[best]))
         self.best_estimator_ = final
         self.n_features_in_ = X[0].shape[1]
         return self
 
-    def _refinement(self, n_samples):
+    def _warn_criterion(self, advice, error):
+        """Say which score chose the model when a free run is not a meaningful score of this record."""
+        name, horizon = self.criterion_["name"], self.criterion_["horizon"]
+        if name == "k_step":
+            warnings.warn(f"identify: candidates were ranked by their {horizon}-step prediction "
+                          f"(criterion='k_step': {self.criterion_['reason']}); the chosen model's free run is not a "
+                          "meaningful score of this record", UserWarning, stacklevel=3)
+        elif error >= 1.0 and advice is not None and (advice.integrating or advice.closed_loop):
+            what = "integrating" if advice.integrating else "closed-loop"
+            warnings.warn(f"identify: the chosen model's free run does not beat the output's mean on validation "
+                          f"(error {error:.3g} of the output's standard deviation) and the record looks {what} "
+                          "(data advice): its free run drifts; rank the candidates by k-step prediction "
+                          "(criterion='k_step')", UserWarning, stacklevel=3)
+
+    def _refinement(self, n_samples, horizon=None):
+        """The stage-3 refinement: the user's, else by simulation error, or by ``horizon``-step prediction error
+        when the candidates are ranked by their k-step prediction."""
         if self.refinement is not None:
             from sklearn.base import clone
 
             return clone(self.refinement)
-        from ..refine import OutputErrorRefinement
+        from ..refine import OutputErrorRefinement, PredictionErrorRefinement
 
+        if horizon is not None:
+            return PredictionErrorRefinement(horizon=horizon, max_nfev=20, max_samples=min(n_samples, 5000))
         return OutputErrorRefinement(max_nfev=20, max_samples=min(n_samples, 5000))
 
     def __sklearn_tags__(self):

@@ -15,6 +15,7 @@ import warnings
 import numpy as np
 
 from ..metrics import rmse
+from ._criterion import k_step_error
 
 __all__ = ["describe_blocks", "evaluate", "pareto_front", "parsimonious_index", "path_thresholds", "record_folds",
            "segments", "stls_threshold", "validation_blocks"]
@@ -139,8 +140,13 @@ def path_thresholds(estimator, X, y, max_levels):
     return [0.0] + [float(m) for m in mids]
 
 
-def block_error(estimator, X, y, n_init, scale):
-    """RMSE of the simulation of ``X`` from ``y[:n_init]`` over ``scale`` (per output, averaged); inf if it diverged."""
+def block_error(estimator, X, y, n_init, scale, horizon=None):
+    """RMSE of the simulation of ``X`` from ``y[:n_init]`` over ``scale`` (per output, averaged); inf if it diverged.
+
+    With a ``horizon``, the RMSE of the k-step predictions instead (:func:`~._criterion.k_step_error`).
+    """
+    if horizon is not None:
+        return k_step_error(estimator, X, y, n_init, scale, horizon)
     y_pred = np.asarray(estimator.predict(X, y_init=y[:n_init]), dtype=float).reshape(y.shape)
     if not np.all(np.isfinite(y_pred)):
         return np.inf
@@ -168,7 +174,7 @@ def segments(X, y, parts):
     return (Xs[0], ys[0]) if len(parts) == 1 else (Xs, ys)
 
 
-def evaluate(make, X, y, folds, *, n_init, scale, train_window=None):
+def evaluate(make, X, y, folds, *, n_init, scale, train_window=None, horizon=None):
     """Fit ``make()`` on each fold's training samples and score its simulation of the fold's validation blocks.
 
     Parameters
@@ -186,6 +192,8 @@ def evaluate(make, X, y, folds, *, n_init, scale, train_window=None):
         The outputs' standard deviations over the estimation data.
     train_window : int, optional
         Fit on the last ``train_window`` samples of each training part only (screening).
+    horizon : int, optional
+        Score the ``horizon``-step predictions instead of the free run (:func:`block_error`).
 
     Returns
     -------
@@ -210,7 +218,7 @@ def evaluate(make, X, y, folds, *, n_init, scale, train_window=None):
                 terms = n_terms(est)
                 if terms[2] == 0:
                     raise ValueError("a learned row has no terms left")
-                err = float(np.mean([block_error(est, X[r][lo:hi], y[r][lo:hi], n_init, scale)
+                err = float(np.mean([block_error(est, X[r][lo:hi], y[r][lo:hi], n_init, scale, horizon)
                                      for r, lo, hi in validation]))
         except Exception as exc:  # a failing candidate is recorded, never ends the search
             errors.append(np.inf)

@@ -78,7 +78,7 @@ def screen_structure(struct, library, ctx):
         if ctx["deadline"] is not None and time.time() >= ctx["deadline"]:
             break
         result = evaluate(lambda n, t=t: make(t, n), X, y, folds[-1:], n_init=ctx["n_init"], scale=ctx["scale"],
-                          train_window=ctx["window"])
+                          train_window=ctx["window"], horizon=ctx.get("horizon"))
         result.pop("model")
         rows.append(dict(struct, threshold=t, refine=False, stage="screen", path_length=len(thresholds), **result))
     return rows
@@ -129,7 +129,8 @@ def score_candidate(row, library, ctx, refinement):
     struct = {k: row[k] for k in STRUCTURE}
     make = lambda n: make_estimator(struct, library, stls_threshold(row["threshold"], n), ctx["dt"],  # noqa: E731
                                     ctx["settings"], refine=refinement, random_state=ctx["random_state"])
-    result = evaluate(make, ctx["X"], ctx["y"], ctx["folds"], n_init=ctx["n_init"], scale=ctx["scale"])
+    result = evaluate(make, ctx["X"], ctx["y"], ctx["folds"], n_init=ctx["n_init"], scale=ctx["scale"],
+                      horizon=ctx.get("horizon"))
     result.pop("model")
     refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
     return dict(struct, threshold=row["threshold"], refine=refined,

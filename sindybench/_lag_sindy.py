@@ -203,7 +203,7 @@ class LagSINDy(DynamicsEstimator):
         x0s = [lag_states(X_r, y_r, na, nb)[0] for X_r, y_r in zip(Xs, ys)]
         refinement = None
         if self.refine is not None:
-            coef, x0s, refinement = self._refine(dynamics, Xs, ys, x0s, coef, na, dt)
+            coef, x0s, refinement = self._refine(dynamics, Xs, ys, x0s, coef, na, nb, dt, library)
             dynamics = self._dynamics(library, coef, n_outputs, n_inputs, na, nb, dt, out_names, in_names)
 
         self.library_, self.optimizer_ = library, optimizer
@@ -230,16 +230,10 @@ class LagSINDy(DynamicsEstimator):
 
     def _fit_lags(self, Xs, ys, na, nb, dt, out_names, in_names):
         """The one-step regression of orders ``(na, nb)``: ``(library, optimizer, coef, dynamics)``."""
-        rows_Z, rows_target = [], []
-        start = max(na, nb) - 1
-        for X_r, y_r in zip(Xs, ys):
-            Z = np.hstack([lag_states(X_r, y_r, na, nb), X_r])
-            rows_Z.append(Z[start:-1])
-            rows_target.append(y_r[start + 1:] - y_r[start:-1])
         library = clone(as_library(self.library))
         optimizer = clone(STLS(threshold=0.01) if self.optimizer is None else self.optimizer)
-        coef = fit_sparse(library, optimizer, np.vstack(rows_Z), np.vstack(rows_target),
-                          what="library output Theta([x[k], u[k]])", normalize=self.normalize)
+        coef = fit_sparse(library, optimizer, *_design(Xs, ys, na, nb), what="library output Theta([x[k], u[k]])",
+                          normalize=self.normalize)
         n_outputs, n_inputs = ys[0].shape[1], Xs[0].shape[1]
         return library, optimizer, coef, self._dynamics(library, coef, n_outputs, n_inputs, na, nb, dt, out_names,
                                                         in_names)
@@ -283,22 +277,55 @@ class LagSINDy(DynamicsEstimator):
                              "expected at least one that simulates (try a smaller library or threshold).")
         return best["output_lags"], best["input_lags"], table
 
-    def _refine(self, dynamics, Xs, ys, x0s, coef, na, dt):
-        """``(coef, x0s, record)``: the outputs' nonzero increments and first outputs refined (see ``refine``)."""
+    def _refine(self, dynamics, Xs, ys, x0s, coef, na, nb, dt, library):
+        """``(coef, x0s, record)``: the outputs' nonzero increments and first outputs refined (see ``refine``).
+
+        A one-step fit whose free run of a training record diverges cannot be
+        refined by simulation error; the refinement then starts from its
+        linear terms refitted alone (the others at zero, free), and the
+        record says so (``"start": "linear"``).
+        """
         from .refine import FreeParameters
 
         n_lib, outputs = coef.shape[0], list(dynamics.output_index)
         mask = np.zeros(dynamics.coef.shape, dtype=bool)
         mask[:n_lib, outputs] = coef != 0
+        start = "one-step"
+        if any(not np.all(np.isfinite(dynamics.simulate(X_r, x0, on_divergence="nan")))
+               for X_r, x0 in zip(Xs, x0s)):
+            linear = _linear_start(library, coef, *_design(Xs, ys, na, nb))
+            if linear is not None:
+                coef, start = linear, "linear"
+                dynamics = lag_dynamics(library, coef, n_outputs=len(outputs), n_inputs=Xs[0].shape[1], na=na,
+                                        nb=nb, dt=dt, max_abs=self.max_abs)
         y_states = [j * na + i for j in range(len(outputs)) for i in range(na)]
         result, record = self._run_refinement(dynamics, Xs, ys, x0=np.array(x0s),
                                               free=FreeParameters(coef=mask, x0=y_states))
         if result is None:
-            return coef, x0s, record
-        x0 = np.asarray(result.x0, dtype=float)
+            return coef, x0s, dict(record, start=start)
         starts = getattr(result, "initial_states", None)
-        starts = list(np.asarray(starts)) if starts is not None else [x0]
-        return np.asarray(result.coef)[:n_lib, outputs] * dt, starts, result.summary()
+        starts = list(np.asarray(starts)) if starts is not None else [np.asarray(result.x0, dtype=float)]
+        return np.asarray(result.coef)[:n_lib, outputs] * dt, starts, dict(result.summary(), start=start)
+
+    def library_input(self, X, y):
+        """The library's input ``Z = [x[k], u[k]]`` of a record (delay coordinates held before its start).
+
+        Parameters
+        ----------
+        X : array-like of shape (n_samples, n_inputs) or None
+        y : array-like of shape (n_samples, n_outputs)
+
+        Returns
+        -------
+        ndarray of shape (n_samples, n_states + n_inputs)
+            ``library_.transform`` of it gives the features of the regression
+            (whose rows start at ``max(output_lags_, input_lags_) - 1``).
+        """
+        check_is_fitted(self)
+        self._check_one_record("library_input", X, y)
+        y = self._check_y_init(y)
+        X = self.delayed_inputs(self._check_X(X, y.shape[0]))
+        return np.hstack([lag_states(X, y, self.output_lags_, self.input_lags_), X])
 
     # -------------------------------------------------------------- simulation
     def _initial_state(self, X, y_init):
@@ -372,6 +399,35 @@ class LagSINDy(DynamicsEstimator):
         self.dynamics_ = self._dynamics(self.library_, self.coef_.T, len(self.output_names_), self.n_inputs_,
                                         self.output_lags_, self.input_lags_, self.dt_, self.output_names_,
                                         self.input_names_)
+
+
+def _design(Xs, ys, na, nb):
+    """The one-step regression of orders ``(na, nb)``: ``Z = [x[k], u[k]]`` and the increments ``y[k+1] - y[k]``."""
+    start = max(na, nb) - 1
+    rows_Z, rows_target = [], []
+    for X_r, y_r in zip(Xs, ys):
+        rows_Z.append(np.hstack([lag_states(X_r, y_r, na, nb), X_r])[start:-1])
+        rows_target.append(y_r[start + 1:] - y_r[start:-1])
+    return np.vstack(rows_Z), np.vstack(rows_target)
+
+
+def _is_linear(term):
+    """A constant or one variable to the first power."""
+    return len(term) == 0 or (len(term) == 1 and term[0][1] == POW and term[0][2] == 1)
+
+
+def _linear_start(library, coef, Z, target):
+    """The support's constant and linear terms refitted alone by least squares (the others zero); None without terms."""
+    terms = getattr(library, "terms_", None)
+    if terms is None:
+        return None
+    theta = library.transform(Z)
+    start = np.zeros_like(coef)
+    for j in range(coef.shape[1]):
+        cols = [i for i, term in enumerate(terms) if coef[i, j] != 0 and _is_linear(term)]
+        if cols:
+            start[cols, j] = np.linalg.lstsq(theta[:, cols], target[:, j], rcond=None)[0]
+    return start
 
 
 def _check_length(ys, need, several):

@@ -119,7 +119,7 @@ def test_refinement_improves_the_free_run_on_noisy_data(rng):
     plain = LagSINDy(**params).fit(u, y_noisy)
     refined = LagSINDy(**params, refine=OutputErrorRefinement(max_nfev=20)).fit(u, y_noisy)
     error = lambda m: np.sqrt(np.mean((m.predict(u_test, y_init=y_test[:5]) - y_test) ** 2))  # noqa: E731
-    assert refined.refinement_["status"] >= 0
+    assert refined.refinement_["status"] >= 0 and refined.refinement_["start"] == "one-step"
     assert error(refined) < error(plain)
 
 
@@ -153,3 +153,24 @@ def test_too_few_samples():
         LagSINDy(output_lags=3, input_lags=1).fit(u, y)
     with pytest.raises(ValueError, match="y has 3 samples; expected at least 10 to choose the lags"):
         LagSINDy(output_lags="auto", max_lags=3).fit(u, y)
+
+
+def test_linear_start_refits_the_supports_linear_terms(rng):
+    from sindybench._lag_sindy import _linear_start
+
+    Z = rng.normal(size=(200, 2))
+    target = (1.0 + 2.0 * Z[:, 0] - 0.5 * Z[:, 1])[:, None]
+    library = PolynomialLibrary(degree=2).fit(Z)  # 1, z0, z1, z0^2, z0 z1, z1^2
+    coef = np.array([[0.3], [1.0], [0.2], [5.0], [0.0], [-2.0]])  # a support with two quadratic terms
+    start = _linear_start(library, coef, Z, target)
+    np.testing.assert_allclose(start[:, 0], [1.0, 2.0, -0.5, 0.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_library_input_is_the_regression_input(record):
+    u, y = record
+    model = _exact(output_lags=2, input_lags=2, input_delay=1).fit(u, y)
+    Z = model.library_input(u, y)
+    assert Z.shape == (600, 4)  # y[k], y[k-1], u[k-2], and the input u[k-1]
+    np.testing.assert_array_equal(Z[5], [y[5, 0], y[4, 0], u[3, 0], u[4, 0]])
+    increments = model.library_.transform(Z[1:-1]) @ model.coef_[0]
+    np.testing.assert_allclose(increments, (y[2:] - y[1:-1])[:, 0], atol=1e-9)

@@ -280,10 +280,12 @@ class LagSINDy(DynamicsEstimator):
     def _refine(self, dynamics, Xs, ys, x0s, coef, na, nb, dt, library):
         """``(coef, x0s, record)``: the outputs' nonzero increments and first outputs refined (see ``refine``).
 
-        A one-step fit whose free run of a training record diverges cannot be
-        refined by simulation error; the refinement then starts from its
-        linear terms refitted alone (the others at zero, free), and the
-        record says so (``"start": "linear"``).
+        The refinement starts from the one-step fit, or from its linear terms
+        refitted alone (the others at zero, still free) when those simulate
+        the training records better: a one-step fit that diverges in free run
+        cannot be refined by simulation error, and one that drifts often
+        leads it to a poor local minimum. The record says which
+        (``"start": "linear"`` or ``"one-step"``).
         """
         from .refine import FreeParameters
 
@@ -291,13 +293,12 @@ class LagSINDy(DynamicsEstimator):
         mask = np.zeros(dynamics.coef.shape, dtype=bool)
         mask[:n_lib, outputs] = coef != 0
         start = "one-step"
-        if any(not np.all(np.isfinite(dynamics.simulate(X_r, x0, on_divergence="nan")))
-               for X_r, x0 in zip(Xs, x0s)):
-            linear = _linear_start(library, coef, *_design(Xs, ys, na, nb))
-            if linear is not None:
-                coef, start = linear, "linear"
-                dynamics = lag_dynamics(library, coef, n_outputs=len(outputs), n_inputs=Xs[0].shape[1], na=na,
-                                        nb=nb, dt=dt, max_abs=self.max_abs)
+        linear = _linear_start(library, coef, *_design(Xs, ys, na, nb))
+        if linear is not None and np.any(linear != coef):
+            linear_dynamics = lag_dynamics(library, linear, n_outputs=len(outputs), n_inputs=Xs[0].shape[1], na=na,
+                                           nb=nb, dt=dt, max_abs=self.max_abs)
+            if _free_run_error(linear_dynamics, Xs, ys, x0s) < _free_run_error(dynamics, Xs, ys, x0s):
+                coef, dynamics, start = linear, linear_dynamics, "linear"
         y_states = [j * na + i for j in range(len(outputs)) for i in range(na)]
         result, record = self._run_refinement(dynamics, Xs, ys, x0=np.array(x0s),
                                               free=FreeParameters(coef=mask, x0=y_states))
@@ -409,6 +410,18 @@ def _design(Xs, ys, na, nb):
         rows_Z.append(np.hstack([lag_states(X_r, y_r, na, nb), X_r])[start:-1])
         rows_target.append(y_r[start + 1:] - y_r[start:-1])
     return np.vstack(rows_Z), np.vstack(rows_target)
+
+
+def _free_run_error(dynamics, Xs, ys, x0s):
+    """Mean squared free-run output error over the records (inf when a run diverges)."""
+    total, count = 0.0, 0
+    outputs = list(dynamics.output_index)
+    for X_r, y_r, x0 in zip(Xs, ys, x0s):
+        y_hat = dynamics.simulate(X_r, x0, on_divergence="nan")[:, outputs]
+        if not np.all(np.isfinite(y_hat)):
+            return np.inf
+        total, count = total + float(np.sum((y_hat - y_r) ** 2)), count + y_r.size
+    return total / count
 
 
 def _is_linear(term):

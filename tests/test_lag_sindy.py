@@ -174,3 +174,18 @@ def test_library_input_is_the_regression_input(record):
     np.testing.assert_array_equal(Z[5], [y[5, 0], y[4, 0], u[3, 0], u[4, 0]])
     increments = model.library_.transform(Z[1:-1]) @ model.coef_[0]
     np.testing.assert_allclose(increments, (y[2:] - y[1:-1])[:, 0], atol=1e-9)
+
+
+def test_conformal_band_and_standard_errors(rng):
+    from sindybench.uncertainty import conformal_calibration, standard_errors
+
+    u = rng.uniform(-1.0, 1.0, (800, 1))
+    y_noisy = _narx(u) + 0.01 * rng.standard_normal((800, 1))
+    model = LagSINDy(library=PolynomialLibrary(degree=2), dt=0.1,
+                     refine=OutputErrorRefinement(max_nfev=10)).fit(u[:600], y_noisy[:600])
+    calibration = conformal_calibration(model, u[600:], y_noisy[600:], alpha=0.1)
+    assert 0.01 < calibration.half_width[0] < 0.03  # about 1.645 times the noise's 0.01
+    band = calibration.band(model, u[600:], y_init=y_noisy[600:610])
+    assert band.lower.shape == (200, 1) and np.all(band.lower < band.upper)
+    errors = standard_errors(model)
+    assert "y0': u0[k-1]" in errors and 0 < errors["y0': u0[k-1]"] < 0.05  # the increment's over dt

@@ -2,6 +2,7 @@
 
 from . import baselines, differentiation, uncertainty
 from ._divergence import DivergenceWarning
+from ._lag_sindy import LagSINDy
 from ._sindy import SINDy
 from ._version import __version__
 from .optimizers import STLS, GramCache, stls
@@ -15,6 +16,7 @@ __all__ = [
     "DivergenceWarning",
     "GramCache",
     "HiddenStateSINDy",
+    "LagSINDy",
     "SINDy",
     "STLS",
     "SimulationError",

@@ -15,7 +15,7 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 
 import pysindy as ps
 
-from sindybench import STLS, HiddenStateSINDy, SINDy
+from sindybench import STLS, HiddenStateSINDy, LagSINDy, SINDy
 from sindybench.baselines import ARX, NNARX
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.identify import IdentifyCV
@@ -79,6 +79,9 @@ ESTIMATORS = [
     HiddenStateSINDy(dt=0.1, library=PolynomialLibrary(degree=1)),
     HiddenStateSINDy(dt=0.1, hidden=DerivativeHiddenState(order=1), library=PolynomialLibrary(degree=1),
                      refine=OutputErrorRefinement(max_nfev=3), initial_state="fit"),
+    LagSINDy(dt=0.1, library=PolynomialLibrary(degree=1), output_lags=1, input_lags=1),
+    LagSINDy(dt=0.1, library=PolynomialLibrary(degree=1), output_lags=1, input_lags=1,
+             refine=OutputErrorRefinement(max_nfev=3)),
     ARX(),
     NNARX(hidden_layer_sizes=(8,), max_iter=200, random_state=0),
     IdentifyCV(dt=0.1, families=["first_order"], libraries=["linear"], derivatives=["finite_difference"],
@@ -100,6 +103,7 @@ EXPECTED_FAILED = {
     "IdentifyCV": _IDENTIFY,
     "SINDy": _SINDY,
     "HiddenStateSINDy": _SINDY,
+    "LagSINDy": _SINDY,
     "ARX": _TIME_SERIES,
     "NNARX": _TIME_SERIES,
 }

@@ -87,6 +87,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         with the library ``linear+abs`` (linear terms, ``v|z|``, ``|v|z``,
         ``|v||z|``). The latent families skip the screening: the lag start is
         searched inside their ``fit`` and they are refined by simulation error.
+        Off the default list: ``"order1+latent2"`` (two latent states) and
+        ``"lag"`` (:class:`~sindybench.LagSINDy`, discrete time on delay
+        coordinates, its lags chosen inside its ``fit``).
     libraries : sequence of str, default=("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
         Libraries of graded richness; ``"+hard"`` adds the terms the data
         proposes (skipped when it proposes none).

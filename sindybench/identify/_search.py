@@ -125,9 +125,13 @@ def path_thresholds(estimator, X, y, max_levels):
         Increasing levels, starting with 0 (the dense fit).
     """
     states = getattr(estimator, "states_", None)
-    if isinstance(X, list):  # several records: their rows stacked, as the estimator stacks its states
-        X, y = np.vstack(X), np.vstack(y)
-    Z = np.hstack([y if states is None else states, X])
+    if hasattr(estimator, "library_input"):  # a lag model: its delay coordinates, record by record
+        Z = np.vstack([estimator.library_input(X_r, y_r) for X_r, y_r in (zip(X, y) if isinstance(X, list)
+                                                                          else [(X, y)])])
+    else:
+        if isinstance(X, list):  # several records: their rows stacked, as the estimator stacks its states
+            X, y = np.vstack(X), np.vstack(y)
+        Z = np.hstack([y if states is None else states, X])
     theta = np.asarray(estimator.library_.transform(Z), dtype=float)
     rms = np.sqrt(np.mean(theta**2, axis=0))
     w = np.abs(np.asarray(estimator.coef_)) * rms[None, :]

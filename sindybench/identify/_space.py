@@ -15,6 +15,7 @@ import logging
 import numpy as np
 from sklearn.base import clone
 
+from .._lag_sindy import LagSINDy
 from .._sindy import SINDy
 from ..differentiation import FiniteDifference, SavitzkyGolay, Spectral
 from ..hidden import DerivativeHiddenState, HiddenStateSINDy, LatentHiddenState
@@ -31,11 +32,16 @@ logger = logging.getLogger(__name__)
 #: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3,
 #: and one latent state (one output only) at order 1 (driven by the input) and 2 (driven by the velocity)
 FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent")
-#: every family a search may name: the default ones, and two latent states (a chain of two lags of the input, at
-#: order 1; off the default list for its cost)
-ALL_FAMILIES = FAMILIES + ("order1+latent2",)
+#: every family a search may name: the default ones, two latent states (a chain of two lags of the input, at
+#: order 1; off the default list for its cost), and the discrete-time lag model on delay coordinates
+#: (:class:`~sindybench.LagSINDy`, its lags chosen in its fit; off the default list until the parsimony rule
+#: prefers an equation to it on a tie)
+ALL_FAMILIES = FAMILIES + ("order1+latent2", "lag")
 LATENT_FAMILIES = ("order1+latent", "order2+latent", "order1+latent2")
-_ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order1+latent": 1, "order2+latent": 2, "order1+latent2": 1}
+_ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order1+latent": 1, "order2+latent": 2, "order1+latent2": 1,
+          "lag": 1}
+#: the lag family's largest order (outputs and inputs), chosen in its fit by the free run of its last fifth
+_LAG_MAX = 3
 #: the order-2 latent family's library: linear, plus the absolute products of the velocity and the latent state
 LATENT_LIBRARY = "linear+abs"
 # the latent family's own search (the lag's time constant, in samples) and refinement
@@ -214,6 +220,11 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
                 out.append(({"family": family, "library": "linear", "derivative": "finite_difference",
                              "input_hold": hold, "input_delay": delay}, PolynomialLibrary(degree=1)))
             continue
+        if family == "lag":  # no derivative, the input held by construction: one structure per library
+            out += [({"family": family, "library": lib_name, "derivative": "none", "input_hold": "zoh",
+                      "input_delay": delay}, PolynomialLibrary(degree=_DEGREE[lib_name]))
+                    for lib_name in libraries if lib_name in _DEGREE]
+            continue
         if family == "order1+latent":
             if n_outputs == 1 and n_inputs >= 1:  # states (y, z), driven by u0; refined, so one derivative
                 for lib_name, lib in (("linear", PolynomialLibrary(degree=1)),
@@ -237,7 +248,8 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
 def make_estimator(structure, library, threshold, dt, settings, *, refine=None, random_state=0):
     """An unfitted estimator of ``structure`` with an STLS threshold on normalized columns.
 
-    ``first_order`` is :class:`~sindybench.SINDy`; ``order2`` and ``order3``
+    ``first_order`` is :class:`~sindybench.SINDy`; ``lag`` is :class:`~sindybench.LagSINDy`
+    (its lags chosen in its fit, up to 3); ``order2`` and ``order3``
     are :class:`~sindybench.HiddenStateSINDy` with
     :class:`~sindybench.hidden.DerivativeHiddenState`; ``order1+latent`` and
     ``order2+latent`` are :class:`~sindybench.hidden.LatentHiddenState`
@@ -252,6 +264,10 @@ def make_estimator(structure, library, threshold, dt, settings, *, refine=None, 
     ``random_state`` seeds the latent families' search of their start.
     """
     optimizer = STLS(threshold=float(threshold), alpha=1e-9, normalize_columns=True)
+    if structure["family"] == "lag":
+        return LagSINDy(library=clone(library), optimizer=optimizer, normalize=False, output_lags="auto",
+                        input_lags="auto", max_lags=_LAG_MAX, dt=dt, input_delay=structure["input_delay"],
+                        refine=refine)
     d_name = structure["derivative"]
     differentiation = _differentiation(d_name, settings["derivatives"].get(d_name, {}))
     hold, delay = structure["input_hold"], structure["input_delay"]

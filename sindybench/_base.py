@@ -11,6 +11,7 @@ diverges), ``score``, ``equations``, ``estimate_initial_state``, the checks of
 scikit-learn tags.
 """
 
+import numbers
 import warnings
 
 import numpy as np
@@ -170,12 +171,25 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
             check_record_lists(X, y)  # says that y must be a list of records too
         if is_records(y):
             Xs, ys = check_records(X, y, y_kind=y_kind)
+            self._check_delay(Xs)
             return Xs, ys, all(y_r.ndim == 1 for y_r in y), True
         check_array_like(X, "X")
         check_array_like(y, "y")
         y_1d = np.asarray(y).ndim == 1
         X, y = check_inputs_outputs(X, y)
+        self._check_delay([X])
         return [X], [y], y_1d, False
+
+    def _check_delay(self, Xs):
+        """Refuse an ``input_delay`` as long as a training record: its delayed inputs would be one sample held."""
+        delay = getattr(self, "input_delay", 0)
+        if not isinstance(delay, numbers.Integral) or isinstance(delay, bool) or not Xs[0].shape[1]:
+            return  # a bad value is named by the parameter check; no input, nothing delayed
+        shortest = min(X_r.shape[0] for X_r in Xs)
+        if delay >= shortest:
+            raise ValueError(f"input_delay={delay} samples is not shorter than the training record ({shortest} "
+                             "samples): the delayed inputs would hold their first sample throughout. Expected a "
+                             "delay of fewer samples than the record.")
 
     def delayed_inputs(self, X):
         """The inputs the model sees: ``X`` delayed by ``input_delay`` samples (the first row held before it).

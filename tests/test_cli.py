@@ -6,7 +6,9 @@ whole study (files exist, every number and every figure is finite), and the
 documentation is built from its output with warnings as errors.
 """
 
+import contextlib
 import dataclasses
+import io
 import json
 import math
 import os
@@ -754,10 +756,24 @@ def test_simulate_csv_fuzz(saved_models, tmp_path, capsys, runslow):
 @pytest.fixture(scope="module")
 def quick_run(tmp_path_factory, data_home):
     out = tmp_path_factory.mktemp("quick") / "results"
-    status = main(["run", "all", "--quick", "--no-progress", "-q", "--out", str(out), "--data-home", str(data_home),
-                   "--no-download"])
+    stderr = io.StringIO()
+    with contextlib.redirect_stderr(stderr):
+        status = main(["run", "all", "--quick", "--no-progress", "-q", "--out", str(out), "--data-home",
+                       str(data_home), "--no-download"])
     assert status == 0
+    (out.parent / "stderr.txt").write_text(stderr.getvalue())
     return out
+
+
+def test_quick_run_is_quiet_and_its_report_keeps_the_warnings(quick_run):
+    """-q prints nothing on stderr: the small budgets' ConvergenceWarnings and the advice go into the report."""
+    assert (quick_run.parent / "stderr.txt").read_text() == ""
+    results = json.loads((quick_run / "cascaded-tanks" / "results.json").read_text())
+    said = {(w["kind"], w["category"]) for w in results["warnings"]}
+    assert ("warning", "ConvergenceWarning") in said and ("log", "WARNING") in said
+    assert all(w["count"] >= 1 for w in results["warnings"])
+    assert "## Warnings" in (quick_run / "cascaded-tanks" / "results.md").read_text()
+    assert "identify fits a constant term" in (quick_run / "report.md").read_text()
 
 
 def _numbers(obj):

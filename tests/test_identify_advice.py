@@ -65,7 +65,25 @@ def test_estimate_delay_says_when_a_smooth_input_does_not_resolve_it(rng, caplog
     with caplog.at_level(logging.WARNING, logger="sindybench.identify._advice"):
         report = advice(u, y, dt=DT)
     assert not report.delay_resolved and report.input_delay == 0
+    assert caplog.text.count("input delay is not resolved") == 1  # said once: by the advice, not also by the estimate
+    assert "does not resolve" not in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="sindybench.identify._advice"):
+        assert estimate_delay(u, y, DT) == 0
     assert "does not resolve the input delay" in caplog.text
+
+
+def test_advice_within_identify_says_what_identify_does(rng):
+    t = np.arange(3000) * DT
+    u = (np.sin(1.3 * t) + 0.5 * np.sin(4.1 * t))[:, None] + 5.0
+    y = simulate(lambda x, v: np.array([-3.0 * x[0] + 2.0 * v[0]]), [3.0], u, dt=DT, input_hold="linear")
+    own = advice(u, y, dt=DT)
+    inside = advice(u, y, dt=DT, within_identify=True)
+    assert any("centre it (normalize=True)" in w for w in own.warnings)
+    assert not any("normalize=True" in w for w in inside.warnings)
+    assert any("identify fits a constant term" in w for w in inside.warnings)
+    assert any("identify keeps every sample" in w for w in inside.warnings)
+    assert len(own.warnings) == len(inside.warnings)
 
 
 def test_a_sindy_model_with_the_estimated_delay_fits(rng):

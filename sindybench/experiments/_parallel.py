@@ -27,6 +27,7 @@ from .._numba_cache import lock_numba_cache
 from .._progress import ENV_VAR as PROGRESS_ENV_VAR
 from ._report import write_results
 from ._runner import run_benchmark, test_sets
+from ._warnings import collect_warnings
 
 __all__ = ["longest_first", "run_and_write", "run_in_workers", "run_serially", "worker_count"]
 
@@ -75,7 +76,12 @@ def run_and_write(benchmark, data, folder, **settings):
     dict
         The results with the written files (:func:`write_results`).
     """
-    results, fitted, simulations = run_benchmark(benchmark, data=data, **settings)
+    with collect_warnings() as said:
+        results, fitted, simulations = run_benchmark(benchmark, data=data, **settings)
+    for entry in said:  # the terminal hears each once, and not at all with -q (the report keeps them)
+        logger.info("%s: %s%s", entry["category"], entry["message"],
+                    f" ({entry['count']} times)" if entry["count"] > 1 else "")
+    results = dict(results, warnings=said)
     folder = Path(folder)
     folder.mkdir()
     tests = {k: v for k, v in test_sets(data).items() if k in results["test_sets"]}

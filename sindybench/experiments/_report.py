@@ -22,6 +22,7 @@ from .._process import owner, owner_is_gone
 from ..plotting import plot_hysteresis, plot_simulation
 from ._best import best_model_markdown
 from ._published import reference_figures
+from ._warnings import warnings_markdown
 
 __all__ = [
     "check_output_dir",
@@ -295,6 +296,7 @@ def results_markdown(results, *, heading_level=1):
         if others:
             out += ["", f"Published on this test set (not trained here): {others}."]
     out += best_model_markdown(results.get("best_model"), f"{h}#")
+    out += warnings_markdown(results.get("warnings"), f"{h}#")
     out += ["", f"{h}# Models", ""]
     for m in results["models"]:
         trials = f"{m['n_trials']} search trials" if m["n_trials"] else "no outer search"

@@ -211,9 +211,35 @@ def _fmt(values):
     return "[]" if values is None else "[" + ", ".join(f"{v:.4g}" for v in np.ravel(values)) + "]"
 
 
+#: the largest magnitude a record may reach: the ARX fits and the candidates' cubic terms square and cube it
+MAX_MAGNITUDE = 1e100
+
+
+def check_magnitude(X, y):
+    """Refuse a record whose inputs or outputs reach beyond :data:`MAX_MAGNITUDE` (their squares overflow).
+
+    Examples
+    --------
+    >>> check_magnitude(np.ones((3, 1)), 1e200 * np.ones((3, 1)))
+    Traceback (most recent call last):
+    ...
+    ValueError: y reaches 1e+200 (output column 0): beyond 1e+100, where squares and cubes of it overflow float64; expected a record in units where it stays below 1e+100 (rescale it, e.g. y / 1e+200).
+    """
+    for name, values, kind in (("X", X, "input"), ("y", y, "output")):
+        if values.size == 0:
+            continue
+        peak = np.max(np.abs(values), axis=0)
+        j = int(np.argmax(peak))
+        if peak[j] > MAX_MAGNITUDE:
+            raise ValueError(f"{name} reaches {peak[j]:.3g} ({kind} column {j}): beyond {MAX_MAGNITUDE:.0e}, where "
+                             f"squares and cubes of it overflow float64; expected a record in units where it stays "
+                             f"below {MAX_MAGNITUDE:.0e} (rescale it, e.g. {name} / {peak[j]:.3g}).")
+
+
 def _check(X, y, dt):
     X, y = check_inputs_outputs(X, y)
     check_positive(dt, "dt")
+    check_magnitude(X, y)
     return X, y
 
 
@@ -299,10 +325,12 @@ def estimate_delay(X, y, dt, *, max_delay=20, hold=None, na=2, nb=3, rtol=0.01):
     3
     """
     X, y = _check(X, y, dt)
-    return _estimate_delay(X, y, dt, max_delay, hold, na, nb, rtol)[0]
+    return _estimate_delay(X, y, dt, max_delay, hold, na, nb, rtol, say=True)[0]
 
 
-def _estimate_delay(X, y, dt, max_delay, hold, na, nb, rtol):
+def _estimate_delay(X, y, dt, max_delay, hold, na, nb, rtol, say=False):
+    """``(delay, losses, resolved)``; ``say``: warn here when the record does not resolve it (:func:`advice` says it
+    in its own warnings)."""
     max_delay = check_integer(max_delay, "max_delay", low=0)
     if X.shape[1] == 0:
         return 0, {}, True
@@ -310,7 +338,7 @@ def _estimate_delay(X, y, dt, max_delay, hold, na, nb, rtol):
     losses = _delay_losses(X, y, max_delay + 1, na, nb)
     nk, resolved = _chosen_lag(losses, rtol, nb)
     delay = 0 if nk is None else max(nk - 1, 0) if hold == "zoh" else min(nk, max_delay)
-    if not resolved:
+    if not resolved and say:
         logger.warning("estimate_delay: the record does not resolve the input delay (ARX input lags %s score within "
                        "%g %% of the best, as for a smooth input); taking %d samples (no delay): confirm it on validation data",
                        sorted(k for k, v in losses.items() if v <= min(losses.values()) * (1 + rtol)), 100 * rtol,
@@ -577,7 +605,16 @@ def _proposals(y, saturation, dt):
     return terms
 
 
-def advice(X, y, *, dt, max_delay=20, max_order=50):
+#: what identify does about an advice's finding, said in its place when the advice runs inside identify
+_IDENTIFY_REMEDIES = {
+    "offset": "identify fits a constant term on columns it scales itself, so it needs no centring",
+    "delay": "identify scores its candidates with input_delay={delay}",
+    "fast": "identify keeps every sample (its derivative methods filter above the bandwidth); decimating by {k} "
+            "would keep 20 and cut its cost",
+}
+
+
+def advice(X, y, *, dt, max_delay=20, max_order=50, within_identify=False):
     """Check a record before identification: delay, hold, offsets, drift, excitation, saturation, feedback, sampling.
 
     The report is logged (INFO, each problem also as a WARNING of this
@@ -594,6 +631,11 @@ def advice(X, y, *, dt, max_delay=20, max_order=50):
         Largest input delay (samples) considered.
     max_order : int, default=50
         Largest persistent-excitation order tested.
+    within_identify : bool, default=False
+        The advice runs inside :func:`~sindybench.identify.identify`: a
+        finding that the search handles itself (an offset, an unresolved
+        delay, fast sampling) says what ``identify`` does about it instead of
+        what a user should set.
 
     Returns
     -------
@@ -637,9 +679,11 @@ def advice(X, y, *, dt, max_delay=20, max_order=50):
     result.input_hold = result.input_holds[0] if p else "zoh"
     result.input_delay, result.delay_losses, result.delay_resolved = _estimate_delay(
         X, y, dt, max_delay, result.input_hold, 2, 3, 0.01)
+    remedy = (lambda kind, **values: _IDENTIFY_REMEDIES[kind].format(**values)) if within_identify else None
     if not result.delay_resolved:
-        result.warnings.append("the input delay is not resolved by this record (smooth input): confirm "
-                               f"input_delay={result.input_delay} on validation data")
+        result.warnings.append("the input delay is not resolved by this record (smooth input): " + (
+            remedy("delay", delay=result.input_delay) if remedy else
+            f"confirm input_delay={result.input_delay} on validation data"))
     result.output_mean, result.output_std = y.mean(axis=0), y.std(axis=0)
     result.input_mean, result.input_std = X.mean(axis=0), X.std(axis=0)
     warn = result.warnings
@@ -647,7 +691,8 @@ def advice(X, y, *, dt, max_delay=20, max_order=50):
             [(f"u{i}", result.input_mean[i], result.input_std[i]) for i in range(p)]:
         if abs(mean) > std:
             result.offsets.append(name)
-            warn.append(f"{name} has an offset (mean {mean:.4g}, std {std:.3g}): centre it (normalize=True)")
+            warn.append(f"{name} has an offset (mean {mean:.4g}, std {std:.3g}): "
+                        + (remedy("offset") if remedy else "centre it (normalize=True)"))
     input_trend = max([_trend_share(u) for u in X.T], default=0.0)
     for j, v in enumerate(y.T):
         share = _trend_share(v)
@@ -692,7 +737,8 @@ def advice(X, y, *, dt, max_delay=20, max_order=50):
                         f"({result.bandwidth[j]:.4g} Hz); expected at least {_SAMPLES_PER_PERIOD[0]}")
         elif spp > _SAMPLES_PER_PERIOD[1]:
             warn.append(f"y{j} is sampled fast: {spp:.0f} samples per period of its 95 % bandwidth "
-                        f"({result.bandwidth[j]:.4g} Hz); decimating by {int(spp // 20)} keeps 20")
+                        f"({result.bandwidth[j]:.4g} Hz); " + (remedy("fast", k=int(spp // 20)) if remedy else
+                                                               f"decimating by {int(spp // 20)} keeps 20"))
     result.proposed_terms = _proposals(y, result.saturation, dt)
     for w in warn:
         logger.warning("data advice: %s", w)

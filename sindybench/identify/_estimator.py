@@ -12,6 +12,7 @@ from .._progress import progress_bar
 from .._records import check_record_lists, check_records
 from .._validation import (check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option,
                            check_positive, is_records)
+from ._advice import check_magnitude
 from ._criterion import CRITERIA, choose_criterion
 from ._resume import CandidateStore, fingerprint
 from ._search import describe_blocks, pareto_front, parsimonious_index, record_folds, segments, stls_threshold
@@ -317,8 +318,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             check_integer(self.max_candidates, "max_candidates")
         if self.n_init is not None:
             check_integer(self.n_init, "n_init")
-        if self.n_jobs is not None:
-            check_integer(self.n_jobs, "n_jobs", low=None)
+        if self.n_jobs is not None and (check_integer(self.n_jobs, "n_jobs", low=None) == 0 or self.n_jobs < -1):
+            raise ValueError(f"n_jobs must be None (one process), an integer >= 1, or -1 for one process per CPU; got "
+                             f"{self.n_jobs!r}.")
         check_bool(self.show_progress_bar, "show_progress_bar")
         if self.validation is not None:
             check_option(self.validation, "validation", ("blocks", "records"))
@@ -343,6 +345,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             check_array_like(y, "y")
             X, y = check_inputs_outputs(X, y)
             X, y = [X], [y]
+        check_magnitude(np.vstack(X), np.vstack(y))
         n = sum(y_r.shape[0] for y_r in y)
         if n < 2 * _MIN_TRAIN:
             raise ValueError(f"y has {n} sample(s) (n_samples = {n}); identify needs at least "
@@ -379,6 +382,11 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         X, y = self._check_data(X, y)
         n = sum(y_r.shape[0] for y_r in y)
         n_init = self.n_init if self.n_init is not None else _N_INIT
+        shortest = min(y_r.shape[0] for y_r in y)
+        if self.input_delay is not None and X[0].shape[1] and self.input_delay >= shortest:
+            raise ValueError(f"input_delay={self.input_delay} samples is not shorter than the record ({shortest} "
+                             "samples): the delayed inputs would hold their first sample throughout. Expected a delay "
+                             "of fewer samples than the record (None: the data advice estimates it).")
         validation = self.validation or ("records" if several else "blocks")
         folds = record_folds([y_r.shape[0] for y_r in y], self.n_blocks, self.block_size, _MIN_TRAIN,
                              min_block=n_init + 2, validation=validation)

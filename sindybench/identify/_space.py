@@ -47,6 +47,7 @@ LATENT_LIBRARY = "linear+abs"
 # the latent family's own search (the lag's time constant, in samples) and refinement
 _LATENT_TRIALS, _LATENT_TRIALS_1, _LATENT_TAU = 12, 20, (1.0, 1000.0)
 _LATENT_REFINEMENT = {"max_nfev": 30, "max_samples": 5000}
+_MAX_ABS = 1e6  # the estimators' default divergence bound
 #: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
 LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
 _DEGREE = {"linear": 1, "poly2": 2, "poly3": 3}
@@ -94,7 +95,9 @@ def data_settings(X, y, dt):
         ``positive`` (outputs with a proposed square root), ``saturation``
         (per output, the upper level where it saturates, or None) and
         ``indicator`` (per output, the lower end of the proposed indicator of
-        that level, or None).
+        that level, or None), ``friction`` (outputs with a proposed Coulomb
+        friction term) and ``max_abs`` (the candidates' divergence bound: the
+        estimators' 1e6, or 1000 times the record's largest magnitude).
 
     Examples
     --------
@@ -104,6 +107,7 @@ def data_settings(X, y, dt):
     ('linear', 0, [0], [None])
     """
     report = _advice(X, y, dt)
+    max_abs = max(_MAX_ABS, 1e3 * float(max(np.max(np.abs(X), initial=0.0), np.max(np.abs(y)))))
     f_c = _bandwidth(y, dt)
     window = _savgol_window(f_c, dt)
     derivatives = {"finite_difference": {}, f"savgol_{window}": {"window_length": window},
@@ -112,7 +116,7 @@ def data_settings(X, y, dt):
         hold = detect_input_hold(X)[0] if X.shape[1] else "zoh"
         return {"advice": None, "input_delay": 0, "input_hold": hold, "bandwidth": f_c, "derivatives": derivatives,
                 "proposed": [], "positive": [], "saturation": [None] * y.shape[1], "indicator": [None] * y.shape[1],
-                "friction": []}
+                "friction": [], "max_abs": max_abs}
     terms = report.proposed_terms
     saturation, indicator = [None] * y.shape[1], [None] * y.shape[1]
     for j, side, level, _ in report.saturation:
@@ -124,14 +128,14 @@ def data_settings(X, y, dt):
     return {"advice": report, "input_delay": int(report.input_delay), "input_hold": report.input_hold,
             "bandwidth": f_c, "derivatives": derivatives, "proposed": [str(p) for p in terms],
             "positive": [p.output for p in terms if p.kind == "sqrt"], "saturation": saturation, "indicator": indicator,
-            "friction": [p.output for p in terms if p.kind == "friction"]}
+            "friction": [p.output for p in terms if p.kind == "friction"], "max_abs": max_abs}
 
 
 def _advice(X, y, dt):
     """The data advice with the longest delay search (up to 20 samples) the record allows; None if it allows none."""
     for max_delay in (20, 10, 5, 2, 0):
         try:
-            return advice(X, y, dt=dt, max_delay=max_delay)
+            return advice(X, y, dt=dt, max_delay=max_delay, within_identify=True)
         except ValueError as exc:
             if "too few" not in str(exc):
                 raise
@@ -247,6 +251,18 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
 
 def make_estimator(structure, library, threshold, dt, settings, *, refine=None, random_state=0):
     """An unfitted estimator of ``structure`` with an STLS threshold on normalized columns.
+
+    Its divergence bound ``max_abs`` is the estimators' (1e6) or, for a
+    record whose signals are larger, 1000 times their largest magnitude
+    (``settings["max_abs"]``), so that a record in large units simulates.
+    """
+    estimator = _make(structure, library, threshold, dt, settings, refine=refine, random_state=random_state)
+    max_abs = settings.get("max_abs", _MAX_ABS)
+    return estimator.set_params(max_abs=max_abs) if max_abs > _MAX_ABS else estimator
+
+
+def _make(structure, library, threshold, dt, settings, *, refine, random_state):
+    """The estimator of :func:`make_estimator`.
 
     ``first_order`` is :class:`~sindybench.SINDy`; ``lag`` is :class:`~sindybench.LagSINDy`
     (its lags chosen in its fit, up to 3); ``order2`` and ``order3``

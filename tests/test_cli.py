@@ -6,6 +6,7 @@ whole study (files exist, every number and every figure is finite), and the
 documentation is built from its output with warnings as errors.
 """
 
+import base64
 import dataclasses
 import json
 import math
@@ -78,7 +79,7 @@ def test_runner_writes_every_output(tmp_path):
     other = dataclasses.replace(_synthetic(), name="toy2")
     report = run_benchmarks([_synthetic(), other], tmp_path / "out", quick=True, seed=3)
     assert report == tmp_path / "out" / "report.md" and report.is_file()
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["report.md", "toy", "toy2"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["index.html", "report.md", "toy", "toy2"]
     folder = tmp_path / "out" / "toy"
     results = json.loads((folder / "results.json").read_text())
     assert results["seed"] == 3 and results["quick"] is True
@@ -92,6 +93,9 @@ def test_runner_writes_every_output(tmp_path):
         loaded = load_model(folder / results["files"]["models"][model["key"]])
         assert r2(test.y, loaded.predict(test.u, y_init=test.y[:2])) == scores["r2"]
     assert (folder / "test_test.png").stat().st_size > 1000
+    page = (folder / "report.html").read_text()  # the HTML page embeds the very PNG of the run
+    assert base64.b64encode((folder / "test_test.png").read_bytes()).decode() in page
+    assert 'href="toy/report.html"' in (tmp_path / "out" / "index.html").read_text()
     assert "| SINDy |" in (folder / "results.md").read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left
 

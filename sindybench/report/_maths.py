@@ -1,0 +1,100 @@
+"""Model equations as MathML (rendered by the browser itself: no script, no network)."""
+
+import re
+
+from ._html import esc
+
+_TOKEN = re.compile(r"\s*(?:(?P<num>\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)|(?P<name>[A-Za-z_][A-Za-z_0-9]*'*)"
+                    r"|(?P<op><=|>=|[-+=()\[\]|,<>^*/±]))")
+_FUNCTIONS = {"sign", "abs", "sin", "cos", "tan", "tanh", "exp", "log", "clip", "step", "sat"}
+_OPS = {"-": "\u2212", "<=": "\u2264", ">=": "\u2265", "*": "\u22c5", "±": "\u00b1"}
+_DOTS = {1: "\u0307", 2: "\u0308", 3: "\u20db"}  # combining dots above: one per derivative
+
+
+def _name(token):
+    """``y0'`` as a dotted ``y`` with subscript 0; ``sqrt``-like function names upright; ``inf`` as infinity."""
+    primes = len(token) - len(token.rstrip("'"))
+    base = token.rstrip("'")
+    if base == "inf":
+        return "<mi>\u221e</mi>"
+    if base in _FUNCTIONS:
+        return f'<mi mathvariant="normal">{esc(base)}</mi>'
+    m = re.fullmatch(r"([A-Za-z_]+?)_?(\d+)", base)
+    letters, index = (m.group(1), m.group(2)) if m else (base, None)
+    dots = _DOTS.get(primes, "") if len(letters) == 1 else ""
+    core = f"<mi>{esc(letters)}{dots}</mi>" if len(letters) == 1 else f'<mi mathvariant="normal">{esc(letters)}</mi>'
+    if primes and not dots:
+        core = f"<msup>{core}<mo>{chr(0x2032) * primes}</mo></msup>"
+    return f"<msub>{core}<mn>{index}</mn></msub>" if index is not None else core
+
+
+def _parse(tokens, i, stop=None):
+    """MathML of ``tokens[i:]`` up to the closing ``stop``; returns ``(items, next index)``."""
+    items = []
+    while i < len(tokens):
+        kind, text = tokens[i]
+        if stop is not None and kind == "op" and text == stop:
+            return items, i + 1
+        if kind == "name" and text == "sqrt" and i + 1 < len(tokens) and tokens[i + 1] == ("op", "("):
+            inner, i = _parse(tokens, i + 2, ")")
+            items.append(f"<msqrt>{''.join(inner)}</msqrt>")
+            continue
+        if kind == "op" and text == "^" and items and i + 1 < len(tokens):
+            exponent = tokens[i + 1]
+            if exponent == ("op", "("):
+                inner, i = _parse(tokens, i + 2, ")")
+                sup = f"<mrow>{''.join(inner)}</mrow>"
+            else:
+                sup, i = (f"<mn>{esc(exponent[1])}</mn>" if exponent[0] == "num" else _name(exponent[1])), i + 2
+            items[-1] = f"<msup>{items[-1]}{sup}</msup>"
+            continue
+        if kind == "num":
+            items.append(f"<mn>{esc(text)}</mn>")
+        elif kind == "name":
+            items.append(_name(text))
+        else:
+            fence = ' stretchy="false"' if text in "()[]|" else ""
+            items.append(f"<mo{fence}>{esc(_OPS.get(text, text))}</mo>")
+        i += 1
+    return items, i
+
+
+def is_equation(line):
+    """True for a line ``lhs = rhs`` of terms; False for a text line (a latent state's gauge, a fixed row)."""
+    return " = " in line and ":" not in line and "(fixed" not in line
+
+
+def equation_mathml(line):
+    """One equation line (as ``equations()`` writes it) as a ``<math>`` element.
+
+    Examples
+    --------
+    >>> m = equation_mathml("y0' = -2.00 y0 + sqrt(y0)")
+    >>> m.startswith('<math display="block"><msub><mi>y'), m.count("<msqrt>"), "<mn>2.00</mn>" in m
+    (True, 1, True)
+    """
+    tokens, pos = [], 0
+    while pos < len(line):
+        m = _TOKEN.match(line, pos)
+        if m is None or m.end() == pos:
+            if line[pos:].strip() == "":
+                break
+            tokens.append(("op", line[pos]))  # an unknown character stays as an operator
+            pos += 1
+            continue
+        kind = m.lastgroup
+        tokens.append((kind, m.group(kind)))
+        pos = m.end()
+    items, _ = _parse(tokens, 0)
+    return f'<math display="block">{"".join(items)}</math>'
+
+
+def equations_html(lines):
+    """The equation lines as MathML (text lines as text), each with its plain text beneath for copying."""
+    out = ['<div class="eq">']
+    for line in lines:
+        out.append(equation_mathml(line) if is_equation(line) else f"<p>{esc(line)}</p>")
+    out.append("</div><details><summary class=note>as text</summary><pre class=eqtext>")
+    out.append(esc("\n".join(lines)))
+    out.append("</pre></details>")
+    return "".join(out)

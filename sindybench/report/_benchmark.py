@@ -77,7 +77,8 @@ def _score_rows(results, name):
         s = m.get("scores", {}).get(name) or {}
         p = (m.get("published") or {}).get(name) or {}
         rows.append([m["label"], s.get("rmse"), p.get("rmse"), s.get("r2"), s.get("fit_index"),
-                     m.get("fit_time_s"), s.get("status") if s.get("status") != "ok" else m.get("status", "ok")])
+                     m.get("fit_time_s"),
+                     s.get("status") if s.get("status") not in (None, "ok") else m.get("status", "ok")])
     return rows
 
 
@@ -191,7 +192,8 @@ def benchmark_index(all_results, *, path=None, wall_time_s=None):
     """
     rows = []
     for results in all_results:
-        link = f'<a href="{esc(results["benchmark"])}/report.html">{esc(results.get("title", results["benchmark"]))}</a>'
+        title = results.get("title", results["benchmark"])
+        link = f'<a href="{esc(results["benchmark"])}/report.html">{esc(title)}</a>'
         for name in results.get("test_sets", {}):
             scored = [(m["scores"][name]["rmse"], m["label"]) for m in results["models"]
                       if (m.get("scores", {}).get(name) or {}).get("rmse") is not None]

@@ -46,7 +46,8 @@ document.querySelectorAll("table.sortable").forEach(function (table) {
       var dir = th.dataset.dir === "asc" ? -1 : 1;
       th.dataset.dir = dir === 1 ? "asc" : "desc";
       rows.sort(function (a, b) {
-        var x = a.cells[col].dataset.v || a.cells[col].textContent, y = b.cells[col].dataset.v || b.cells[col].textContent;
+        var x = a.cells[col].dataset.v || a.cells[col].textContent;
+        var y = b.cells[col].dataset.v || b.cells[col].textContent;
         var p = parseFloat(x), q = parseFloat(y);
         if (!isNaN(p) && !isNaN(q)) return dir * (p - q);
         if (!isNaN(p)) return -dir;
@@ -75,7 +76,9 @@ def fmt(value, digits=4):
         return str(int(value))
     if isinstance(value, numbers.Real):
         v = float(value)
-        return "inf" if math.isinf(v) and v > 0 else "-inf" if math.isinf(v) else "" if math.isnan(v) else f"{v:.{digits}g}"
+        if math.isnan(v):
+            return ""
+        return ("inf" if v > 0 else "-inf") if math.isinf(v) else f"{v:.{digits}g}"
     if isinstance(value, (list, tuple)):
         return ", ".join(fmt(v, digits) for v in value)
     return str(value)

@@ -60,7 +60,8 @@ def _free_run(model, X, y, n_init):
 def _scores(y, pred, n_init):
     if not np.all(np.isfinite(pred[n_init:])):
         return {"RMSE": None, "R^2": None, "fit %": None}
-    return {"RMSE": rmse(y, pred, skip=n_init), "R^2": r2(y, pred, skip=n_init), "fit %": fit_index(y, pred, skip=n_init)}
+    return {"RMSE": rmse(y, pred, skip=n_init), "R^2": r2(y, pred, skip=n_init),
+            "fit %": fit_index(y, pred, skip=n_init)}
 
 
 def _labels(model, y):

@@ -8,7 +8,7 @@ _TOKEN = re.compile(r"\s*(?:(?P<num>\d+(?:\.\d*)?(?:[eE][+-]?\d+)?)|(?P<name>[A-
                     r"|(?P<op><=|>=|[-+=()\[\]|,<>^*/±]))")
 _FUNCTIONS = {"sign", "abs", "sin", "cos", "tan", "tanh", "exp", "log", "clip", "step", "sat"}
 _OPS = {"-": "\u2212", "<=": "\u2264", ">=": "\u2265", "*": "\u22c5", "±": "\u00b1"}
-_DOTS = {1: "\u0307", 2: "\u0308", 3: "\u20db"}  # combining dots above: one per derivative
+_DOTS = {1: "\u02d9", 2: "\u00a8"}  # a dot above per derivative; higher ones as primes
 
 
 def _name(token):
@@ -21,9 +21,10 @@ def _name(token):
         return f'<mi mathvariant="normal">{esc(base)}</mi>'
     m = re.fullmatch(r"([A-Za-z_]+?)_?(\d+)", base)
     letters, index = (m.group(1), m.group(2)) if m else (base, None)
-    dots = _DOTS.get(primes, "") if len(letters) == 1 else ""
-    core = f"<mi>{esc(letters)}{dots}</mi>" if len(letters) == 1 else f'<mi mathvariant="normal">{esc(letters)}</mi>'
-    if primes and not dots:
+    core = f"<mi>{esc(letters)}</mi>" if len(letters) == 1 else f'<mi mathvariant="normal">{esc(letters)}</mi>'
+    if primes and primes in _DOTS and len(letters) == 1:
+        core = f'<mover accent="true">{core}<mo>{_DOTS[primes]}</mo></mover>'
+    elif primes:
         core = f"<msup>{core}<mo>{chr(0x2032) * primes}</mo></msup>"
     return f"<msub>{core}<mn>{index}</mn></msub>" if index is not None else core
 
@@ -70,7 +71,7 @@ def equation_mathml(line):
     Examples
     --------
     >>> m = equation_mathml("y0' = -2.00 y0 + sqrt(y0)")
-    >>> m.startswith('<math display="block"><msub><mi>y'), m.count("<msqrt>"), "<mn>2.00</mn>" in m
+    >>> m.startswith('<math display="block"><msub><mover accent="true"><mi>y'), m.count("<msqrt>"), "<mn>2.00</mn>" in m
     (True, 1, True)
     """
     tokens, pos = [], 0

@@ -322,7 +322,7 @@ def test_output_error_draws_each_error_and_scores_every_sample():
     y = np.sin(np.arange(n) * 0.001)[:, None]
     e = 0.01 * rng.standard_normal((n, 1))
     e[31_234] = 0.9  # one spike: decimation must keep it
-    full, zoom = plot_output_error(None, y, {"good": y - e, "poor": 0.5 * y}, n_init=10, dt=0.01, max_points=2000)
+    full, zoom = plot_output_error(None, y, {"good": y - e, "poor": 0.8 * y}, n_init=10, dt=0.01, max_points=2000)
     lines = [ln for ln in full.get_lines() if not ln.get_label().startswith("_")]
     assert [ln.get_label().split(" (")[0] for ln in lines] == ["measured output", "error of good", "error of poor"]
     rmse_good = float(np.sqrt(np.mean(e[10:] ** 2)))
@@ -332,6 +332,19 @@ def test_output_error_draws_each_error_and_scores_every_sample():
     # the zoom window holds the spike, and is shaded on the full axis
     lo, hi = zoom.get_xlim()
     assert lo <= 312.34 <= hi and len(full.patches) == 1
+
+
+def test_an_error_as_large_as_the_output_is_named_not_drawn():
+    y = np.sin(np.linspace(0, 30, 3000))[:, None]
+    fine = y + 1e-3 * np.cos(np.arange(3000))[:, None]
+    full, zoom = plot_output_error(None, y, {"zero": np.zeros_like(y), "fine": fine})
+    labels = [ln.get_label() for ln in full.get_lines() if not ln.get_label().startswith("_")]
+    assert labels == ["measured output", "error of fine (RMSE 0.000707)"]
+    assert "zero" in full.get_legend().get_title().get_text()
+    # the fine model's error is far below the output: the zoom's y axis is on it
+    assert zoom.get_ylim()[1] == pytest.approx(1.15e-3, rel=0.05) and "y axis on the errors" in zoom.get_title()
+    with pytest.raises(ValueError, match="max_error"):
+        plot_output_error(None, y, {"m": y}, max_error=0)
 
 
 def test_output_error_refuses_a_bad_zoom():

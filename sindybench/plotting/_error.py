@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from .._validation import check_integer
+from .._validation import check_integer, check_positive
 from ._common import MAX_POINTS, _check_axes, _column, _new_axes, _predictions, _signals, _time
 
 
@@ -26,22 +26,22 @@ def envelope(t, v, max_points=MAX_POINTS):
     n = len(v)
     if n <= max_points:
         return t, v
-    n_buckets = max_points // 2
-    edges = np.linspace(0, n, n_buckets + 1).astype(int)
-    tt, vv = [], []
-    for a, b in zip(edges[:-1], edges[1:]):
-        seg = v[a:b]
-        finite = np.isfinite(seg)
-        if not finite.any():
-            tt += [t[a], t[b - 1]]
-            vv += [np.nan, np.nan]
-            continue
-        lo = a + int(np.nanargmin(np.where(finite, seg, np.inf)))
-        hi = a + int(np.nanargmax(np.where(finite, seg, -np.inf)))
-        for i in sorted((lo, hi)):
-            tt.append(t[i])
-            vv.append(v[i])
-    return np.asarray(tt), np.asarray(vv)
+    k = int(np.ceil(n / (max_points // 2)))  # samples per bucket
+    n_buckets = int(np.ceil(n / k))
+    padded = np.full(n_buckets * k, np.nan)
+    padded[:n] = v
+    blocks = padded.reshape(n_buckets, k)
+    finite = np.isfinite(blocks)
+    any_finite = finite.any(axis=1)
+    lo = np.argmin(np.where(finite, blocks, np.inf), axis=1)
+    hi = np.argmax(np.where(finite, blocks, -np.inf), axis=1)
+    first, second = np.minimum(lo, hi), np.maximum(lo, hi)  # in time order within each bucket
+    base = np.arange(n_buckets) * k
+    index = np.column_stack([base + first, base + second]).ravel()
+    index = np.minimum(index, n - 1)
+    vv = v[index].astype(float)
+    vv[np.repeat(~any_finite, 2)] = np.nan  # a bucket that diverged stays a gap
+    return t[index], vv
 
 
 def zoom_window(errors, width):
@@ -79,7 +79,8 @@ def _errors(X, y, models, n_init, output):
     X, y = _signals(X, y)
     y_col = _column(y, output, "output")
     sims = _predictions(models, X, y, n_init)
-    return y_col, [(label, y_col - pred[:, output]) for label, pred in sims]
+    # each model keeps its colour (its place among the models) in every panel, drawn or not
+    return y_col, [(label, y_col - pred[:, output], f"C{i}") for i, (label, pred) in enumerate(sims)]
 
 
 def _rms(e):
@@ -88,7 +89,7 @@ def _rms(e):
 
 
 def plot_output_error(X, y, models, *, n_init=1, dt=None, output=0, output_label="output", zoom=None,
-                      max_points=MAX_POINTS, ax=None):
+                      max_error=0.5, max_points=MAX_POINTS, ax=None):
     """The measured output and each model's simulation error on one axis, and a zoomed window of the same.
 
     The error ``y - y_sim`` of each model is drawn over the measured output
@@ -118,8 +119,14 @@ def plot_output_error(X, y, models, *, n_init=1, dt=None, output=0, output_label
         The y axis label (with its unit, ``"y [V]"``).
     zoom : (int, int) or None, default=None
         ``(start, stop)`` samples of the zoom window; None: chosen by
-        :func:`zoom_window` with a width of a twentieth of the record (at
-        least 200 samples); ``False``: no zoom panel.
+        :func:`zoom_window` with a width of a hundredth of the record (at
+        least 200 samples); ``False``: no zoom panel. When the errors in the
+        window are far smaller than the output, the zoom's y axis is theirs.
+    max_error : float, default=0.5
+        A model whose error RMSE is at least ``max_error`` times the
+        output's standard deviation (it explains at most about three
+        quarters of the output's variance) is named in the legend's title,
+        not drawn: its error would cover the output and the other errors.
     max_points : int, default=6000
         Most points drawn per curve.
     ax : Axes or sequence of two Axes, optional
@@ -140,10 +147,19 @@ def plot_output_error(X, y, models, *, n_init=1, dt=None, output=0, output_label
     y_col, errors = _errors(X, y, models, n_init, output)
     n_init = check_integer(n_init, "n_init")
     max_points = check_integer(max_points, "max_points", low=2)
+    max_error = check_positive(max_error, "max_error")
     t, t_label = _time(len(y_col), dt)
+    # an error as large as the output hides the output and every other error: named, not drawn
+    level = float(np.std(y_col[n_init:])) if len(y_col) > n_init else 0.0
+    hidden = [label for label, e, _ in errors if level > 0 and not _rms(e[n_init:]) < max_error * level]
+    if len(hidden) < len(errors):
+        errors = [(label, e, c) for label, e, c in errors if label not in hidden]
+    else:
+        hidden = []
     if zoom is None:
-        width = min(len(y_col), max(200, len(y_col) // 20))
-        zoom = zoom_window(np.column_stack([e for _, e in errors]) if errors else y_col, width)
+        width = min(len(y_col), max(200, len(y_col) // 100))
+        zoom = zoom_window(np.column_stack([e[n_init:] for _, e, _ in errors]) if errors else y_col[n_init:], width)
+        zoom = (zoom[0] + n_init, min(zoom[1] + n_init, len(y_col)))
     if ax is None:
         axes = _new_axes(2 if zoom is not False else 1, figsize=(10, 6 if zoom is not False else 3.5), sharex=False)
     else:
@@ -154,27 +170,36 @@ def plot_output_error(X, y, models, *, n_init=1, dt=None, output=0, output_label
         a, b = (check_integer(v, "zoom", low=0) for v in zoom)
         if not a < b <= len(y_col):
             raise ValueError(f"zoom = {zoom!r}; expected (start, stop) samples with 0 <= start < stop <= {len(y_col)}.")
+    zoomed_on_errors = False
     panels = [(axes[0], slice(None))] + ([(axes[1], slice(a, b))] if zoom is not False else [])
     for k, (panel, window) in enumerate(panels):
         tw = t[window]
         panel.plot(*envelope(tw, y_col[window], max_points), color="black", lw=1.0, label="measured output")
-        for i, (label, e) in enumerate(errors):
+        for label, e, color in errors:
             e_drawn = e.copy()
             e_drawn[:n_init] = np.nan  # the start samples are given, not simulated
             text = f"error of {label} (RMSE {_rms(e[n_init:]):.3g})" if k == 0 else None
-            panel.plot(*envelope(tw, e_drawn[window], max_points), lw=0.8, color=f"C{i}", alpha=0.9, label=text)
+            panel.plot(*envelope(tw, e_drawn[window], max_points), lw=0.8, color=color, alpha=0.9, label=text)
         panel.set_ylabel(output_label)
         panel.axhline(0.0, color="0.6", lw=0.5)
         span = float(np.ptp(y_col[window])) if len(y_col[window]) else 1.0
         lo, hi = float(np.min(y_col[window])), float(np.max(y_col[window]))
-        finite = [e[window][np.isfinite(e[window])] for _, e in errors]
-        if any(f.size and (f.min() < lo - span or f.max() > hi + span) for f in finite):
+        finite = np.concatenate([e[window][np.isfinite(e[window])] for _, e, _ in errors] or [np.zeros(0)])
+        if finite.size and (finite.min() < lo - span or finite.max() > hi + span):
             panel.set_ylim(lo - span, hi + span)  # a diverged model does not flatten the others
-    axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+        elif k == 1 and finite.size and 0 < np.abs(finite).max() < 0.125 * span:
+            # errors far smaller than the output: the zoom's y axis is theirs, the output runs off it
+            top = 1.15 * float(np.abs(finite).max())
+            panel.set_ylim(-top, top)
+            zoomed_on_errors = True
+    legend = axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
+    if hidden:
+        legend.set_title("not drawn, error as large as the output:\n" + "\n".join(hidden), prop={"size": 7})
     axes[0].set_title("measured output and simulation errors", fontsize=9)
     if zoom is not False:
         axes[0].axvspan(t[a], t[b - 1], color="tab:orange", alpha=0.15, lw=0)
-        axes[1].set_title(f"zoom: {t_label.split(' ')[0]} {t[a]:.4g} to {t[b - 1]:.4g}", fontsize=9)
+        axes[1].set_title(f"zoom: {t_label.split(' ')[0]} {t[a]:.4g} to {t[b - 1]:.4g}"
+                          + (" (y axis on the errors; the output runs off it)" if zoomed_on_errors else ""), fontsize=9)
         axes[1].set_xlabel(t_label)
     axes[0].set_xlabel(t_label)
     return axes
@@ -240,13 +265,13 @@ def plot_error_spectrum(X, y, models, *, n_init=1, dt=None, output=0, ax=None):
     (ax,) = _check_axes(ax, 1) or _new_axes(1, figsize=(7, 4))
     f, p = error_spectrum(y_col[n_init:], dt)
     ax.plot(f, p, color="black", lw=1.2, label="measured output")
-    for i, (label, e) in enumerate(errors):
+    for label, e, color in errors:
         if np.isfinite(e[n_init:]).sum() < 2:
             continue
-        ax.plot(*error_spectrum(e[n_init:], dt), lw=0.9, color=f"C{i}", label=f"error of {label}")
+        ax.plot(*error_spectrum(e[n_init:], dt), lw=0.9, color=color, label=f"error of {label}")
     ax.set_xlabel("frequency [Hz]" if dt is not None else "frequency [cycles / sample]")
     ax.set_ylabel("power spectral density [dB]")
     ax.set_xlim(0, f[-1])
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.set_title("spectra of the output and of the errors", fontsize=9)
     return ax

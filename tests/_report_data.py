@@ -11,7 +11,7 @@ from sindybench.simulate import simulate
 DT = 0.01
 # a quick search (as in test_identify): one derivative method, one refinement, two libraries
 QUICK = dict(families=["first_order"], libraries=["linear", "poly2"], derivatives=["finite_difference"], n_refine=1,
-             show_progress_bar=False)
+             n_init=30, show_progress_bar=False)
 
 
 def record(n=2000, seed=0):

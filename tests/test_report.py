@@ -49,6 +49,7 @@ def test_identification_report_has_every_section(pages):
         assert eqs and all(html_lib.escape(line) in front for line in eqs)
     # the test record: its scores, and the figures (inline PNG) of output and error, zoom and spectrum
     assert "test fit" in html and "coverage on the test record" in html
+    assert record_["n_init"] == 30 and 'scored from sample</td><td class="num" data-v="30.0">30</td>' in html
     assert html.count('<img alt="') == html.count("data:image/png;base64,") >= 5
     assert "data advice" in html and "input hold" in html and "proposed terms" in html
 

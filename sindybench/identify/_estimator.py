@@ -482,6 +482,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         final.identification_ = {"settings": chosen, "data": settings, "blocks": blocks, "cv_results": table,
                                  "pareto_front": front, "best_index": int(best), "validation": validation,
                                  "splits": splits}
+        final.identification_["n_init"] = n_init  # the start samples the blocks were simulated from (the report's)
         self.best_estimator_ = final
         self.n_features_in_ = X[0].shape[1]
         return self

@@ -23,7 +23,7 @@ def _name(token):
     letters, index = (m.group(1), m.group(2)) if m else (base, None)
     core = f"<mi>{esc(letters)}</mi>" if len(letters) == 1 else f'<mi mathvariant="normal">{esc(letters)}</mi>'
     if primes and primes in _DOTS and len(letters) == 1:
-        core = f'<mover accent="true">{core}<mo>{_DOTS[primes]}</mo></mover>'
+        core = f"<mover>{core}<mo>{_DOTS[primes]}</mo></mover>"  # not an accent: Chromium draws it into the y
     elif primes:
         core = f"<msup>{core}<mo>{chr(0x2032) * primes}</mo></msup>"
     return f"<msub>{core}<mn>{index}</mn></msub>" if index is not None else core
@@ -71,7 +71,7 @@ def equation_mathml(line):
     Examples
     --------
     >>> m = equation_mathml("y0' = -2.00 y0 + sqrt(y0)")
-    >>> m.startswith('<math display="block"><msub><mover accent="true"><mi>y'), m.count("<msqrt>"), "<mn>2.00</mn>" in m
+    >>> m.startswith('<math display="block"><msub><mover><mi>y'), m.count("<msqrt>"), "<mn>2.00</mn>" in m
     (True, 1, True)
     """
     tokens, pos = [], 0

@@ -20,7 +20,7 @@ from pathlib import Path
 from .._process import owner, owner_is_gone
 from ..plotting import plot_hysteresis
 from ..report import benchmark_index, benchmark_report
-from ..report._benchmark import test_figure
+from ..report._benchmark import benchmark_figure
 from ._best import best_model_markdown
 from ._published import reference_figures
 
@@ -360,7 +360,7 @@ def _simulations(results, simulations):
 
 def _test_figure(results, test_name, test, simulations):
     """Figure: the measured output and each model's simulation error on one test set, a zoom, the spectra in dB."""
-    return test_figure(results, test_name, test, simulations)
+    return benchmark_figure(results, test_name, test, simulations)
 
 
 def _hysteresis_figure(results, test_name, test, simulations):

@@ -174,24 +174,33 @@ def plot_output_error(X, y, models, *, n_init=1, dt=None, output=0, output_label
     panels = [(axes[0], slice(None))] + ([(axes[1], slice(a, b))] if zoom is not False else [])
     for k, (panel, window) in enumerate(panels):
         tw = t[window]
-        panel.plot(*envelope(tw, y_col[window], max_points), color="black", lw=1.0, label="measured output")
+        span = float(np.ptp(y_col[window])) if len(y_col[window]) else 1.0
+        lo, hi = float(np.min(y_col[window])), float(np.max(y_col[window]))
+        finite = np.concatenate([e[window][np.isfinite(e[window])] for _, e, _ in errors] or [np.zeros(0)])
+        diverged = finite.size and (finite.min() < lo - span or finite.max() > hi + span)
+        # errors far smaller than the output: the zoom's y axis is theirs, the output on a right-hand axis
+        on_errors = k == 1 and not diverged and finite.size and 0 < np.abs(finite).max() < 0.125 * span
+        if on_errors:
+            right = panel.twinx()
+            right.plot(*envelope(tw, y_col[window], max_points), color="0.55", lw=0.9)
+            right.set_ylabel(f"{output_label} (grey)")
+            panel.set_zorder(right.get_zorder() + 1)  # the errors above the output
+            panel.patch.set_visible(False)
+            zoomed_on_errors = True
+        else:
+            panel.plot(*envelope(tw, y_col[window], max_points), color="black", lw=1.0, label="measured output")
         for label, e, color in errors:
             e_drawn = e.copy()
             e_drawn[:n_init] = np.nan  # the start samples are given, not simulated
             text = f"error of {label} (RMSE {_rms(e[n_init:]):.3g})" if k == 0 else None
             panel.plot(*envelope(tw, e_drawn[window], max_points), lw=0.8, color=color, alpha=0.9, label=text)
-        panel.set_ylabel(output_label)
+        panel.set_ylabel(f"error, {output_label}" if on_errors else output_label)
         panel.axhline(0.0, color="0.6", lw=0.5)
-        span = float(np.ptp(y_col[window])) if len(y_col[window]) else 1.0
-        lo, hi = float(np.min(y_col[window])), float(np.max(y_col[window]))
-        finite = np.concatenate([e[window][np.isfinite(e[window])] for _, e, _ in errors] or [np.zeros(0)])
-        if finite.size and (finite.min() < lo - span or finite.max() > hi + span):
+        if diverged:
             panel.set_ylim(lo - span, hi + span)  # a diverged model does not flatten the others
-        elif k == 1 and finite.size and 0 < np.abs(finite).max() < 0.125 * span:
-            # errors far smaller than the output: the zoom's y axis is theirs, the output runs off it
+        elif on_errors:
             top = 1.15 * float(np.abs(finite).max())
             panel.set_ylim(-top, top)
-            zoomed_on_errors = True
     legend = axes[0].legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     if hidden:
         legend.set_title("not drawn, error as large as the output:\n" + "\n".join(hidden), prop={"size": 7})
@@ -199,7 +208,8 @@ def plot_output_error(X, y, models, *, n_init=1, dt=None, output=0, output_label
     if zoom is not False:
         axes[0].axvspan(t[a], t[b - 1], color="tab:orange", alpha=0.15, lw=0)
         axes[1].set_title(f"zoom: {t_label.split(' ')[0]} {t[a]:.4g} to {t[b - 1]:.4g}"
-                          + (" (y axis on the errors; the output runs off it)" if zoomed_on_errors else ""), fontsize=9)
+                          + (": the errors on the left axis, the output (grey) on the right" if zoomed_on_errors else ""),
+                          fontsize=9)
         axes[1].set_xlabel(t_label)
     axes[0].set_xlabel(t_label)
     return axes

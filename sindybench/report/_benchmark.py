@@ -8,7 +8,7 @@ from .._version import __version__
 from ._html import esc, figure, fmt, key_values, new_figure, page, table, write_text_atomic
 from ._maths import equations_html
 
-__all__ = ["benchmark_index", "benchmark_report", "error_figure", "test_figure"]
+__all__ = ["benchmark_figure", "benchmark_index", "benchmark_report", "error_figure"]
 
 
 def error_figure(u, y, simulations, *, dt, n_init, output_label="output", title=None):
@@ -34,8 +34,8 @@ def error_figure(u, y, simulations, *, dt, n_init, output_label="output", title=
     --------
     >>> y = np.sin(np.linspace(0, 20, 3000))[:, None]
     >>> fig = error_figure(None, y, {"a": y + 0.01, "b": None}, dt=0.01, n_init=5)
-    >>> len(fig.axes)
-    3
+    >>> len(fig.axes)  # full, zoom (with the output on its own right-hand axis), spectra
+    4
     """
     from ..plotting import plot_error_spectrum, plot_output_error
 
@@ -59,7 +59,7 @@ def error_figure(u, y, simulations, *, dt, n_init, output_label="output", title=
     return fig
 
 
-def test_figure(results, name, test, simulations):
+def benchmark_figure(results, name, test, simulations):
     """:func:`error_figure` of one test set of a benchmark run (``simulations``: ``{model key: y_pred or None}``)."""
     labels = {m["key"]: m["label"] for m in results["models"]}
     sims = {labels.get(k, k): v for k, v in simulations.items() if v is not None}
@@ -76,8 +76,9 @@ def _score_rows(results, name):
     for m in results["models"]:
         s = m.get("scores", {}).get(name) or {}
         p = (m.get("published") or {}).get(name) or {}
+        # times in a span of their own: two runs of the same seed differ only there
         rows.append([m["label"], s.get("rmse"), p.get("rmse"), s.get("r2"), s.get("fit_index"),
-                     m.get("fit_time_s"),
+                     f"<span class=time>{esc(fmt(m.get('fit_time_s')))}</span>",
                      s.get("status") if s.get("status") not in (None, "ok") else m.get("status", "ok")])
     return rows
 
@@ -140,10 +141,11 @@ def benchmark_report(results, simulations, tests, *, path=None, images=None):
             cards.append(f"<div class=card><span>{esc(name)}: best RMSE</span><b>{esc(fmt(best[1], 3))}</b>"
                          f"<span>{esc(best[0])}</span></div>")
         html = f"<p class=note>{esc(info.get('protocol', ''))}; {esc(info.get('n_samples', ''))} samples.</p>"
-        html += table(["model", "RMSE", "RMSE (study)", "R^2", "fit %", "fit time [s]", "status"], rows, sortable=True)
+        html += table(["model", "RMSE", "RMSE (study)", "R^2", "fit %", "fit time [s]", "status"], rows, sortable=True,
+                      raw=("fit time [s]",))
         fig = images.get(name)
         if fig is None:
-            fig = test_figure(results, name, test, simulations.get(name) or {})
+            fig = benchmark_figure(results, name, test, simulations.get(name) or {})
         html += figure(fig, f"Test set '{name}': the measured output (black) and each model's simulation error on "
                             "one axis, a zoomed window (shaded above), and the spectra in dB", dpi=80)
         sections.append((f"test-{name}", f"Test set '{name}'", html))
@@ -154,9 +156,10 @@ def benchmark_report(results, simulations, tests, *, path=None, images=None):
     sections.append(("best", "Uncertainty of the designated model", _best_model(results.get("best_model"))))
     about = [("sindybench", results.get("sindybench_version", __version__)), ("seed", results.get("seed")),
              ("quick", results.get("quick")), ("training samples", results.get("n_train")),
-             ("validation samples", results.get("n_validation")), ("dt [s]", results.get("dt")),
-             ("wall time [s]", results.get("wall_time_s"))]
+             ("validation samples", results.get("n_validation")), ("dt [s]", results.get("dt"))]
+    wall = results.get("wall_time_s")
     sections.append(("about", "Run", key_values([(k, fmt(v)) for k, v in about])
+                     + (f"<p class=note>The benchmark's wall time {wall:.1f} s.</p>" if wall is not None else "")
                      + '<p><a href="../index.html">all benchmarks</a></p>'))
     body_top = '<div class="cards">' + "".join(cards) + "</div>"
     first_id, first_head, first_html = sections[0]

@@ -90,11 +90,38 @@ def equation_mathml(line):
     return f'<math display="block">{"".join(items)}</math>'
 
 
-def equations_html(lines):
-    """The equation lines as MathML (text lines as text), each with its plain text beneath for copying."""
+def split_terms(rhs, per_line=5):
+    """``rhs`` cut before a top-level ``+`` or ``-`` into pieces of at most ``per_line`` terms (MathML does not wrap).
+
+    Examples
+    --------
+    >>> split_terms("1.0 - 2.0 y0 + 3.0 (y0 - u0) + 4.0 u0", per_line=2)
+    ['1.0 - 2.0 y0', '+ 3.0 (y0 - u0) + 4.0 u0']
+    """
+    cuts, depth = [], 0
+    for i, ch in enumerate(rhs):
+        depth += (ch in "([") - (ch in ")]")
+        if depth == 0 and ch in "+-" and rhs[i - 1:i] == " " and rhs[i + 1:i + 2] == " ":
+            cuts.append(i)
+    cuts = cuts[per_line - 1::per_line]
+    return [rhs[a:b].strip() for a, b in zip([0] + cuts, cuts + [len(rhs)])]
+
+
+def equations_html(lines, per_line=5):
+    """The equation lines as MathML (text lines as text), each with its plain text beneath for copying.
+
+    A long equation is typeset over several lines of ``per_line`` terms, the
+    continuation lines indented.
+    """
     out = ['<div class="eq">']
     for line in lines:
-        out.append(equation_mathml(line) if is_equation(line) else f"<p>{esc(line)}</p>")
+        if not is_equation(line):
+            out.append(f"<p>{esc(line)}</p>")
+            continue
+        lhs, rhs = line.split(" = ", 1)
+        pieces = split_terms(rhs, per_line)
+        out.append(equation_mathml(f"{lhs} = {pieces[0]}"))
+        out += [equation_mathml(p).replace("<math ", '<math class="cont" ', 1) for p in pieces[1:]]
     out.append("</div><details><summary class=note>as text</summary><pre class=eqtext>")
     out.append(esc("\n".join(lines)))
     out.append("</pre></details>")

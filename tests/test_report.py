@@ -115,6 +115,8 @@ def test_bad_input_is_refused(tmp_path, pages):
         identification_report(model, u, y, test=test[1])
     with pytest.raises(ValueError, match=r"test has 1 input\(s\) and 2 output\(s\); expected 1 and 1"):
         identification_report(model, u, y, test=(test[0], np.hstack([test[1], test[1]])))
+    with pytest.raises(ValueError, match="y is a list of 2 records; expected one record"):
+        identification_report(model, [u, u], [y, y])
     with pytest.raises(TypeError, match="title must be a str or None; got int"):
         identification_report(model, u, y, title=3)
     with pytest.raises(IsADirectoryError, match="is a folder; expected the path of the HTML file"):

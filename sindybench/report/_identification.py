@@ -7,7 +7,7 @@ import warnings
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
-from .._validation import check_inputs_outputs, check_integer
+from .._validation import check_inputs_outputs, check_integer, is_records
 from .._version import __version__
 from ..metrics import fit_index, r2, rmse
 from ._html import esc, figure, fmt, key_values, new_figure, page, table, write_text_atomic
@@ -30,6 +30,9 @@ def _check(model, X, y, test):
     if not hasattr(model, "predict"):
         raise TypeError(f"model must be a fitted sindybench estimator (with predict); got {type(model).__name__}.")
     check_is_fitted(model)
+    if is_records(y):
+        raise ValueError(f"y is a list of {len(y)} records; expected one record (the page simulates one record: "
+                         "pass the one to report, e.g. the last).")
     X, y = check_inputs_outputs(X, y)
     if test is not None:
         if not isinstance(test, (tuple, list)) or len(test) != 2:

@@ -202,11 +202,14 @@ def test_report_figure_draws_every_model_with_the_public_plotting():
     results = {"title": "Toy", "dt": 0.1, "output_label": "y", "input_label": "u", "models": [
         {"key": key, "label": key.upper(), "scores": {"test": {"r2": 0.5}}} for key in ("good", "wild", "lost")]}
     fig = _test_figure(results, "test", test, {"good": test.y + 0.1, "wild": 1e3 * t[:, None], "lost": None})
-    ax, ax_u = fig.axes[:2]
-    assert [line.get_label() for line in ax.get_lines()] == [
-        "measured", "GOOD (R^2 0.98, fit 86.0 %)", "WILD (R^2 -259910631.28, fit -1612074.4 %), leaves the frame"]
-    np.testing.assert_array_equal(ax_u.get_lines()[0].get_ydata(), test.u[:, 0])
-    assert ax.get_title() == "Toy: open-loop simulation, test set 'test'"
+    full, zoom, spectrum = fig.axes[:3]
+    # the error-centred form: the output and each model's error; a model as wrong as the output is named, not drawn
+    drawn = [line for line in full.get_lines() if not line.get_label().startswith("_")]
+    assert [line.get_label() for line in drawn] == ["measured output", "error of GOOD (RMSE 0.1)"]
+    np.testing.assert_allclose(drawn[1].get_ydata()[1:], -0.1)  # measured minus simulated, after n_init
+    assert "WILD" in full.get_legend().get_title().get_text()
+    assert [line.get_label() for line in spectrum.get_lines()] == ["measured output", "error of WILD", "error of GOOD"]
+    assert fig.get_suptitle() == "Toy: open-loop simulation errors, test set 'test'"
 
 
 def test_published_figures_name_existing_models():

@@ -63,7 +63,7 @@ def benchmark_figure(results, name, test, simulations):
     """:func:`error_figure` of one test set of a benchmark run (``simulations``: ``{model key: y_pred or None}``)."""
     labels = {m["key"]: m["label"] for m in results["models"]}
     sims = {labels.get(k, k): v for k, v in simulations.items() if v is not None}
-    n_init = int(results["test_sets"].get(name, {}).get("n_init", 1))
+    n_init = int(results.get("test_sets", {}).get(name, {}).get("n_init", 1))
     dt = float(test.get("dt", results["dt"])) if hasattr(test, "get") else float(results["dt"])
     return error_figure(test["u"], test["y"], sims, dt=dt, n_init=n_init,
                         output_label=results.get("output_label", "output"),

@@ -138,6 +138,8 @@ def test_benchmark_page_and_index(tmp_path):
     # an embedded figure is used as given, not drawn again
     png = b"\x89PNG fake"
     assert "iVBORyBmYWtl" in benchmark_report(results, simulations, tests, images={"t": png})
+    with_loops = benchmark_report(results, simulations, tests, images={"t": png, "hysteresis": png})
+    assert '<section id="hysteresis">' in with_loops and with_loops.count("iVBORyBmYWtl") == 2
     index = benchmark_index([results, dict(results, benchmark="other", title="Other")], wall_time_s=12.0)
     assert index.count('href="toy/report.html"') == 1 and 'href="other/report.html"' in index
     assert "Total wall time 12 s" in index

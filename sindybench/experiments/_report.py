@@ -415,6 +415,7 @@ def write_results(results, fitted, simulations, tests, out_dir, *, hysteresis_te
         fig = _hysteresis_figure(results, hysteresis_test, tests[hysteresis_test], simulations[hysteresis_test])
         fig.savefig(out_dir / name, dpi=110)
         files["figures"]["hysteresis"] = name
+        images["hysteresis"] = (out_dir / name).read_bytes()
     files["report"] = "report.html"
     results = dict(results, files=files)
     benchmark_report(results, simulations, tests, path=out_dir / "report.html", images=images)

@@ -121,7 +121,8 @@ def benchmark_report(results, simulations, tests, *, path=None, images=None):
         Write the page there (atomically).
     images : dict, optional
         ``{test name: PNG bytes}`` of :func:`error_figure` already drawn (the
-        run's PNG files), embedded instead of drawing them again.
+        run's PNG files), embedded instead of drawing them again; under
+        ``"hysteresis"``, the run's hysteresis loops (a section of their own).
 
     Returns
     -------
@@ -149,6 +150,9 @@ def benchmark_report(results, simulations, tests, *, path=None, images=None):
         html += figure(fig, f"Test set '{name}': the measured output (black) and each model's simulation error on "
                             "one axis, a zoomed window (shaded above), and the spectra in dB", dpi=80)
         sections.append((f"test-{name}", f"Test set '{name}'", html))
+    if images.get("hysteresis") is not None:
+        sections.append(("hysteresis", "Hysteresis loops", figure(images["hysteresis"], "Force-displacement loops "
+                                                                  "(input against output) of the models")))
     eq = "".join(f"<h3>{esc(m['label'])}</h3>" + (equations_html(m["equations"]) if m.get("equations") else
                                                   f"<p class=note>{esc(m.get('status', 'no equations'))}</p>")
                  for m in results["models"])

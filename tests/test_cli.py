@@ -8,6 +8,7 @@ documentation is built from its output with warnings as errors.
 
 import base64
 import dataclasses
+import html
 import json
 import math
 import os
@@ -804,6 +805,9 @@ def test_quick_run_outputs(quick_run, name):
         assert image.std() > 0.01  # not a blank canvas
     text = (folder / "results.md").read_text()
     assert results["title"] in text and "R^2 (study)" in text
+    page = (folder / results["files"]["report"]).read_text()  # the HTML page embeds every figure of the run
+    assert page.count("data:image/png;base64,") == len(results["files"]["figures"])
+    assert all(html.escape(eq) in page for m in results["models"] for eq in m["equations"])
 
 
 def _estimation_error():
@@ -869,6 +873,8 @@ def test_quick_run_report(quick_run):
                   "Electro-Mechanical Positioning", "test_nonlinear_benchmarks", "Silverbox"):
         assert title in text
     assert "Total wall time" in text
+    index = (quick_run / "index.html").read_text()
+    assert all(f'href="{name}/report.html"' in index for name in ("pick-and-place", "bouc-wen", "silverbox"))
     # the fit time of each model family and its share of the wall time, the NN-ARX baselines among them
     assert re.search(r"Fit times: .*nnarx \d+\.\d s \(\d+ %", text)
 

@@ -28,7 +28,7 @@ tr.chosen td{background:#fff4d6;font-weight:600}tr.failed td{color:#8a3b3b}
 .card{background:#fff;border:1px solid #d0d7de;border-radius:6px;padding:.6rem 1rem;min-width:10rem}
 .card b{display:block;font-size:1.4rem}.card span{font-size:.8rem;color:#555}
 .eq{background:#fff;border:1px solid #d0d7de;border-radius:6px;padding:.6rem 1rem;font-size:1.15rem;overflow-x:auto}
-.eq math{display:block math;margin:.35rem 0;text-align:left}.eq math.cont{margin:-.2rem 0 .35rem 4rem}.eqtext{font-size:.8rem;color:#555}
+.eqline{margin:.3rem 0}.eqline.cont{margin-top:-.1rem;padding-left:4rem}.eqtext{font-size:.8rem;color:#555}
 .warn{background:#fff4e5;border-left:4px solid #e8a33d;padding:.5rem 1rem;margin:.5rem 0}
 .note{color:#555;font-size:.9rem}
 figure{margin:1rem 0;background:#fff;border:1px solid #d0d7de;border-radius:6px;padding:.5rem}

@@ -120,8 +120,9 @@ def equations_html(lines, per_line=5):
             continue
         lhs, rhs = line.split(" = ", 1)
         pieces = split_terms(rhs, per_line)
-        out.append(equation_mathml(f"{lhs} = {pieces[0]}"))
-        out += [equation_mathml(p).replace("<math ", '<math class="cont" ', 1) for p in pieces[1:]]
+        inline = lambda text: equation_mathml(text).replace(' display="block"', "", 1)  # noqa: E731 (left-aligned)
+        out.append(f'<div class="eqline">{inline(f"{lhs} = {pieces[0]}")}</div>')
+        out += [f'<div class="eqline cont">{inline(p)}</div>' for p in pieces[1:]]
     out.append("</div><details><summary class=note>as text</summary><pre class=eqtext>")
     out.append(esc("\n".join(lines)))
     out.append("</pre></details>")

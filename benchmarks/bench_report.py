@@ -15,10 +15,11 @@ page is also opened in headless Chromium (``chromium`` on the PATH) and two scre
 all`` page (``DIR/silverbox/report.html``: ``report_silverbox_run.png``). The docs' screenshots
 (``docs/_static``) come from here.
 
-Measured (the shared 2-core machine busy with other jobs; one run each; CPU seconds)::
+Measured (the shared 2-core machine busy with other jobs; CPU seconds)::
 
     moderate    identify 51.5 s CPU (95.5 s wall), 685 candidates; report 1.16 s CPU (2.2 s wall): 2.3 %; 0.71 MB
     Silverbox   identify 30.4 s CPU (114.1 s wall), 686 candidates; report 1.21 s CPU (3.65 s wall): 4.0 %; 0.90 MB
+    Silverbox   identify 33.4 s CPU (304.4 s wall), 686 candidates; report 1.48 s CPU (4.43 s wall): 4.4 %; 0.90 MB
 """
 
 import argparse

@@ -91,18 +91,17 @@ def test_the_page_is_written_atomically_and_equals_the_returned_text(tmp_path, p
 
 @pytest.mark.slow
 def test_writing_costs_a_small_share_of_identify():
-    """The report of a moderate search costs under the issue's 10 % of the identify call it reports (measured here)."""
-    (u, y), test = record(n=4000, seed=1)
+    """The report of a search with identify's defaults costs under 10 % of the identify call (2.3 % measured)."""
+    (u, y), test = record(n=4000, seed=1)  # 2,800 samples to identify from, as benchmarks/bench_report.py
     from sindybench import identify
 
     start = time.process_time()
-    model = identify(u, y, dt=DT, families=["first_order", "order2"], derivatives=["finite_difference", "savgol"],
-                     show_progress_bar=False)
+    model = identify(u, y, dt=DT, show_progress_bar=False)
     identify_cpu = time.process_time() - start
     start = time.process_time()
     identification_report(model, u, y, test=test)
     report_cpu = time.process_time() - start
-    assert report_cpu < 0.2 * identify_cpu, (report_cpu, identify_cpu)  # slack for a busy machine
+    assert report_cpu < 0.1 * identify_cpu, (report_cpu, identify_cpu)
 
 
 def test_bad_input_is_refused(tmp_path, pages):

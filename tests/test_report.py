@@ -180,3 +180,19 @@ def test_silverbox_report_is_under_5_mb(data_home):
     test = data.test.arrow_full
     html = identification_report(model, u, y, test=(test.u, test.y))
     assert len(html.encode()) < 5_000_000 and "test fit" in html
+
+
+def test_standard_errors_come_with_the_residual_tests_warning(pages):
+    """A refined model that misses the cubic term: its standard errors, and the warning that they are too narrow."""
+    from sindybench import STLS
+    from sindybench.libraries import PolynomialLibrary
+    from sindybench.refine import OutputErrorRefinement
+
+    _, (u, y), test = pages[1:]
+    model = SINDy(library=PolynomialLibrary(degree=1), optimizer=STLS(threshold=0.01), dt=DT,
+                  refine=OutputErrorRefinement(max_nfev=10)).fit(u, y)
+    html = identification_report(model, u, y, test=test)
+    section = html[html.index('<section id="parameters">'):]
+    names = re.findall(r"<tr><td>([^<]+)</td><td class=\"num\"", section)
+    assert "y0&#x27;: y0" in names and "y0&#x27;: u0" in names
+    assert "<div class=warn>the refinement&#x27;s residuals are not white" in section

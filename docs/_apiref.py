@@ -18,6 +18,7 @@ MODULES = (
     ("sindybench.uncertainty", "Uncertainty: residual analysis, calibrated bands, covariance, ensembles"),
     ("sindybench.metrics", "Metrics and scorers"),
     ("sindybench.plotting", "Plotting"),
+    ("sindybench.report", "Reports: one self-contained HTML page per model and per benchmark"),
     ("sindybench.search", "Search spaces and the Optuna driver"),
     ("sindybench.model_selection", "Model selection"),
     ("sindybench.baselines", "Baselines"),

@@ -43,7 +43,8 @@ def _snippet(results, folder):
     for key, fname in results.get("files", {}).get("figures", {}).items():
         out += [f".. figure:: /_generated/{folder}/{fname}", "   :width: 100%", "",
                 f"   {'Hysteresis loops' if key == 'hysteresis' else 'Test set ' + key}: "
-                "measurement and open-loop simulations.", ""]
+                "the measured output and each model's open-loop simulation error, a zoomed window and the "
+                "spectra in dB.", ""]
     out += ["Fitted equations:", ""]
     for m in results["models"]:
         if m["equations"]:

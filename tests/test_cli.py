@@ -6,8 +6,10 @@ whole study (files exist, every number and every figure is finite), and the
 documentation is built from its output with warnings as errors.
 """
 
+import base64
 import contextlib
 import dataclasses
+import html
 import io
 import json
 import math
@@ -80,7 +82,7 @@ def test_runner_writes_every_output(tmp_path):
     other = dataclasses.replace(_synthetic(), name="toy2")
     report = run_benchmarks([_synthetic(), other], tmp_path / "out", quick=True, seed=3)
     assert report == tmp_path / "out" / "report.md" and report.is_file()
-    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["report.md", "toy", "toy2"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["index.html", "report.md", "toy", "toy2"]
     folder = tmp_path / "out" / "toy"
     results = json.loads((folder / "results.json").read_text())
     assert results["seed"] == 3 and results["quick"] is True
@@ -94,6 +96,9 @@ def test_runner_writes_every_output(tmp_path):
         loaded = load_model(folder / results["files"]["models"][model["key"]])
         assert r2(test.y, loaded.predict(test.u, y_init=test.y[:2])) == scores["r2"]
     assert (folder / "test_test.png").stat().st_size > 1000
+    page = (folder / "report.html").read_text()  # the HTML page embeds the very PNG of the run
+    assert base64.b64encode((folder / "test_test.png").read_bytes()).decode() in page
+    assert 'href="toy/report.html"' in (tmp_path / "out" / "index.html").read_text()
     assert "| SINDy |" in (folder / "results.md").read_text()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no temporary folder left
 
@@ -200,11 +205,14 @@ def test_report_figure_draws_every_model_with_the_public_plotting():
     results = {"title": "Toy", "dt": 0.1, "output_label": "y", "input_label": "u", "models": [
         {"key": key, "label": key.upper(), "scores": {"test": {"r2": 0.5}}} for key in ("good", "wild", "lost")]}
     fig = _test_figure(results, "test", test, {"good": test.y + 0.1, "wild": 1e3 * t[:, None], "lost": None})
-    ax, ax_u = fig.axes[:2]
-    assert [line.get_label() for line in ax.get_lines()] == [
-        "measured", "GOOD (R^2 0.98, fit 86.0 %)", "WILD (R^2 -259910631.28, fit -1612074.4 %), leaves the frame"]
-    np.testing.assert_array_equal(ax_u.get_lines()[0].get_ydata(), test.u[:, 0])
-    assert ax.get_title() == "Toy: open-loop simulation, test set 'test'"
+    full, zoom, spectrum = fig.axes[:3]
+    # the error-centred form: the output and each model's error; a model as wrong as the output is named, not drawn
+    drawn = [line for line in full.get_lines() if not line.get_label().startswith("_")]
+    assert [line.get_label() for line in drawn] == ["measured output", "error of GOOD (RMSE 0.1)"]
+    np.testing.assert_allclose(drawn[1].get_ydata()[1:], -0.1)  # measured minus simulated, after n_init
+    assert "WILD" in full.get_legend().get_title().get_text()
+    assert [line.get_label() for line in spectrum.get_lines()] == ["measured output", "error of WILD", "error of GOOD"]
+    assert fig.get_suptitle() == "Toy: open-loop simulation errors, test set 'test'"
 
 
 def test_published_figures_name_existing_models():
@@ -813,6 +821,9 @@ def test_quick_run_outputs(quick_run, name):
         assert image.std() > 0.01  # not a blank canvas
     text = (folder / "results.md").read_text()
     assert results["title"] in text and "R^2 (study)" in text
+    page = (folder / results["files"]["report"]).read_text()  # the HTML page embeds every figure of the run
+    assert page.count("data:image/png;base64,") == len(results["files"]["figures"])
+    assert all(html.escape(eq) in page for m in results["models"] for eq in m["equations"])
 
 
 def _estimation_error():
@@ -878,6 +889,8 @@ def test_quick_run_report(quick_run):
                   "Electro-Mechanical Positioning", "test_nonlinear_benchmarks", "Silverbox"):
         assert title in text
     assert "Total wall time" in text
+    index = (quick_run / "index.html").read_text()
+    assert all(f'href="{name}/report.html"' in index for name in ("pick-and-place", "bouc-wen", "silverbox"))
     # the fit time of each model family and its share of the wall time, the NN-ARX baselines among them
     assert re.search(r"Fit times: .*nnarx \d+\.\d s \(\d+ %", text)
 

@@ -19,7 +19,8 @@ from sindybench.experiments._parallel import longest_first, worker_count
 from test_cli import _synthetic
 
 ROOT = Path(__file__).resolve().parents[1]
-_TIMES = re.compile(r"(wall time|fit in|Total wall time) [0-9.]+ s|\([0-9.]+ min\)|[0-9.]+ s \([0-9]+ %")
+_TIMES = re.compile(r"(wall time|fit in|Total wall time) [0-9.]+ s|\([0-9.]+ min\)|[0-9.]+ s \([0-9]+ %"
+                    r"|<span class=time>[^<]*</span>")
 
 
 def _files(folder):
@@ -33,7 +34,7 @@ def _files(folder):
             for m in data["models"]:
                 m.pop("fit_time_s"), m.pop("fit_time_with_search_s", None)
             out[name] = data
-        elif path.suffix == ".md":
+        elif path.suffix in (".md", ".html"):
             out[name] = _TIMES.sub("<time>", path.read_text())
         else:
             out[name] = path.read_bytes()

@@ -15,11 +15,16 @@ from sindybench.libraries import PolynomialLibrary  # noqa: E402
 from sindybench.metrics import fit_index, r2  # noqa: E402
 from sindybench.plotting import (  # noqa: E402
     coefficient_table,
+    envelope,
+    error_spectrum,
     plot_coefficients,
+    plot_error_spectrum,
     plot_hidden_states,
     plot_hysteresis,
+    plot_output_error,
     plot_search_history,
     plot_simulation,
+    zoom_window,
 )
 from sindybench.simulate import TermsRHS, simulate  # noqa: E402
 
@@ -307,3 +312,79 @@ def test_search_history_marks_failed_trials():
 def test_search_history_bad_input(search, match):
     with pytest.raises(ValueError, match=match):
         plot_search_history(search)
+
+
+# --------------------------------------------------------------------------- error-centred figures
+def test_output_error_draws_each_error_and_scores_every_sample():
+    """The error curves are y - y_sim; a long record is drawn decimated, the RMSE is of every sample after n_init."""
+    rng = np.random.default_rng(0)
+    n = 50_000
+    y = np.sin(np.arange(n) * 0.001)[:, None]
+    e = 0.01 * rng.standard_normal((n, 1))
+    e[31_234] = 0.9  # one spike: decimation must keep it
+    full, zoom = plot_output_error(None, y, {"good": y - e, "poor": 0.8 * y}, n_init=10, dt=0.01, max_points=2000)
+    lines = [ln for ln in full.get_lines() if not ln.get_label().startswith("_")]
+    assert [ln.get_label().split(" (")[0] for ln in lines] == ["measured output", "error of good", "error of poor"]
+    rmse_good = float(np.sqrt(np.mean(e[10:] ** 2)))
+    assert f"RMSE {rmse_good:.3g}" in lines[1].get_label()
+    assert all(len(ln.get_xdata()) <= 2000 for ln in lines)
+    assert np.nanmax(lines[1].get_ydata()) == pytest.approx(0.9)  # the spike survives the decimation
+    # the zoom window holds the spike, and is shaded on the full axis
+    lo, hi = zoom.get_xlim()
+    assert lo <= 312.34 <= hi and len(full.patches) == 1
+
+
+def test_an_error_as_large_as_the_output_is_named_not_drawn():
+    y = np.sin(np.linspace(0, 30, 3000))[:, None]
+    fine = y + 1e-3 * np.cos(np.arange(3000))[:, None]
+    full, zoom = plot_output_error(None, y, {"zero": np.zeros_like(y), "fine": fine})
+    labels = [ln.get_label() for ln in full.get_lines() if not ln.get_label().startswith("_")]
+    assert labels == ["measured output", "error of fine (RMSE 0.000707)"]
+    assert "zero" in full.get_legend().get_title().get_text()
+    # the fine model's error is far below the output: the zoom's y axis is on it
+    assert zoom.get_ylim()[1] == pytest.approx(1.15e-3, rel=0.05) and "errors on the left axis" in zoom.get_title()
+    (right,) = [a for a in zoom.figure.axes if a is not full and a is not zoom]  # the output, on its own scale
+    assert right.get_ylim()[1] > 0.9
+    with pytest.raises(ValueError, match="max_error"):
+        plot_output_error(None, y, {"m": y}, max_error=0)
+
+
+def test_output_error_refuses_a_bad_zoom():
+    y = np.zeros((100, 1))
+    with pytest.raises(ValueError, match=r"zoom = \(50, 20\); expected \(start, stop\) samples with 0 <= start < "
+                                         r"stop <= 100"):
+        plot_output_error(None, y, {"m": y}, zoom=(50, 20))
+
+
+def test_a_diverged_model_does_not_flatten_the_others():
+    y = np.sin(np.linspace(0, 10, 500))[:, None]
+    wild = y.copy()
+    wild[250:] = 1e6
+    (ax,) = plot_output_error(None, y, {"wild": wild, "fine": y + 0.01}, zoom=False)
+    assert ax.get_ylim()[1] < 10
+
+
+def test_envelope_and_zoom_window():
+    t = np.arange(10_001.0)
+    v = np.cos(t / 500.0)
+    td, vd = envelope(t, v, max_points=400)
+    assert len(td) <= 400 and np.all(np.diff(td) >= 0)
+    assert vd.max() == v.max() and vd.min() == v.min()
+    e = np.zeros((1000, 2))
+    e[:, 1] = 5.0  # large everywhere: relative to its own mean square it decides nothing
+    e[700:710, 0] = 1.0
+    a, b = zoom_window(e, 100)
+    assert b - a == 100 and a <= 700 and 710 <= b
+
+
+def test_error_spectrum_in_db():
+    dt = 0.01
+    t = np.arange(8192) * dt
+    f, p = error_spectrum(np.sin(2 * np.pi * 5.0 * t) + 0.01 * np.sin(2 * np.pi * 20.0 * t), dt)
+    assert f[np.argmax(p)] == pytest.approx(5.0, abs=0.1)
+    near = lambda hz: p[np.argmin(abs(f - hz))]  # noqa: E731
+    assert near(5.0) - near(20.0) == pytest.approx(40.0, abs=3.0)  # amplitude ratio 100: 40 dB
+    ax = plot_error_spectrum(None, np.sin(2 * np.pi * t)[:, None], {"m": np.zeros((8192, 1))}, dt=dt)
+    assert ax.get_xlabel() == "frequency [Hz]" and len(ax.get_lines()) == 2
+    with pytest.raises(ValueError, match="expected at least 2"):
+        error_spectrum([1.0])

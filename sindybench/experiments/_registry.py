@@ -89,10 +89,10 @@ def run_benchmarks(benchmarks, out, *, trials=None, seed=0, quick=False, storage
     n_workers = worker_count(jobs, len(benchmarks))
     out = Path(out)
     write_report_md = len(benchmarks) > 1 if write_report is None else write_report
-    entries = {"report.md": "file"} if write_report_md else {}
+    entries = {"report.md": "file", "index.html": "file"} if write_report_md else {}
     for b in benchmarks:
         entries.update({b.name: "dir", f"{b.name}/models": "dir", f"{b.name}/results.json": "file",
-                        f"{b.name}/results.md": "file"})
+                        f"{b.name}/results.md": "file", f"{b.name}/report.html": "file"})
     check_output_dir(out, entries)
     data = {b.name: load_data(b, data_home=data_home, download_if_missing=download_if_missing) for b in benchmarks}
     if storage is not None:

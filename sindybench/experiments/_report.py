@@ -13,13 +13,14 @@ import math
 import os
 import shutil
 import tempfile
-import textwrap
 import time
 from pathlib import Path
 
 
 from .._process import owner, owner_is_gone
-from ..plotting import plot_hysteresis, plot_simulation
+from ..plotting import plot_hysteresis
+from ..report import benchmark_index, benchmark_report
+from ..report._benchmark import benchmark_figure
 from ._best import best_model_markdown
 from ._published import reference_figures
 from ._warnings import warnings_markdown
@@ -360,14 +361,8 @@ def _simulations(results, simulations):
 
 
 def _test_figure(results, test_name, test, simulations):
-    """Figure: the measured output and each model's simulation on one test set (input below)."""
-    fig, axes = _figure(2, figsize=(11, 5.5), sharex=True, gridspec_kw={"height_ratios": [3, 1]})
-    plot_simulation(test["u"], test["y"], _simulations(results, simulations), dt=float(test.get("dt", results["dt"])),
-                    output_label=results["output_label"],
-                    input_label=textwrap.fill(results["input_label"], 18),  # the input axes are short
-                    ax=axes)
-    axes[0].set_title(f"{results['title']}: open-loop simulation, test set '{test_name}'")
-    return fig
+    """Figure: the measured output and each model's simulation error on one test set, a zoom, the spectra in dB."""
+    return benchmark_figure(results, test_name, test, simulations)
 
 
 def _hysteresis_figure(results, test_name, test, simulations):
@@ -380,7 +375,7 @@ def _hysteresis_figure(results, test_name, test, simulations):
 
 
 def write_results(results, fitted, simulations, tests, out_dir, *, hysteresis_test=None):
-    """Write ``results.json``, ``results.md``, ``models/*.json`` and PNG figures.
+    """Write ``results.json``, ``results.md``, ``models/*.json``, PNG figures and ``report.html``.
 
     The model files are those of :func:`sindybench.load_model` (a model that
     cannot be saved as plain data is left out, with a warning); the
@@ -411,16 +406,21 @@ def write_results(results, fitted, simulations, tests, out_dir, *, hysteresis_te
             name = f"models/{entry['key']}.json"
             if _save_model(estimator, out_dir / name):
                 files["models"][entry["key"]] = name
+    images = {}
     for test_name, test in tests.items():
         name = f"test_{test_name}.png"
-        _test_figure(results, test_name, test, simulations[test_name]).savefig(out_dir / name, dpi=110)
+        _test_figure(results, test_name, test, simulations[test_name]).savefig(out_dir / name, dpi=90)
         files["figures"][test_name] = name
+        images[test_name] = (out_dir / name).read_bytes()  # the HTML page embeds the same figure
     if hysteresis_test is not None and hysteresis_test in tests:
         name = f"hysteresis_{hysteresis_test}.png"
         fig = _hysteresis_figure(results, hysteresis_test, tests[hysteresis_test], simulations[hysteresis_test])
         fig.savefig(out_dir / name, dpi=110)
         files["figures"]["hysteresis"] = name
+        images["hysteresis"] = (out_dir / name).read_bytes()
+    files["report"] = "report.html"
     results = dict(results, files=files)
+    benchmark_report(results, simulations, tests, path=out_dir / "report.html", images=images)
     (out_dir / "results.json").write_text(json.dumps(results, indent=2, allow_nan=False) + "\n")
     (out_dir / "results.md").write_text(results_markdown(results))
     return results
@@ -447,10 +447,11 @@ def _fit_time_shares(all_results, wall_time_s):
 
 
 def write_report(all_results, path, *, wall_time_s):
-    """Write ``report.md`` joining the results of several benchmarks."""
+    """Write ``report.md`` joining the results of several benchmarks, and ``index.html`` beside it (the HTML pages)."""
     out = ["# sindybench: the study's three benchmarks, ours vs published", ""]
     out.append(f"Total wall time {wall_time_s:.0f} s ({wall_time_s / 60:.1f} min). "
                + _fit_time_shares(all_results, wall_time_s))
     for results in all_results:
         out += ["", results_markdown(results, heading_level=2).rstrip()]
     Path(path).write_text("\n".join(out) + "\n")
+    benchmark_index(all_results, path=Path(path).parent / "index.html", wall_time_s=wall_time_s)

@@ -203,8 +203,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         ``input_hold``, ``input_delay``, ``threshold``, ``refine``, ``stage``, ``n_terms``,
         ``max_row_terms``, ``split<k>_validation_error``,
         ``mean_validation_error``, ``std_validation_error`` (inf for a
-        candidate not scored on every block), ``fit_time`` and ``status``
-        (``"ok"`` or why it failed).
+        candidate not scored on every block), ``fit_time``, ``status``
+        (``"ok"`` or why it failed) and ``equations`` (those of the fit on
+        the last fold's training part; None for a screened candidate).
     pareto_front_ : list of dict
         ``{"n_terms", "validation_error", "index"}`` of the candidates no
         other one beats with as few terms, sparsest first.
@@ -529,7 +530,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self.criterion_ = {"name": criterion, "horizon": horizon, "reason": why}
         final.identification_ = {"settings": chosen, "data": settings, "blocks": blocks, "cv_results": table,
                                  "pareto_front": front, "best_index": int(best), "validation": validation,
-                                 "splits": splits, "criterion": dict(self.criterion_)}
+                                 "splits": splits, "criterion": dict(self.criterion_),
+                                 "n_init": n_init}  # the start samples the blocks were simulated from (the report's)
         self._warn_criterion(settings["advice"], float(mean[best]))
         self.best_estimator_ = final
         self.n_features_in_ = X[0].shape[1]
@@ -601,6 +603,7 @@ def _table(rows, n_blocks):
     """``cv_results_``: one list per column; block errors of screened rows only in their last split."""
     table = {k: [r[k] for r in rows] for k in STRUCTURE + ("threshold", "refine", "stage", "n_terms",
                                                             "max_row_terms", "fit_time", "status")}
+    table["equations"] = [r.get("equations") for r in rows]  # of the last fold's fit; None for screened rows
     errors = np.full((len(rows), n_blocks), np.nan)
     for i, r in enumerate(rows):
         errors[i, n_blocks - len(r["errors"]):] = r["errors"]

@@ -137,6 +137,8 @@ class CandidateStore:
         attrs = {k: row[k] for k in ("family", "library", "derivative", "input_hold", "input_delay", "threshold",
                                      "refine", "stage", "n_terms", "max_row_terms", "fit_time", "status")}
         attrs.update(extra, key=key, errors=_encode(row["errors"]))
+        if row.get("equations") is not None:
+            attrs["equations"] = list(row["equations"])
         ok = row["errors"] and all(math.isfinite(e) for e in row["errors"])
         dists = {"threshold": optuna.distributions.FloatDistribution(row["threshold"], row["threshold"]),
                  "input_delay": optuna.distributions.IntDistribution(row["input_delay"], row["input_delay"])}

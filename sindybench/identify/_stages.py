@@ -131,10 +131,18 @@ def score_candidate(row, library, ctx, refinement):
                                     ctx["settings"], refine=refinement, random_state=ctx["random_state"])
     result = evaluate(make, ctx["X"], ctx["y"], ctx["folds"], n_init=ctx["n_init"], scale=ctx["scale"],
                       horizon=ctx.get("horizon"))
-    result.pop("model")
+    result["equations"] = _equations(result.pop("model"))
     refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
     return dict(struct, threshold=row["threshold"], refine=refined,
                 stage="refine" if refinement is not None else "blocks", **result)
+
+
+def _equations(model):
+    """The equations of a candidate's last fold fit (for the report's Pareto front), or None."""
+    try:
+        return list(model.equations()) if model is not None else None
+    except Exception:  # a candidate that cannot write its equations is still a candidate
+        return None
 
 
 def hold_twin(third):

@@ -85,6 +85,7 @@ returned by :func:`sindybench.model_selection.tune` is drawn the same way):
 from ._band import plot_prediction_band
 from ._coefficients import coefficient_table, plot_coefficients
 from ._common import MAX_POINTS
+from ._error import envelope, error_spectrum, plot_error_spectrum, plot_output_error, zoom_window
 from ._residuals import plot_residual_analysis
 from ._search import plot_pareto_front, plot_search_history
 from ._simulation import plot_hidden_states, plot_hysteresis, plot_simulation
@@ -92,12 +93,17 @@ from ._simulation import plot_hidden_states, plot_hysteresis, plot_simulation
 __all__ = [
     "MAX_POINTS",
     "coefficient_table",
+    "envelope",
+    "error_spectrum",
     "plot_coefficients",
+    "plot_error_spectrum",
     "plot_hidden_states",
     "plot_hysteresis",
+    "plot_output_error",
     "plot_pareto_front",
     "plot_prediction_band",
     "plot_residual_analysis",
     "plot_search_history",
     "plot_simulation",
+    "zoom_window",
 ]

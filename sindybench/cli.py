@@ -1,10 +1,13 @@
-"""Command line interface: ``sindybench run <benchmark>`` and ``sindybench simulate MODEL.json``.
+"""Command line interface: ``sindybench run <benchmark>``, ``simulate MODEL.json``, ``identify DATA`` and ``report``.
 
 ``run`` reproduces the benchmarking study on one or all of its benchmarks and
 writes results, fitted models, figures and reports into an output folder.
 ``simulate`` runs a saved model (a file of :func:`sindybench.load_model`, e.g.
-one of ``run``'s ``models/*.json``) on an input record from a CSV file. This
-is a leaf module: nothing in the library imports it.
+one of ``run``'s ``models/*.json``) on an input record from a CSV file.
+``identify`` identifies a model from a CSV record (or a dataset) and writes
+its model file and HTML report; ``report`` writes the report of a saved model
+later (both in :mod:`sindybench._cli_identify`). This is a leaf module:
+nothing in the library imports it.
 
 Examples
 --------
@@ -15,6 +18,8 @@ Examples
     $ sindybench run cascaded-tanks --quick    # a smoke run, seconds
     $ sindybench run bouc-wen --trials 200 --storage sqlite:///bw.db --n-jobs 2
     $ sindybench simulate out/cascaded-tanks/models/arx.json --input u.csv --output y.csv --y-init y0.csv
+    $ sindybench identify data.csv --dt 0.01 --inputs u1,u2 --outputs y --test test.csv -o model.json --report report.html
+    $ sindybench report model.json data.csv --test test.csv -o report.html
 """
 
 import argparse
@@ -132,6 +137,9 @@ def build_parser():
                      help="import the module-level Python function the model names (ParametricHiddenState); "
                      "modules in the current folder can be imported too")
     sim.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors on stderr")
+    from ._cli_identify import add_parsers  # it reads this module's argument types and CSV reader
+
+    add_parsers(sub)
     return parser
 
 
@@ -414,7 +422,9 @@ def main(argv=None):
         Exit status: 0 on success; 1 when ``run`` finished but some model could not be fitted
         (the run's files are written and the error names the models) or the storage stopped
         answering; 2 when data are missing, an argument, the output folder or the storage is
-        bad, or (``simulate``) a file cannot be read or does not fit the model.
+        bad, or (``simulate``, ``identify``, ``report``) a file cannot be read or does not fit the model,
+        or an output file exists (``identify`` and ``report`` replace one only with ``--force``);
+        130 on Ctrl-C (nothing written).
     """
     args = build_parser().parse_args(argv)
     try:  # from the first import on: a Ctrl-C at any time exits with 130, without a traceback
@@ -434,8 +444,14 @@ def _command(args):
             return 2
     from .experiments import DataNotFoundError
 
+    if args.command in ("identify", "report"):
+        from ._cli_identify import identify_command, report_command
+
+        command = identify_command if args.command == "identify" else report_command
+    else:
+        command = _run
     try:
-        return _run(args)
+        return command(args)
     except ConnectionError as exc:  # the storage stopped answering: the finished trials are kept in it
         print(f"sindybench: error: {exc}\nNo output written.", file=sys.stderr)
         return 1

@@ -8,7 +8,9 @@ once the HTML report module (``sindybench.report``) is installed.
 import json
 import os
 import subprocess
+import re
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +19,7 @@ from sindybench import load_model
 from sindybench.cli import main
 from sindybench.simulate import simulate
 
+ROOT = Path(__file__).resolve().parents[1]
 DT = 0.01
 CHEAP = ["--families", "first_order", "--libraries", "linear,poly2", "--derivatives", "finite_difference",
          "--n-refine", "0", "--no-progress"]
@@ -42,8 +45,7 @@ def _identify(folder, *extra, cheap=True):
 
 def _env():
     env = dict(os.environ, SINDYBENCH_PROGRESS="0")
-    env["PYTHONPATH"] = os.pathsep.join([str(__import__("pathlib").Path(__file__).resolve().parents[1]),
-                                         env.get("PYTHONPATH", "")])
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
     return env
 
 
@@ -63,6 +65,15 @@ def test_identify_command_writes_a_model_that_loads_and_simulates(records, tmp_p
         assert text in test_line
     rmse = float(test_line.split("RMSE ")[1].split(",")[0])
     assert rmse < 1e-4
+    # the session docs/identify.rst quotes is this one
+    page = (ROOT / "docs" / "identify.rst").read_text().splitlines()
+    start = next(i for i, line in enumerate(page) if line.strip().startswith("$ sindybench identify data.csv"))
+    quoted = [line.strip() for line in page[start + 1:start + 5]]
+    assert quoted[0].split("):")[1].split(", validation")[0] == lines[0].split("):")[1].split(", validation")[0]
+    assert quoted[1:3] == [line.strip() for line in lines[1:3]]
+    assert quoted[3].startswith("test (test.csv, 400 samples): RMSE") and "400 samples): RMSE" in test_line
+    assert quoted[3].split(", R^2")[1] == test_line.split(", R^2")[1]
+    assert float(quoted[3].split("RMSE ")[1].split(",")[0]) == pytest.approx(rmse, rel=0.01)
     model = load_model(model_path)  # the file keeps the search's record, and the columns it was given
     record = model.identification_
     assert record["settings"]["family"] == "first_order"
@@ -161,8 +172,6 @@ def test_identify_bad_input_is_one_line_and_exit_2(records, tmp_path, capsys, ca
     assert main(argv) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("sindybench: error: ")
-    import re
-
     assert re.search(match, err), err
     assert not (tmp_path / "model.json").exists()
 

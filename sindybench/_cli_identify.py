@@ -160,8 +160,9 @@ def add_parsers(sub):
                         "are deterministic)")
     search.add_argument("--storage", type=_storage, default=None, metavar="URL",
                         help="keep every evaluated candidate in an Optuna storage (sqlite:///search.db, a database "
-                        "URL, or a journal file search.log): the same command resumes an interrupted search, and "
-                        "several processes (on one machine or, with a database, several) may share one search")
+                        "URL, or a journal file search.log): the same command resumes an interrupted search; several "
+                        "processes (on one machine or, with a database, several) may run on one storage, each reading "
+                        "back the candidates finished when its stages start")
     search.add_argument("--study-name", default=None, metavar="NAME",
                         help="the search's name in --storage (default: identify)")
     search.add_argument("--n-jobs", type=_n_jobs, default=None, metavar="J",

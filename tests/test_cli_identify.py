@@ -22,7 +22,7 @@ from sindybench.simulate import simulate
 ROOT = Path(__file__).resolve().parents[1]
 DT = 0.01
 CHEAP = ["--families", "first_order", "--libraries", "linear,poly2", "--derivatives", "finite_difference",
-         "--n-refine", "0", "--no-progress"]
+         "--n-refine", "0"]
 
 
 @pytest.fixture(scope="module")
@@ -44,18 +44,20 @@ def _identify(folder, *extra, cheap=True):
 
 
 def _env():
-    env = dict(os.environ, SINDYBENCH_PROGRESS="0")
+    env = dict(os.environ)
+    env.pop("SINDYBENCH_PROGRESS", None)
     env["PYTHONPATH"] = os.pathsep.join([str(ROOT), env.get("PYTHONPATH", "")])
     return env
 
 
 def test_identify_command_writes_a_model_that_loads_and_simulates(records, tmp_path):
     model_path = tmp_path / "model.json"
-    argv = [sys.executable, "-m", "sindybench.cli", *_identify(records, "--test", str(records / "test.csv"),
-                                                                "-o", str(model_path))]
+    # the console script's entry point (sindybench_launcher), stderr a pipe: no progress bar drawn
+    argv = [sys.executable, "-c", "import sys, sindybench_launcher; sys.exit(sindybench_launcher.main())",
+            *_identify(records, "--test", str(records / "test.csv"), "-o", str(model_path))]
     done = subprocess.run(argv, capture_output=True, text=True, env=_env(), timeout=600)
     assert done.returncode == 0, done.stderr
-    assert "Traceback" not in done.stderr
+    assert "Traceback" not in done.stderr and "\r" not in done.stderr and "data advice" in done.stderr
     lines = done.stdout.splitlines()
     assert lines[0].startswith("identified (") and "first_order" in lines[0] and "3 terms" in lines[0]
     assert lines[1].strip() == "y0' = -2.000 y0 + 1.000 u0 + 0.500 u1"

@@ -300,6 +300,8 @@ def _model_inputs(model, header, data, path):
     names = getattr(model, "input_names", None)  # a SINDy model with named inputs
     if names is None and getattr(model, "feature_names_in_", None) is not None:
         names = [str(name) for name in model.feature_names_in_]
+    if names is None:  # a model of 'sindybench identify': the columns it was identified on
+        names = _identified_columns(model, "inputs", n_inputs)
     if names is not None and header is not None:
         missing = [name for name in names if name not in header]
         if missing:
@@ -320,7 +322,19 @@ def _model_inputs(model, header, data, path):
     return data
 
 
+def _identified_columns(model, which, n):
+    """The CSV columns (``"inputs"`` or ``"outputs"``) ``sindybench identify`` fitted ``model`` on, or None."""
+    record = getattr(model, "identification_", None)
+    cli = record.get("cli") if isinstance(record, dict) else None
+    names = cli.get(which) if isinstance(cli, dict) and not cli.get("dataset") else None
+    ok = isinstance(names, list) and len(names) == n and all(isinstance(name, str) for name in names)
+    return list(names) if ok else None
+
+
 def _output_names(model, n_outputs):
+    identified = _identified_columns(model, "outputs", n_outputs)
+    if identified is not None:
+        return identified
     index = getattr(model, "output_index_", None)
     names = None if index is None else [model.state_names_[i] for i in index]
     return list(names) if names is not None and len(names) == n_outputs else [f"y{i}" for i in range(n_outputs)]

@@ -82,14 +82,22 @@ def test_identify_command_writes_a_model_that_loads_and_simulates(records, tmp_p
     assert record["cli"]["inputs"] == ["u1", "u2"] and record["cli"]["outputs"] == ["y"]
     assert record["cli"]["test_scores"]["rmse"] == pytest.approx(rmse, rel=1e-5)
     assert len(record["cv_results"]["status"]) == int(lines[0].split("(")[1].split()[0])
-    # and the file runs with 'sindybench simulate' (the inputs in the model's order)
+    # and the file runs with 'sindybench simulate': on the test file itself, its input columns taken by name
     test = np.loadtxt(records / "test.csv", delimiter=",", skiprows=1)
-    np.savetxt(tmp_path / "u.csv", test[:, 1:3], delimiter=",", header="u0,u1", comments="", fmt="%.17g")
     np.savetxt(tmp_path / "y0.csv", test[:20, 3:], delimiter=",", fmt="%.17g")
-    assert main(["simulate", str(model_path), "--input", str(tmp_path / "u.csv"), "--output",
+    assert main(["simulate", str(model_path), "--input", str(records / "test.csv"), "--output",
                  str(tmp_path / "y.csv"), "--y-init", str(tmp_path / "y0.csv"), "-q"]) == 0
+    assert (tmp_path / "y.csv").read_text().startswith("y\n")  # the output column's name
     y_sim = np.loadtxt(tmp_path / "y.csv", delimiter=",", skiprows=1)
     assert np.max(np.abs(y_sim - test[:, 3])) < 1e-4
+    # the same inputs in another order, or without one of them, by name
+    np.savetxt(tmp_path / "u.csv", test[:, [2, 1]], delimiter=",", header="u2,u1", comments="", fmt="%.17g")
+    assert main(["simulate", str(model_path), "--input", str(tmp_path / "u.csv"), "--output",
+                 str(tmp_path / "y2.csv"), "--y-init", str(tmp_path / "y0.csv"), "-q"]) == 0
+    assert np.array_equal(np.loadtxt(tmp_path / "y2.csv", delimiter=",", skiprows=1), y_sim)
+    np.savetxt(tmp_path / "u1.csv", test[:, [1]], delimiter=",", header="u1", comments="", fmt="%.17g")
+    assert main(["simulate", str(model_path), "--input", str(tmp_path / "u1.csv"), "--output",
+                 str(tmp_path / "y3.csv"), "-q"]) == 2
 
 
 def test_identify_resumes_from_storage_and_never_overwrites_without_force(records, tmp_path, capsys):

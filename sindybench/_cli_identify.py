@@ -321,7 +321,8 @@ def _report_function():
     try:
         from .report import identification_report
     except ImportError as exc:
-        raise ValueError(f"--report: the HTML report is not available in this installation ({exc}).") from exc
+        raise ValueError(f"the HTML report (sindybench.report) is not available in this installation ({exc}); "
+                         "expected sindybench with its report module.") from exc
     return identification_report
 
 

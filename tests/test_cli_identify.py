@@ -227,3 +227,13 @@ def test_identify_report_and_the_report_command(records, tmp_path, capsys):
     assert "first_order" in later.read_text()
     assert main(["report", str(model_path), str(records / "data.csv"), "-o", str(later), "-q"]) == 2
     assert "exists; pass --force" in capsys.readouterr().err
+
+
+def test_a_report_that_cannot_be_written_is_said_before_the_search(records, tmp_path, capsys, monkeypatch):
+    from sindybench.identify import IdentifyCV
+
+    monkeypatch.setitem(sys.modules, "sindybench.report", None)  # as an installation without the report module
+    monkeypatch.setattr(IdentifyCV, "fit", lambda *args, **kwargs: pytest.fail("the search ran"))
+    assert main(_identify(records, "-o", str(tmp_path / "m.json"), "--report", str(tmp_path / "r.html"))) == 2
+    assert "the HTML report (sindybench.report) is not available" in capsys.readouterr().err
+    assert sorted(tmp_path.iterdir()) == []

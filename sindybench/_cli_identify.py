@@ -137,6 +137,13 @@ def add_parsers(sub):
     search.add_argument("--input-delay", type=_non_negative_int, default=None, metavar="K",
                         help="input delay in samples (default: the data advice's estimate, confirmed on validation "
                         "against none)")
+    search.add_argument("--criterion", choices=("auto", "free_run", "k_step"), default=None,
+                        help="how a candidate is scored on a validation block: its free run, or its k-step "
+                        "prediction (default: auto: the k-step prediction when the data advice finds an open-loop "
+                        "unstable output, else the free run; in versions whose IdentifyCV has it)")
+    search.add_argument("--horizon", type=_positive_int, default=None, metavar="K",
+                        help="the k-step criterion's horizon in samples (default: a quarter period of the outputs' "
+                        "bandwidth)")
     search.add_argument("--n-blocks", type=_positive_int, default=3, metavar="N",
                         help="validation blocks at the end of the record (default: 3)")
     search.add_argument("--block-size", type=_fraction, default=0.15, metavar="F",
@@ -337,6 +344,12 @@ def _search(args, record):
 
     params = {"families": args.families, "libraries": args.libraries}
     params = {k: tuple(v) for k, v in params.items() if v is not None}
+    for name in ("criterion", "horizon"):  # given only when asked for: not every IdentifyCV has them
+        if getattr(args, name) is not None:
+            if name not in IdentifyCV._get_param_names():
+                raise ValueError(f"--{name}: this version's IdentifyCV has no {name} parameter; expected no "
+                                 f"--{name}.")
+            params[name] = getattr(args, name)
     return IdentifyCV(
         dt=record.dt, **params, derivatives=args.derivatives, input_hold=args.input_hold,
         input_delay=args.input_delay, n_blocks=args.n_blocks, block_size=args.block_size, max_path=args.max_path,

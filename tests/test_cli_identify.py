@@ -237,3 +237,21 @@ def test_a_report_that_cannot_be_written_is_said_before_the_search(records, tmp_
     assert main(_identify(records, "-o", str(tmp_path / "m.json"), "--report", str(tmp_path / "r.html"))) == 2
     assert "the HTML report (sindybench.report) is not available" in capsys.readouterr().err
     assert sorted(tmp_path.iterdir()) == []
+
+
+def test_identify_passes_the_criterion_where_identifycv_has_it(records, tmp_path, capsys, monkeypatch):
+    from sindybench.identify import IdentifyCV
+
+    seen = {}
+
+    def fit(self, X, y, **kwargs):
+        seen.update(self.get_params())
+        raise KeyboardInterrupt  # what is given to the search is all this test needs
+
+    monkeypatch.setattr(IdentifyCV, "fit", fit)
+    status = main(_identify(records, "--criterion", "k_step", "--horizon", "7", "--time-budget", "30", "-q"))
+    if "criterion" in IdentifyCV._get_param_names():
+        assert status == 130 and seen["criterion"] == "k_step" and seen["horizon"] == 7
+    else:
+        assert status == 2 and "--criterion: this version's IdentifyCV has no criterion" in capsys.readouterr().err
+    assert seen.get("time_budget", 30) == 30

@@ -255,3 +255,28 @@ def test_identify_passes_the_criterion_where_identifycv_has_it(records, tmp_path
     else:
         assert status == 2 and "--criterion: this version's IdentifyCV has no criterion" in capsys.readouterr().err
     assert seen.get("time_budget", 30) == 30
+
+
+def test_identify_ctrl_c_during_the_search_exits_130_and_writes_nothing(records, tmp_path):
+    import signal
+
+    code = "import sys, sindybench_launcher; sys.exit(sindybench_launcher.main())"
+    storage = tmp_path / "search.log"
+    # the default search (all families) runs for tens of seconds: the interrupt comes in the middle of it
+    proc = subprocess.Popen([sys.executable, "-c", code, *_identify(records, cheap=False), "--storage", str(storage),
+                             "-o", str(tmp_path / "model.json")],
+                            cwd=tmp_path, env=_env(), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # as on a terminal
+    lines = []
+    for line in proc.stderr:  # the data advice is logged once the search has its settings
+        lines.append(line)
+        if line.startswith("data advice:"):
+            break
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    err = "".join(lines) + err
+    assert proc.returncode == 130, err
+    assert "Traceback" not in err and "interrupted; no output written." in err
+    assert "run the same command to resume" in err
+    assert out == ""
+    assert {p.name for p in tmp_path.iterdir()} <= {"search.log"}  # the storage at most: no model file, no temporary

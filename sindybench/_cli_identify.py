@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import _n_jobs, _non_negative_int, _read_csv, _same_file, _seed, _storage
+from .cli import _interrupted, _n_jobs, _non_negative_int, _read_csv, _same_file, _seed, _storage
 from .experiments import BENCHMARKS
 from .identify._space import ALL_FAMILIES, FAMILIES, LIBRARIES
 
@@ -395,8 +395,8 @@ def identify_command(args):
     start = time.perf_counter()
     try:
         search.fit(record.X, record.y)
-    except KeyboardInterrupt:
-        if args.storage is not None:
+    except BaseException as exc:
+        if args.storage is not None and _interrupted(exc):
             print("sindybench: the evaluated candidates are kept in --storage: run the same command to resume.",
                   file=sys.stderr)
         raise

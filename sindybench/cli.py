@@ -37,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sindybench_launcher import _caused_by_interrupt as _interrupted  # one test of a Ctrl-C's chain, the launcher's
 from ._version import __version__
 from .experiments import BENCHMARKS  # the one list of benchmark names
 from ._limits import shown
@@ -446,6 +447,11 @@ def main(argv=None):
     except KeyboardInterrupt:
         print("sindybench: interrupted; no output written.", file=sys.stderr)
         return 130
+    except Exception as exc:  # a cleanup that failed while a Ctrl-C unwound (Optuna's journal lock file)
+        if not _interrupted(exc):
+            raise
+        print("sindybench: interrupted; no output written.", file=sys.stderr)
+        return 130
 
 
 def _command(args):
@@ -454,6 +460,8 @@ def _command(args):
         try:
             return _simulate(args)
         except (OSError, ValueError) as exc:  # unreadable or bad files: say what, write nothing
+            if _interrupted(exc):
+                raise
             print(f"sindybench: error: {exc}", file=sys.stderr)
             return 2
     from .experiments import DataNotFoundError
@@ -467,9 +475,13 @@ def _command(args):
     try:
         return command(args)
     except ConnectionError as exc:  # the storage stopped answering: the finished trials are kept in it
+        if _interrupted(exc):
+            raise
         print(f"sindybench: error: {exc}\nNo output written.", file=sys.stderr)
         return 1
     except (DataNotFoundError, OSError, ValueError, ImportError) as exc:  # data, output folder, storage
+        if _interrupted(exc):
+            raise
         print(f"sindybench: error: {exc}", file=sys.stderr)
         return 2
 

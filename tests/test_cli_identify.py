@@ -134,6 +134,24 @@ def test_identify_interrupted_exits_130_and_writes_nothing(records, tmp_path, ca
     assert sorted(p.name for p in tmp_path.iterdir()) == []  # not even the storage was created by a fit
 
 
+def test_an_interrupt_that_ends_as_a_cleanup_error_is_an_interrupt(records, tmp_path, capsys, monkeypatch):
+    """A Ctrl-C while Optuna holds its journal file's lock surfaced as the lock's FileNotFoundError (exit 2)."""
+    from sindybench.identify import IdentifyCV
+
+    def fit(self, X, y, **kwargs):
+        try:
+            raise KeyboardInterrupt
+        finally:
+            open(tmp_path / "search.log.lock.rename")  # noqa: SIM115 - the lock file a cleanup no longer finds
+
+    monkeypatch.setattr(IdentifyCV, "fit", fit)
+    argv = _identify(records, "-o", str(tmp_path / "model.json"), "--storage", str(tmp_path / "search.log"), "-q")
+    assert main(argv) == 130
+    err = capsys.readouterr().err
+    assert "interrupted; no output written" in err and "run the same command to resume" in err
+    assert "No such file" not in err and sorted(tmp_path.iterdir()) == []
+
+
 def _write(path, text):
     path.write_text(text)
     return path

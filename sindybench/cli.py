@@ -1,10 +1,13 @@
-"""Command line interface: ``sindybench run <benchmark>`` and ``sindybench simulate MODEL.json``.
+"""Command line interface: ``sindybench run <benchmark>``, ``simulate MODEL.json``, ``identify DATA`` and ``report``.
 
 ``run`` reproduces the benchmarking study on one or all of its benchmarks and
 writes results, fitted models, figures and reports into an output folder.
 ``simulate`` runs a saved model (a file of :func:`sindybench.load_model`, e.g.
-one of ``run``'s ``models/*.json``) on an input record from a CSV file. This
-is a leaf module: nothing in the library imports it.
+one of ``run``'s ``models/*.json``) on an input record from a CSV file.
+``identify`` identifies a model from a CSV record (or a dataset) and writes
+its model file and HTML report; ``report`` writes the report of a saved model
+later (both in :mod:`sindybench._cli_identify`). This is a leaf module:
+nothing in the library imports it.
 
 Examples
 --------
@@ -15,6 +18,8 @@ Examples
     $ sindybench run cascaded-tanks --quick    # a smoke run, seconds
     $ sindybench run bouc-wen --trials 200 --storage sqlite:///bw.db --n-jobs 2
     $ sindybench simulate out/cascaded-tanks/models/arx.json --input u.csv --output y.csv --y-init y0.csv
+    $ sindybench identify data.csv --dt 0.01 --inputs u1,u2 --outputs y --test test.csv -o model.json --report report.html
+    $ sindybench report model.json data.csv --test test.csv -o report.html
 """
 
 import argparse
@@ -32,6 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sindybench_launcher import _caused_by_interrupt as _interrupted  # one test of a Ctrl-C's chain, the launcher's
 from ._version import __version__
 from .experiments import BENCHMARKS  # the one list of benchmark names
 from ._limits import shown
@@ -132,6 +138,9 @@ def build_parser():
                      help="import the module-level Python function the model names (ParametricHiddenState); "
                      "modules in the current folder can be imported too")
     sim.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors on stderr")
+    from ._cli_identify import add_parsers  # it reads this module's argument types and CSV reader
+
+    add_parsers(sub)
     return parser
 
 
@@ -292,6 +301,8 @@ def _model_inputs(model, header, data, path):
     names = getattr(model, "input_names", None)  # a SINDy model with named inputs
     if names is None and getattr(model, "feature_names_in_", None) is not None:
         names = [str(name) for name in model.feature_names_in_]
+    if names is None:  # a model of 'sindybench identify': the columns it was identified on
+        names = _identified_columns(model, "inputs", n_inputs)
     if names is not None and header is not None:
         missing = [name for name in names if name not in header]
         if missing:
@@ -312,7 +323,19 @@ def _model_inputs(model, header, data, path):
     return data
 
 
+def _identified_columns(model, which, n):
+    """The CSV columns (``"inputs"`` or ``"outputs"``) ``sindybench identify`` fitted ``model`` on, or None."""
+    record = getattr(model, "identification_", None)
+    cli = record.get("cli") if isinstance(record, dict) else None
+    names = cli.get(which) if isinstance(cli, dict) and not cli.get("dataset") else None
+    ok = isinstance(names, list) and len(names) == n and all(isinstance(name, str) for name in names)
+    return list(names) if ok else None
+
+
 def _output_names(model, n_outputs):
+    identified = _identified_columns(model, "outputs", n_outputs)
+    if identified is not None:
+        return identified
     index = getattr(model, "output_index_", None)
     names = None if index is None else [model.state_names_[i] for i in index]
     return list(names) if names is not None and len(names) == n_outputs else [f"y{i}" for i in range(n_outputs)]
@@ -414,12 +437,19 @@ def main(argv=None):
         Exit status: 0 on success; 1 when ``run`` finished but some model could not be fitted
         (the run's files are written and the error names the models) or the storage stopped
         answering; 2 when data are missing, an argument, the output folder or the storage is
-        bad, or (``simulate``) a file cannot be read or does not fit the model.
+        bad, or (``simulate``, ``identify``, ``report``) a file cannot be read or does not fit the model,
+        or an output file exists (``identify`` and ``report`` replace one only with ``--force``);
+        130 on Ctrl-C (nothing written).
     """
     args = build_parser().parse_args(argv)
     try:  # from the first import on: a Ctrl-C at any time exits with 130, without a traceback
         return _command(args)
     except KeyboardInterrupt:
+        print("sindybench: interrupted; no output written.", file=sys.stderr)
+        return 130
+    except Exception as exc:  # a cleanup that failed while a Ctrl-C unwound (Optuna's journal lock file)
+        if not _interrupted(exc):
+            raise
         print("sindybench: interrupted; no output written.", file=sys.stderr)
         return 130
 
@@ -430,16 +460,28 @@ def _command(args):
         try:
             return _simulate(args)
         except (OSError, ValueError) as exc:  # unreadable or bad files: say what, write nothing
+            if _interrupted(exc):
+                raise
             print(f"sindybench: error: {exc}", file=sys.stderr)
             return 2
     from .experiments import DataNotFoundError
 
+    if args.command in ("identify", "report"):
+        from ._cli_identify import identify_command, report_command
+
+        command = identify_command if args.command == "identify" else report_command
+    else:
+        command = _run
     try:
-        return _run(args)
+        return command(args)
     except ConnectionError as exc:  # the storage stopped answering: the finished trials are kept in it
+        if _interrupted(exc):
+            raise
         print(f"sindybench: error: {exc}\nNo output written.", file=sys.stderr)
         return 1
     except (DataNotFoundError, OSError, ValueError, ImportError) as exc:  # data, output folder, storage
+        if _interrupted(exc):
+            raise
         print(f"sindybench: error: {exc}", file=sys.stderr)
         return 2
 

@@ -20,6 +20,7 @@ from ._space import n_terms
 from ._space import ALL_FAMILIES, FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
 from ._stages import (STRUCTURE, Budget, confirm_hold, hold_twin, parallel_map, run_stage, score_candidate,
                       screen_structure, store_full, store_screen, stored_full, stored_screen)
+from . import _persist  # noqa: F401  (model files keep identification_: registers its codec)
 
 __all__ = ["IdentifyCV", "identify"]
 

@@ -5,6 +5,10 @@ A model file is one JSON object (the *envelope*)::
     {"format": "sindybench-model", "format_version": 2, "sindybench_version": "0.2.0",
      "class": "HiddenStateSINDy", "params": {...}, "fitted": {...}}
 
+An optional ``records`` object keeps what a model says about how it was
+made (``records.identification_``: the record of :func:`sindybench.identify`),
+for the classes that register one with :func:`register_record`.
+
 ``params`` holds the estimator's constructor parameters (``get_params(deep=False)``),
 encoded generically (see :func:`encode_value`), so a loaded model clones,
 refits and searches like the saved one. ``fitted`` holds the fitted state that
@@ -43,7 +47,7 @@ from ._files import (
     write_text_atomic,
 )
 from ._checks import check_fitted_kind, check_limit, check_params, check_plain
-from ._registry import register_model
+from ._registry import register_model, register_record
 from ._values import (
     Fields,
     decode_array,
@@ -72,6 +76,7 @@ __all__ = [
     "model_from_dict",
     "model_to_dict",
     "register_model",
+    "register_record",
     "save_model",
     "write_text_atomic",
 ]

@@ -10,7 +10,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._limits import shown
 from .._version import __version__
-from ._registry import _REGISTRY, _lookup, _registered
+from ._registry import _RECORDS, _REGISTRY, _lookup, _registered
 from ._checks import check_plain
 from ._values import Fields, _construct, _encode_params
 
@@ -34,7 +34,8 @@ def model_to_dict(model):
     -------
     dict
         ``format``, ``format_version``, ``sindybench_version``, ``class``,
-        ``params`` and ``fitted``.
+        ``params`` and ``fitted``; ``records`` too when the model carries a
+        registered record (``identification_``, see :func:`register_record`).
 
     Raises
     ------
@@ -62,7 +63,7 @@ def model_to_dict(model):
         raise ValueError(f"cannot save a {name}; expected one of {_registered(True)}.")
     check_is_fitted(model)
     params = _encode_params(model, "params")
-    return {
+    data = {
         "format": FORMAT,
         "format_version": FORMAT_VERSION,
         "sindybench_version": __version__,
@@ -70,6 +71,11 @@ def model_to_dict(model):
         "params": params,
         "fitted": entry.to_dict(model),
     }
+    records = {attribute: record.to_data(getattr(model, attribute)) for attribute, record in _RECORDS.items()
+               if getattr(model, attribute, None) is not None}
+    if records:  # optional: files without it (and readers that do not know it) are unchanged
+        data["records"] = records
+    return data
 
 
 def model_from_dict(data, *, allow_import=False):
@@ -112,7 +118,22 @@ def model_from_dict(data, *, allow_import=False):
         entry.from_dict(model, envelope.fields("fitted"))
     except (KeyError, TypeError, IndexError, AttributeError) as exc:  # a hook without a check of its own
         raise ValueError(f"fitted: the {entry.cls.__name__} data is malformed: {shown(exc)}.") from exc
+    _load_records(model, data)
     return model
+
+
+def _load_records(model, data):
+    """Set the records the file keeps (``records.identification_``) on ``model``; a file without them has none."""
+    if "records" not in data:
+        return
+    records = data["records"]
+    if not isinstance(records, dict):
+        raise ValueError(f"records: expected an object {{attribute: record}}; got {type(records).__name__}.")
+    for attribute, value in records.items():
+        record = _RECORDS.get(attribute)
+        if record is None:
+            raise ValueError(f"records: unknown record {shown(attribute)}; expected some of {sorted(_RECORDS)}.")
+        setattr(model, attribute, record.from_data(value, f"records.{attribute}"))
 
 
 def save_model(model, path):

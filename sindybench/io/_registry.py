@@ -6,7 +6,7 @@ import numpy as np  # noqa: F401  (used by the doctest)
 
 from .._limits import shown
 
-__all__ = ["register_model"]
+__all__ = ["register_model", "register_record"]
 
 
 class _Entry(NamedTuple):
@@ -17,6 +17,15 @@ class _Entry(NamedTuple):
 
 
 _REGISTRY = {}
+
+
+class _Record(NamedTuple):
+    to_data: Callable
+    from_data: Callable
+
+
+# records a fitted model may carry beside its fitted state (``identification_``): attribute name -> codec
+_RECORDS = {}
 
 
 def register_model(cls, *, to_dict=None, from_dict=None, functions=()):
@@ -85,6 +94,35 @@ def register_model(cls, *, to_dict=None, from_dict=None, functions=()):
         raise ValueError(f"functions = {shown(functions)}; expected a tuple of constructor parameters of {name} {valid}.")
     _REGISTRY[name] = _Entry(cls, to_dict, from_dict, tuple(functions))
     return cls
+
+
+def register_record(attribute, *, to_data, from_data):
+    """Let a model file keep the record ``attribute`` that a fitted model may carry (``identification_``).
+
+    A record is what a model says about how it was made, not what it
+    computes: it is written under ``records.<attribute>`` of the envelope
+    when the model has it (not None), and set again on the loaded model.
+    Files without it load as before (the attribute is then absent).
+
+    Parameters
+    ----------
+    attribute : str
+        The attribute's name, ending with ``_``.
+    to_data : callable
+        ``to_data(value) -> JSON data`` (use :func:`encode_value`); raise
+        ``ValueError`` when it cannot be stored.
+    from_data : callable
+        ``from_data(data, field) -> value``; raise ``ValueError`` naming ``field``
+        for malformed data. It must not import or run anything the data names.
+
+    Examples
+    --------
+    >>> register_record("origin_", to_data=str, from_data=lambda data, field: data)
+    >>> _ = _RECORDS.pop("origin_")  # unregister the example again
+    """
+    if not isinstance(attribute, str) or not attribute.endswith("_"):
+        raise ValueError(f"attribute = {shown(attribute)}; expected the name of a fitted attribute (ending with '_').")
+    _RECORDS[attribute] = _Record(to_data, from_data)
 
 
 def _registered(models_only=False):

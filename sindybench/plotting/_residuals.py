@@ -45,7 +45,7 @@ def plot_residual_analysis(analysis, *, ax=None):
     for i in range(n_out):
         a = next(panels)
         a.stem(lags[M + 1:], analysis.autocorrelation[M + 1:, i], basefmt=" ")
-        a.set_title(f"autocorrelation of the {analysis.kind} residuals of output {i} (Ljung-Box p = "
+        a.set_title(f"autocorrelation of the {analysis.kind} residuals of output {i} (whiteness p = "
                     f"{analysis.test.whiteness_pvalues[i]:.2g})", fontsize=9)
         panel_bounds = [a]
         for j in range(n_in):

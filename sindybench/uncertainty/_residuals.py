@@ -13,11 +13,17 @@ by the input). Which residuals to test:
 ``"one_step"``
     the measured output minus the one-step-ahead prediction (the extended
     Kalman filter for the state-space models, the measured lags for ARX and
-    NN-ARX): the residuals of an *equation-error* (prediction-error) model.
+    NN-ARX): the residuals of an *equation-error* (prediction-error) model;
+    white when the structure is right and the noise enters the equation. The
+    one-step residuals of an output-error model are not white even with the
+    right structure (the prediction from measured outputs carries the noise
+    of two samples), so test a model on the residuals of its own criterion.
 
 The statistics are those of :func:`sindybench._residual_tests.residual_test`
-(FFT correlations, Ljung-Box, and the cross-correlation test corrected for a
-coloured input).
+(FFT correlations; Ljung-Box, a low-frequency statistic and the
+cross-correlation test corrected for a coloured input, each at three lag
+windows, calibrated together and Holm-corrected so that the whole test has
+level ``alpha``).
 """
 
 from typing import NamedTuple
@@ -140,8 +146,11 @@ def residual_analysis(model, X, y, *, kind="free_run", n_init=None, max_lag=25, 
         Free run: samples that start the simulation (``y_init``), left out of
         the residuals; default the lags of a lag model (``n_lags_``), else 10.
     max_lag : int, default=25
+        The middle lag window of the tests (the others ``max_lag // 5`` and
+        ``4 max_lag``) and the lags of the correlations returned.
     alpha : float, default=0.05
-        Level of the tests and of the correlation bounds.
+        Level of the whole test (whiteness and independence together) and
+        of the correlation bounds.
     Q, R : array-like, optional
         Noise covariances of a state-space model's one-step prediction
         (default: :func:`~sindybench.estimation.estimate_noise` on the record).
@@ -169,8 +178,8 @@ def residual_analysis(model, X, y, *, kind="free_run", n_init=None, max_lag=25, 
     >>> residual_analysis(ARX(na=2, nb=1).fit(u, y), u, y, kind="one_step").white
     True
     >>> residual_analysis(ARX(na=1, nb=1).fit(u, y), u, y, kind="one_step").message()
-    'not white (smallest Ljung-Box p-value 0) and correlated with past inputs (smallest p-value 0)
-     at level 0.05 (25 lags, 2999 samples)'
+    'not white (smallest whiteness p-value 0) and correlated with past inputs (smallest p-value 0)
+     at level 0.05 (lag windows 5, 25, 100, 2999 samples)'
     """
     check_option(kind, "kind", ["free_run", "one_step"])
     X, y = check_record(X, y, "residual_analysis")

@@ -196,3 +196,21 @@ def test_standard_errors_come_with_the_residual_tests_warning(pages):
     names = re.findall(r"<tr><td>([^<]+)</td><td class=\"num\"", section)
     assert "y0&#x27;: y0" in names and "y0&#x27;: u0" in names
     assert "<div class=warn>the refinement&#x27;s residuals are not white" in section
+
+
+def test_a_k_step_choice_and_the_advice_findings_are_said(rng):
+    """A record ranked by k-step prediction says so, with the advice's poles and its feedback finding."""
+    import warnings
+
+    from sindybench import identify
+    from test_identify_criterion import _unstable_under_feedback
+
+    u, y, dt = _unstable_under_feedback(rng)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = identify(u, y, dt=dt, families=["first_order"], libraries=["linear"], n_refine=0,
+                         show_progress_bar=False)
+        text = html_lib.unescape(identification_report(model, u, y))
+    assert "k-step prediction" in text and "-step predictions (windows restarted" in text
+    assert re.search(r"open-loop unstable outputs \(ARX poles\)</t[dh]>\s*<td[^>]*>y0", text)
+    assert "of an ARX residual" in text

@@ -93,7 +93,9 @@ def _summary(model, record, equations, test_scores, test_figs, resid, timings):
     cards = [("model", type(model).__name__)]
     if record is not None:
         chosen = record["settings"]
+        criterion = (record.get("criterion") or {}).get("name", "free_run")
         cards += [("family", chosen.get("family")), ("terms", chosen.get("n_terms")),
+                  ("ranked by", "free run" if criterion == "free_run" else "k-step prediction"),
                   ("validation error", fmt(record["cv_results"]["mean_validation_error"][record["best_index"]], 3))]
     if test_scores is not None:
         cards += [("test fit", f"{fmt(test_scores['fit %'], 3)} %"), ("test RMSE", fmt(test_scores["RMSE"], 3))]
@@ -102,12 +104,27 @@ def _summary(model, record, equations, test_scores, test_figs, resid, timings):
     html = '<div class="cards">' + "".join(f"<div class=card><span>{esc(k)}</span><b>{esc(fmt(v))}</b></div>"
                                           for k, v in cards) + "</div>"
     if record is not None:
+        criterion = record.get("criterion") or {"name": "free_run"}
+        scored = ("its free run" if criterion["name"] == "free_run" else
+                  f"its {criterion['horizon']}-step predictions (windows restarted from the measured output every "
+                  f"{criterion['horizon']} samples: {criterion.get('reason', '')})")
         html += ("<p class=note>The validation error is the chosen candidate's mean over the validation blocks of "
-                 "the RMSE of its free run over the output's standard deviation (lower is better).</p>")
+                 f"the RMSE of {esc(scored)} over the output's standard deviation (lower is better).</p>")
     html += "<h3>The chosen model's equations</h3>" + equations
     if test_figs:
         html += "<h3>Test record</h3>" + test_figs
     return html
+
+
+def _feedback_text(advice):
+    """The advice's feedback finding (records written before the innovations test have no effect size)."""
+    if advice.feedback is None:
+        return f"cannot tell ({getattr(advice, 'feedback_note', None) or 'no residual noise'})"
+    effect = getattr(advice, "feedback_effect", None)
+    if effect is None:
+        return f"p = {advice.feedback:.2g} that future inputs do not predict the output"
+    return (f"p = {advice.feedback:.2g} that the inputs' innovations do not predict the output; they explain "
+            f"{100 * effect:.2g} % of an ARX residual: " + ("closed loop" if advice.closed_loop else "open loop"))
 
 
 def _advice_rows(advice):
@@ -119,9 +136,11 @@ def _advice_rows(advice):
             ("drift (trend no input has)", ", ".join(advice.drift) or "none"),
             ("saturation", "; ".join(f"y{j} {side} level {level:.6g} ({100 * frac:.1f} % of the samples)"
                                      for j, side, level, frac in advice.saturation) or "none"),
-            ("feedback", "cannot tell (no residual noise)" if advice.feedback is None else
-             f"p = {advice.feedback:.2g} that future inputs do not predict the output"
-             + (" (feedback, or a non-causal filter)" if advice.feedback < 1e-3 else "")),
+            ("feedback", _feedback_text(advice)),
+            ("open-loop unstable outputs (ARX poles)", ", ".join(f"y{j}" for j in getattr(advice, "unstable", []))
+             or "none"),
+            ("integrating outputs (a pole slower than half the record)",
+             ", ".join(f"y{j}" for j in getattr(advice, "integrating", [])) or "none"),
             ("persistent excitation order of the inputs", fmt(list(advice.excitation))),
             ("outputs' 95 % bandwidth [Hz]", fmt(list(np.ravel(advice.bandwidth)))),
             ("samples per period", fmt(list(np.ravel(advice.samples_per_period)))),

@@ -117,6 +117,8 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
     """
 
     _parameter_constraints = SHARED_CONSTRAINTS
+    # what sindybench.estimation asks (it imports no estimator class): a fitted model has a state-space ``dynamics_``
+    _has_dynamics = True
 
     # ------------------------------------------------------- fitted attributes
     @property

@@ -589,6 +589,10 @@ def test_every_estimation_function_applies_the_models_input_delay(delayed_model)
                                smooth_initial_state(undelayed, shifted, y[:40], **kw), rtol=0, atol=1e-12)
     for a, b in zip(estimate_noise(model, u, y, max_iter=40), estimate_noise(undelayed, shifted, y, max_iter=40)):
         np.testing.assert_allclose(a, b, rtol=1e-12)
+    from sindybench.uncertainty import k_step_prediction  # the residual analysis' and the k-step bands' prediction
+
+    np.testing.assert_allclose(k_step_prediction(model, u, y, 3, **kw), predict_k_step(undelayed, shifted, y, 3, **kw),
+                               rtol=0, atol=1e-12)
 
 
 def test_the_delayed_filter_tracks_as_well_as_the_models_own_simulation(delayed_model):

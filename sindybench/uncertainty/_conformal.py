@@ -209,7 +209,7 @@ class ConformalCalibration(NamedTuple):
                 raise ValueError(f"a {self.horizon}-step band needs y, the measured outputs of the record.")
             X, y = check_record(X, y, "ConformalCalibration.band")
             pred, start = k_step_prediction(model, X, y, self.horizon, Q=Q, R=R), self.horizon
-        return self.around(pred, start, X=X)
+        return self._around(pred, start, X, stacklevel=3)
 
     def around(self, prediction, start=0, *, X=None):
         """The band around a prediction already made (the free run, or the k-step prediction of ``y[start:]``).
@@ -229,6 +229,10 @@ class ConformalCalibration(NamedTuple):
         -------
         ConformalBand
         """
+        return self._around(prediction, start, X, stacklevel=3)
+
+    def _around(self, prediction, start, X, *, stacklevel):
+        """:meth:`around`; its warning points ``stacklevel`` frames up (at the user's call of ``band`` or ``around``)."""
         pred = np.asarray(prediction, dtype=float)
         pred = pred.reshape(len(pred), -1)
         if pred.shape[1] != self.half_width.shape[0]:
@@ -242,7 +246,7 @@ class ConformalCalibration(NamedTuple):
                           f"(inputs {100 * found['fraction_inputs']:.1f} %, predicted outputs "
                           f"{100 * found['fraction_outputs']:.1f} %) lie outside the range of its calibration record "
                           f"({found['calibration']}); the band is not calibrated there.", ExtrapolationWarning,
-                          stacklevel=2)
+                          stacklevel=stacklevel)
         return ConformalBand(pred, pred - self.half_width, pred + self.half_width, int(start), self.name, found)
 
     def to_dict(self):

@@ -110,11 +110,16 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
     ``input_delay``: ``fit``, ``simulate``, ``predict`` and
     ``estimate_initial_state`` feed the model ``X`` delayed by that many
     samples (:meth:`delayed_inputs`), so ``dynamics_`` itself is driven by
-    the delayed inputs (pass ``model.delayed_inputs(X)`` to code that takes
-    the ``Dynamics``, such as the Kalman filter).
+    the delayed inputs. Every function of :mod:`sindybench.estimation` and
+    :mod:`sindybench.uncertainty` given the model and the user's ``X`` (the
+    filter, the smoother, the k-step prediction, the noise estimate, the
+    residual analysis, the bands) applies the delay itself: pass the inputs
+    as measured, never ``model.delayed_inputs(X)`` (that would delay twice).
     """
 
     _parameter_constraints = SHARED_CONSTRAINTS
+    # what sindybench.estimation asks (it imports no estimator class): a fitted model has a state-space ``dynamics_``
+    _has_dynamics = True
 
     # ------------------------------------------------------- fitted attributes
     @property
@@ -193,6 +198,11 @@ class DynamicsEstimator(ModelChecksMixin, UncertaintyMixin, EquationsDisplayMixi
 
     def delayed_inputs(self, X):
         """The inputs the model sees: ``X`` delayed by ``input_delay`` samples (the first row held before it).
+
+        What ``fit``, ``simulate`` and the estimation functions apply to the
+        user's inputs; code that drives ``dynamics_`` directly (the
+        :mod:`sindybench.dynamics` simulator) calls it, code that takes the
+        model does not.
 
         Parameters
         ----------

@@ -20,7 +20,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .cli import _interrupted, _n_jobs, _non_negative_int, _read_csv, _same_file, _seed, _storage
+from sindybench_launcher import _caused_by_interrupt as _interrupted  # one test of a Ctrl-C's chain
+
+from ._cli_args import _n_jobs, _non_negative_int, _read_csv, _same_file, _seed, _storage
 from .experiments import BENCHMARKS
 from .identify._space import ALL_FAMILIES, FAMILIES, LIBRARIES
 
@@ -433,7 +435,7 @@ def identify_command(args):
 
 def report_command(args):
     """``sindybench report``: the HTML report of a saved model on its records."""
-    from .cli import _load
+    from ._cli_args import _load
     from .io import write_text_atomic
 
     check_outputs(args, [args.model, args.data, args.test])

@@ -9,11 +9,11 @@ from sklearn.utils.validation import check_is_fitted
 from ._base import SHARED_CONSTRAINTS, DynamicsEstimator
 from ._equations import EquationRow, format_equation
 from ._lag_sindy_persist import lag_sindy_from_dict, lag_sindy_to_dict
-from ._lags import lag_dynamics, lag_names, lag_states, output_states
+from ._lags import feature_names, lag_dynamics, lag_names, lag_states, output_states
 from ._params import Constraint
 from ._preprocessing import scaling_record
 from ._regression import fit_sparse
-from ._sindy import _check_names, check_distinct_names
+from ._validation import check_column_names, check_distinct_names
 from ._validation import check_integer, check_positive
 from .dynamics import POW
 from .io import register_model
@@ -190,8 +190,8 @@ class LagSINDy(DynamicsEstimator):
         dt = check_positive(dt if dt is not None else self.dt if self.dt is not None else 1.0, "dt")
         Xs = [self.delayed_inputs(X_r) for X_r in Xs]
         n_outputs, n_inputs = ys[0].shape[1], Xs[0].shape[1]
-        out_names = _check_names(self.output_names, n_outputs, "y", "output_names")
-        in_names = _check_names(self.input_names, n_inputs, "u", "input_names")
+        out_names = check_column_names(self.output_names, n_outputs, "y", "output_names")
+        in_names = check_column_names(self.input_names, n_inputs, "u", "input_names")
         check_distinct_names(out_names, in_names)
         search = None
         if "auto" in (self.output_lags, self.input_lags):
@@ -212,7 +212,7 @@ class LagSINDy(DynamicsEstimator):
         self.output_lags_, self.input_lags_ = na, nb
         self.lag_search_ = search
         self.output_names_, self.input_names_ = out_names, in_names
-        self.feature_names_ = _feature_names(library, out_names, in_names, na, nb, self.input_delay)
+        self.feature_names_ = feature_names(library, out_names, in_names, na, nb, self.input_delay)
         self.n_inputs_ = self.n_features_in_ = n_inputs
         self.dt_ = dt
         self.x0_ = np.asarray(x0s[0], dtype=float).copy()
@@ -449,11 +449,6 @@ def _check_length(ys, need, several):
             where = f"record {r}" if several else "y"
             raise ValueError(f"{where} has {y_r.shape[0]} samples; expected at least {need} (the lags and one more "
                              "sample for one regression row).")
-
-
-def _feature_names(library, out_names, in_names, na, nb, input_delay):
-    states, inputs = lag_names(out_names, in_names, na, nb, input_delay)
-    return [str(s) for s in library.get_feature_names_out(states + inputs)]
 
 
 def _difference_row(coef, features, terms, variables, state, errors):

@@ -12,7 +12,7 @@ import math
 from .io import check_fitted_kind, check_limit, check_params, encode_array, encode_value, fitted_from_dict, fitted_to_dict
 from .libraries import fitted_library_from_dict, fitted_library_to_dict
 from ._covariance import check_refinement_record
-from ._lags import n_lag_states
+from ._lags import feature_names, n_lag_states
 from ._stls import STLS
 
 __all__ = ["lag_sindy_from_dict", "lag_sindy_to_dict"]
@@ -41,8 +41,6 @@ def lag_sindy_to_dict(model):
 
 def lag_sindy_from_dict(model, fitted):
     """Set the fitted attributes of ``model`` from the :class:`~sindybench.io.Fields` ``fitted``."""
-    from ._lag_sindy import _feature_names
-
     check_params(model._validate_params)
     n_outputs, n_inputs = fitted.int("n_outputs", low=1), fitted.int("n_inputs")
     model.output_names_ = fitted.strings("output_names", n_outputs)
@@ -68,7 +66,7 @@ def lag_sindy_from_dict(model, fitted):
     model.refinement_ = fitted.mapping("refinement", allow_none=True)
     model.scaling_ = fitted.mapping("scaling", allow_none=True)
     model.lag_search_ = fitted.value("lag_search", allow_none=True)
-    names = _feature_names(model.library_, model.output_names_, model.input_names_, na, nb, model.input_delay)
+    names = feature_names(model.library_, model.output_names_, model.input_names_, na, nb, model.input_delay)
     if model.feature_names_ != names:
         raise ValueError(f"fitted.feature_names differ from the library's names of its terms ({names[:6]}...); "
                          "expected the fitted library's feature names.")

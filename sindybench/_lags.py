@@ -83,6 +83,12 @@ def _shift(k, delay):
     return "[k]" if k == 0 else f"[k-{k}]"
 
 
+def feature_names(library, output_names, input_names, na, nb, input_delay):
+    """The fitted ``library``'s feature names over the lag states' and inputs' names (:func:`lag_names`)."""
+    states, inputs = lag_names(output_names, input_names, na, nb, input_delay)
+    return [str(s) for s in library.get_feature_names_out(states + inputs)]
+
+
 def lag_names(output_names, input_names, na, nb, input_delay=0):
     """Names of the delay coordinates and of the current inputs: ``(state_names, input_names)``.
 

@@ -13,7 +13,8 @@ from ._preprocessing import scaling_record
 from ._equations import EquationRow
 from ._sindy_persist import sindy_from_dict, sindy_to_dict
 from .optimizers import STLS
-from ._validation import check_bounds, check_dt, check_positive, check_signal, check_time, uniform_step
+from ._validation import (check_bounds, check_column_names, check_distinct_names, check_dt, check_positive, check_signal,
+                          check_time, uniform_step)
 from ._records import in_record, record_name
 from .differentiation import FiniteDifference, as_differentiation
 from .dynamics import assemble
@@ -24,34 +25,6 @@ from ._regression import fit_sparse
 __all__ = ["SINDy"]
 
 logger = logging.getLogger(__name__)
-
-
-def _check_names(names, n, prefix, name):
-    if names is None:
-        return [f"{prefix}{i}" for i in range(n)]
-    if isinstance(names, str) or not hasattr(names, "__len__") or len(names) != n or not all(
-            isinstance(s, str) for s in names):
-        raise ValueError(f"{name} must be a list of {n} strings; got {names!r}.")
-    return list(names)
-
-
-def check_distinct_names(out_names, in_names):
-    """Outputs and inputs name the columns of ``Z = [y, u]``: one name for two columns is a ``ValueError``.
-
-    Examples
-    --------
-    >>> check_distinct_names(["u0"], ["u0"])
-    Traceback (most recent call last):
-    ...
-    ValueError: output_names and input_names share 'u0' (output 0 and input 0); expected distinct names ...
-    """
-    seen = {}
-    for kind, names in (("output", out_names), ("input", in_names)):
-        for i, name in enumerate(names):
-            if name in seen:
-                raise ValueError(f"output_names and input_names share {name!r} ({seen[name]} and {kind} {i}); expected "
-                                 "distinct names (the equations and the library's features name the columns by them).")
-            seen[name] = f"{kind} {i}"
 
 
 class SINDy(DynamicsEstimator):
@@ -302,8 +275,8 @@ class SINDy(DynamicsEstimator):
         """Regress the records' derivatives on the library of their stacked rows ``[y, X]``; ``x0_`` is ``ys[0][0]``."""
         X, y, x_dot = np.vstack(Xs), np.vstack(ys), np.vstack(derivatives)
         n_states = y.shape[1]
-        out_names = _check_names(self.output_names, n_states, "y", "output_names")
-        in_names = _check_names(self.input_names, X.shape[1], "u", "input_names")
+        out_names = check_column_names(self.output_names, n_states, "y", "output_names")
+        in_names = check_column_names(self.input_names, X.shape[1], "u", "input_names")
         check_distinct_names(out_names, in_names)
         library = clone(as_library(self.library))
         optimizer = clone(STLS() if self.optimizer is None else self.optimizer)

@@ -47,6 +47,7 @@ from .io import (
 from .libraries import fitted_library_from_dict, fitted_library_to_dict
 from ._covariance import check_refinement_record
 from ._stls import STLS
+from ._validation import check_column_names, check_distinct_names
 
 __all__ = ["fitted_parts", "load_scaling", "sindy_from_dict", "sindy_to_dict"]
 
@@ -124,11 +125,9 @@ def sindy_from_dict(model, fitted):
 
 def _check_derived(model, n_states, n_inputs):
     """Names, feature names and dt follow from the parameters and the library: a file that says otherwise is refused."""
-    from ._sindy import _check_names, check_distinct_names
-
     try:
-        expected = {"output_names": _check_names(model.output_names, n_states, "y", "output_names"),
-                    "input_names": _check_names(model.input_names, n_inputs, "u", "input_names")}
+        expected = {"output_names": check_column_names(model.output_names, n_states, "y", "output_names"),
+                    "input_names": check_column_names(model.input_names, n_inputs, "u", "input_names")}
     except ValueError as exc:
         raise ValueError(f"params: {exc}") from exc
     for name, value in expected.items():

@@ -2,11 +2,14 @@
 
 ``residual_analysis`` and ``conformal_calibration`` (every estimator:
 :class:`ModelChecksMixin`), ``standard_errors`` and ``confidence_intervals``
-(the refined ones: :class:`UncertaintyMixin`). :mod:`sindybench.uncertainty`
-sits above the estimators (it simulates, filters and refits them), so these
-thin methods import it when called, the way pandas' ``DataFrame.plot`` reaches
-its plotting layer: no module-level import points up, and the estimators' base
-classes can inherit the methods.
+(the refined ones: :class:`UncertaintyMixin`). The modules that do the work
+import nothing that imports the estimators: the residual analysis and the
+conformal calibration reach the model through its methods and through
+:mod:`sindybench.estimation` (which reads the fitted ``dynamics_`` and knows no
+estimator class), the standard errors through ``_covariance``. So these thin
+methods import those modules (not the :mod:`sindybench.uncertainty` package,
+whose ensembles refit estimators) and the imports of the package point one way
+(``tests/test_imports.py``).
 """
 
 __all__ = ["ModelChecksMixin", "UncertaintyMixin"]
@@ -25,7 +28,7 @@ class ModelChecksMixin:
         -------
         ResidualAnalysis
         """
-        from .uncertainty import residual_analysis
+        from .uncertainty._residuals import residual_analysis
 
         return residual_analysis(self, X, y, kind=kind, n_init=n_init, max_lag=max_lag, alpha=alpha, Q=Q, R=R)
 
@@ -40,7 +43,7 @@ class ModelChecksMixin:
         -------
         ConformalCalibration
         """
-        from .uncertainty import conformal_calibration
+        from .uncertainty._conformal import conformal_calibration
 
         return conformal_calibration(self, X, y, alpha=alpha, horizon=horizon, block_length=block_length,
                                      n_init=n_init, score_from=score_from, Q=Q, R=R)
@@ -70,7 +73,7 @@ class UncertaintyMixin:
             coefficients as ``"<state>': <feature>"``, initial states as
             ``"<state>(0)"``.
         """
-        from .uncertainty import standard_errors
+        from .uncertainty._covariance import standard_errors
 
         return standard_errors(self, kind)
 
@@ -88,7 +91,7 @@ class UncertaintyMixin:
         dict
             ``{name: (lower, upper)}``, named as in :meth:`standard_errors`.
         """
-        from .uncertainty import confidence_intervals
+        from .uncertainty._covariance import confidence_intervals
 
         return confidence_intervals(self, alpha, kind)
 

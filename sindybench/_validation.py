@@ -503,3 +503,39 @@ def check_estimator_param(value, name, expected):
     if value is not None and not all(callable(getattr(value, m, None)) for m in ("fit", "get_params")):
         raise ValueError(f"{name} must be {expected} or None; got {shown(value)}.")
     return value
+
+
+def check_alpha(alpha, what):
+    """``alpha`` as a float in (0, 1): ``1 - alpha`` ``what`` (bands, intervals)."""
+    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0.0 < alpha < 1.0:
+        raise ValueError(f"alpha must be in (0, 1) (0.05 gives 95 % {what}); got {alpha!r}.")
+    return float(alpha)
+
+
+def check_column_names(names, n, prefix, name):
+    """``names`` as a list of ``n`` strings; ``prefix0, prefix1, ...`` when None (``name`` is the parameter's)."""
+    if names is None:
+        return [f"{prefix}{i}" for i in range(n)]
+    if isinstance(names, str) or not hasattr(names, "__len__") or len(names) != n or not all(
+            isinstance(s, str) for s in names):
+        raise ValueError(f"{name} must be a list of {n} strings; got {names!r}.")
+    return list(names)
+
+
+def check_distinct_names(out_names, in_names):
+    """Outputs and inputs name the columns of ``Z = [y, u]``: one name for two columns is a ``ValueError``.
+
+    Examples
+    --------
+    >>> check_distinct_names(["u0"], ["u0"])
+    Traceback (most recent call last):
+    ...
+    ValueError: output_names and input_names share 'u0' (output 0 and input 0); expected distinct names ...
+    """
+    seen = {}
+    for kind, names in (("output", out_names), ("input", in_names)):
+        for i, name in enumerate(names):
+            if name in seen:
+                raise ValueError(f"output_names and input_names share {name!r} ({seen[name]} and {kind} {i}); expected "
+                                 "distinct names (the equations and the library's features name the columns by them).")
+            seen[name] = f"{kind} {i}"

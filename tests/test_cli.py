@@ -28,6 +28,7 @@ import pytest
 from sklearn.utils import Bunch
 
 from sindybench import load_model
+from sindybench import _cli_args
 from sindybench.cli import build_parser, main
 from sindybench.experiments import (
     PUBLISHED,
@@ -546,15 +547,13 @@ def test_simulate_reads_only_ascii_numbers(saved_models, tmp_path, capsys, cell)
 def test_simulate_refuses_an_endless_or_huge_input_within_a_second(saved_models, tmp_path, capsys, monkeypatch,
                                                                      source):
     # issue 30, item 16: --input /dev/zero ended in a MemoryError traceback
-    from sindybench import cli
-
     if source == "/dev/zero" and not os.path.exists("/dev/zero"):
         pytest.skip("no /dev/zero")
     path = tmp_path / "u.csv"
     if source == "long line":
-        path.write_text("u\n" + "1" * (cli.MAX_CSV_LINE + 5) + "\n")
+        path.write_text("u\n" + "1" * (_cli_args.MAX_CSV_LINE + 5) + "\n")
     elif source == "big file":
-        monkeypatch.setattr(cli, "MAX_CSV_BYTES", 4000)  # the same check as at 64 MiB, on a small file
+        monkeypatch.setattr(_cli_args, "MAX_CSV_BYTES", 4000)  # the same check as at 64 MiB, on a small file
         path.write_text("u\n" + "0.125\n" * 1000)
     start = time.perf_counter()
     status = main(["simulate", str(saved_models[0] / "arx1.json"), "--input",

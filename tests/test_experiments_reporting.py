@@ -1,5 +1,7 @@
 """The designated row's extra reports: k-step prediction, smoothed start, standard errors, prediction band."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -99,6 +101,14 @@ def test_conformal_band_is_calibrated_on_validation_data_only():
     text = "\n".join(best_model_markdown(best))
     assert "**Warning**: the residuals are not white" in text and "residuals not white." in text
     assert "conformal 95 % free-run band (" in text and f"`test` {entry['coverage']:.3f} (mean width" in text
+    # the test's inputs (normal draws) reach beyond the 200 validation samples': the entry and the report say so
+    found = entry["extrapolation"]
+    assert 0 < found["fraction_inputs"] <= found["fraction"] < 0.2 and "200 samples" in found["calibration"]
+    assert json.loads(json.dumps(found)) == found
+    assert f"**extrapolates**: {100 * found['fraction']:.1f} % of the test samples outside the calibration" in text
+    inside = _conformal(model, u[800:1000], y[800:1000], {"test": {"u": u[1000:1005] * 0, "y": y[1000:1005] * 0}},
+                        info)["coverage"]["test"]
+    assert inside["extrapolation"]["fraction"] == 0.0
 
 
 def test_held_out_band_takes_its_half_width_from_a_refit_without_the_validation_block():

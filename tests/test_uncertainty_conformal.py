@@ -1,5 +1,7 @@
 """Conformal bands: the quantile rule (MAPIE's), coverage on new records, k-step bands, every estimator, bad input."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -8,7 +10,7 @@ from sindybench.baselines import ARX, NNARX
 from sindybench.libraries import PolynomialLibrary
 from sindybench.refine import OutputErrorRefinement
 from sindybench.simulate import simulate
-from sindybench.uncertainty import ConformalCalibration, conformal_calibration, conformal_quantile
+from sindybench.uncertainty import ConformalCalibration, ExtrapolationWarning, conformal_calibration, conformal_quantile
 
 DT = 0.05
 
@@ -111,3 +113,32 @@ def test_nan_residuals_are_refused():
         conformal_calibration(model, u, y)
     with pytest.raises(ValueError, match="NaN or inf"):
         conformal_quantile(np.array([[1.0], [np.nan]]), 0.5)
+
+
+def test_a_band_outside_its_calibration_range_warns_and_says_how_much(sindy_model):
+    """Inputs in [-1, 1] calibrate; a test with inputs up to 3 (and outputs beyond the calibration's) warns."""
+    u, y = first_order(1, 600)
+    cal = conformal_calibration(sindy_model, u, y, n_init=1, block_length=150)
+    assert cal.ranges["inputs"].shape == (2, 1) and cal.ranges["n_samples"] == 600
+    u_test, y_test = first_order(2, 400)
+    u_test[200:] *= 3.0
+    expected = np.mean((u_test[:, 0] < u.min()) | (u_test[:, 0] > u.max()))
+    with pytest.warns(ExtrapolationWarning, match=rf"% of the record's samples \(inputs {100 * expected:.1f} %, "
+                                                  r"predicted outputs .*calibration record \(600 samples; inputs in \[-"):
+        band = cal.band(sindy_model, u_test, y_init=y_test)
+    assert band.extrapolation["fraction_inputs"] == pytest.approx(expected)
+    assert band.extrapolation["fraction"] >= band.extrapolation["fraction_outputs"] > 0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a record inside the range: no warning
+        inside = cal.band(sindy_model, u[:150], y_init=y)  # the first calibration block itself
+    assert inside.extrapolation["fraction"] == 0.0
+
+
+def test_the_calibration_range_survives_to_dict_and_old_dicts_load_without(sindy_model):
+    u, y = first_order(1, 600)
+    cal = conformal_calibration(sindy_model, u, y, n_init=1, block_length=150)
+    back = ConformalCalibration.from_dict(cal.to_dict())
+    np.testing.assert_array_equal(back.ranges["outputs"], cal.ranges["outputs"])
+    old = {k: v for k, v in cal.to_dict().items() if k != "ranges"}
+    legacy = ConformalCalibration.from_dict(old)
+    assert legacy.ranges is None and legacy.around(np.zeros((5, 1))).extrapolation is None

@@ -288,7 +288,11 @@ def check_covariance(C, n, name, *, definite=False):
 
 
 def check_record(m, X, y):
-    """``X`` (zero columns when the model has no inputs) and ``y`` of one record, checked against ``m``."""
+    """``X`` (zero columns when the model has no inputs) and ``y`` of one record, checked against ``m``.
+
+    ``X`` comes back delayed by the model's ``input_delay`` (:meth:`ModelStep.delayed`): the user gives the
+    inputs as measured, the model applies its own delay.
+    """
     check_one_record("the Kalman filter", X, y, advice=ONE_RECORD_ADVICE)
     y = check_signal(y, "y")  # refuses NaN: the filter does not skip samples
     n_out = len(m.output_index)
@@ -300,7 +304,7 @@ def check_record(m, X, y):
     if X.shape != (y.shape[0], m.n_inputs):
         raise ValueError(f"X has shape {X.shape}; expected ({y.shape[0]}, {m.n_inputs}) (one row per sample of y, "
                          "one column per input).")
-    return X, np.ascontiguousarray(y)
+    return np.ascontiguousarray(m.delayed(X)), np.ascontiguousarray(y)
 
 
 def check_prior(m, x0, P0):
@@ -320,17 +324,22 @@ _CAUSES = {
 }
 
 
-def run_filter(model, X, y, *, Q, R, x0=None, P0=None, keep_predictions=False):
-    """The filter, with its predictions and step Jacobians (the smoother's input) if ``keep_predictions``.
-
-    Checks every argument.
-    """
+def check_filter_args(model, X, y, Q, R, x0, P0):
+    """``(m, X, y, Q, R, x0, P0)`` checked, ``X`` delayed by the model's ``input_delay`` (once)."""
     m = model_step(model)
     X, y = check_record(m, X, y)
     Q = check_covariance(Q, m.n_states, "Q")
     R = check_covariance(R, len(m.output_index), "R", definite=True)
     x0, P0 = check_prior(m, x0, P0)
-    return filter_checked(m, X, y, Q, R, x0, P0, keep_predictions=keep_predictions)
+    return m, X, y, Q, R, x0, P0
+
+
+def run_filter(model, X, y, *, Q, R, x0=None, P0=None, keep_predictions=False):
+    """The filter, with its predictions and step Jacobians (the smoother's input) if ``keep_predictions``.
+
+    Checks every argument.
+    """
+    return filter_checked(*check_filter_args(model, X, y, Q, R, x0, P0), keep_predictions=keep_predictions)
 
 
 def filter_checked(m, X, y, Q, R, x0, P0, *, keep_predictions=False, sm=None):
@@ -358,7 +367,9 @@ def extended_kalman_filter(model, X, y, *, Q, R, x0=None, P0=None):
     model : SINDy, HiddenStateSINDy or ModelStep
         A fitted model with the compiled right-hand side.
     X : array-like of shape (n_samples, n_inputs)
-        Inputs (None for a model without inputs).
+        Inputs as measured (None for a model without inputs). A model fitted
+        with ``input_delay`` delays them itself, as its ``simulate`` does: do
+        not pass ``model.delayed_inputs(X)``.
     y : array-like of shape (n_samples, n_outputs)
         Measured outputs (the model's output states), no NaN.
     Q : array-like of shape (n_states, n_states), (n_states,) or float

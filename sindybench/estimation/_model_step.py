@@ -3,7 +3,10 @@
 :func:`model_step` reads a fitted estimator's ``dynamics_`` (the
 :class:`~sindybench.dynamics.Dynamics` that every sindybench estimator
 exposes) into a :class:`ModelStep`: the compiled right-hand side of the full
-state, which states are measured, the bounds and the simulation settings.
+state, which states are measured, the bounds, the simulation settings and the
+model's input delay (``input_delay``: every estimation function given a model
+and the user's inputs ``X`` delays them by it, through :meth:`ModelStep.delayed`,
+so a user never shifts inputs by hand).
 :meth:`ModelStep.step_model` turns it into the :class:`~sindybench.dynamics.StepModel`
 of the public one-step map (:mod:`sindybench.dynamics`), whose numba kernels
 ``step_kernel`` and ``step_jacobian_kernel`` the filter, the smoother, the
@@ -15,7 +18,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._base import DynamicsEstimator
+from .._preprocessing import delay_inputs
 from .._validation import check_bounds, check_dt, check_integer, check_option, check_positive
 from ..dynamics import TermsRHS, check_output_index, step_model
 
@@ -46,6 +49,11 @@ class ModelStep(NamedTuple):
     state_scale : ndarray of shape (n_states,)
         Standard deviation of each state on the training record (a default
         prior spread and the unit of estimated process noise).
+    input_delay : int, default=0
+        The estimator's ``input_delay``: the dynamics are driven by
+        ``u(t - input_delay dt)``. The filter, the smoother, the k-step
+        prediction and the noise estimate take the user's inputs and delay
+        them themselves (:meth:`delayed`).
     """
 
     rhs: TermsRHS
@@ -60,6 +68,7 @@ class ModelStep(NamedTuple):
     max_abs: float
     x0: np.ndarray
     state_scale: np.ndarray
+    input_delay: int = 0
 
     @property
     def n_states(self):
@@ -67,7 +76,7 @@ class ModelStep(NamedTuple):
 
     @classmethod
     def from_rhs(cls, rhs, dt, *, n_inputs=0, output_index=(0,), bounds=None, n_substeps=1, method="rk4",
-                 input_hold="zoh", max_abs=np.inf, x0=None, state_scale=None):
+                 input_hold="zoh", max_abs=np.inf, x0=None, state_scale=None, input_delay=0):
         """A model given by its right-hand side and simulation settings (defaults as ``simulate``'s).
 
         Examples
@@ -85,7 +94,25 @@ class ModelStep(NamedTuple):
         scale = np.ones(n) if state_scale is None else state_scale
         return cls(rhs=rhs, n_inputs=n_inputs, output_index=output_index, lower=lo, upper=hi, dt=dt,
                    n_substeps=n_substeps, method=method, input_hold=input_hold, max_abs=max_abs, x0=x0,
-                   state_scale=scale).checked()
+                   state_scale=scale, input_delay=input_delay).checked()
+
+    def delayed(self, X):
+        """The inputs the dynamics see: the user's checked ``X`` delayed by ``input_delay`` samples.
+
+        The one place where :mod:`sindybench.estimation` applies a model's
+        delay (the estimator's :meth:`~sindybench.SINDy.delayed_inputs` does
+        the same); row ``k`` holds ``X[k - input_delay]``, the first row held
+        before the start.
+
+        Examples
+        --------
+        >>> from sindybench.libraries import POW
+        >>> rhs = TermsRHS.from_equations([{((0, POW, 1, 0),): -1.0, ((1, POW, 1, 0),): 1.0}])  # x' = -x + u
+        >>> m = ModelStep.from_rhs(rhs, 0.1, n_inputs=1, input_delay=2)
+        >>> m.delayed(np.arange(5.0)[:, None]).ravel().tolist()
+        [0.0, 0.0, 0.0, 1.0, 2.0]
+        """
+        return delay_inputs(X, self.input_delay)
 
     def checked(self):
         """This model with every field checked against the others (what the compiled kernels index with).
@@ -134,7 +161,8 @@ class ModelStep(NamedTuple):
             n_substeps=check_integer(self.n_substeps, "n_substeps"),
             method=check_option(self.method, "method", ("rk4", "euler")),
             input_hold=check_option(self.input_hold, "input_hold", ("zoh", "linear")),
-            max_abs=check_positive(self.max_abs, "max_abs", allow_inf=True), x0=x0, state_scale=scale)
+            max_abs=check_positive(self.max_abs, "max_abs", allow_inf=True), x0=x0, state_scale=scale,
+            input_delay=check_integer(self.input_delay, "input_delay", low=0))
 
     def step_model(self, *, with_inputs=False):
         """The :class:`~sindybench.dynamics.StepModel` of the public one-step map (no coefficient directions).
@@ -204,7 +232,7 @@ def model_step(model):
     if isinstance(model, ModelStep):
         return model.checked()
     name = type(model).__name__
-    if not isinstance(model, DynamicsEstimator):
+    if not getattr(model, "_has_dynamics", False):  # asked, not an import of the estimators (which sit above)
         raise ValueError(f"{name} has no state-space dynamics: the Kalman filter, the smoother, the k-step "
                          "prediction, the noise estimate, the linearization and the CasADi export take SINDy-family "
                          "models only (a fitted SINDy or HiddenStateSINDy, or a ModelStep); ARX and NN-ARX predict "
@@ -223,4 +251,5 @@ def model_step(model):
     scale = state_spread(states) if states is not None else np.ones(dyn.n_states)
     return ModelStep(rhs=dyn.rhs, n_inputs=int(model.n_features_in_), output_index=tuple(dyn.output_index),
                      lower=lo, upper=hi, dt=float(dyn.dt), n_substeps=int(dyn.n_substeps), method=dyn.method,
-                     input_hold=dyn.input_hold, max_abs=float(dyn.max_abs), x0=x0, state_scale=scale).checked()
+                     input_hold=dyn.input_hold, max_abs=float(dyn.max_abs), x0=x0, state_scale=scale,
+                     input_delay=int(getattr(model, "input_delay", 0))).checked()

@@ -8,8 +8,7 @@ from .._records import check_one_record
 from ..dynamics import SimulationError, step_workspace
 from ..dynamics._kernels import run_state_into
 from ..metrics import rmse
-from ._kalman import ONE_RECORD_ADVICE, check_record, extended_kalman_filter, rts_smoother
-from ._model_step import model_step
+from ._kalman import ONE_RECORD_ADVICE, check_filter_args, filter_checked, rts_smoother
 
 __all__ = ["k_step_rmse", "predict_k_step", "smooth_initial_state"]
 
@@ -87,17 +86,16 @@ def predict_k_step(model, X, y, k, *, Q, R, x0=None, P0=None):
     >>> y_pred.shape, bool(np.allclose(y_pred, y[5:], atol=1e-6))
     ((95, 1), True)
     """
-    m = model_step(model)
-    X, y = check_record(m, X, y)
+    m, X, y, Q, R, x0, P0 = check_filter_args(model, X, y, Q, R, x0, P0)  # X delayed by the model's input_delay
     n_samples = y.shape[0]
     k = check_integer(k, "k", low=1, high=max(n_samples - 1, 1))
     if k >= n_samples:
         raise ValueError(f"k = {k} leaves no sample to predict in a record of {n_samples}; expected k < n_samples.")
-    res = extended_kalman_filter(m, X, y, Q=Q, R=R, x0=x0, P0=P0)
+    states = filter_checked(m, X, y, Q, R, x0, P0)[0]["xf"]
     out = np.empty((n_samples - k, len(m.output_index)))
     oidx = np.asarray(m.output_index, dtype=np.int64)
     sm = m.step_model()
-    t = _k_step(res.states, X, m.dt, k, sm, oidx, step_workspace.py_func(sm, X.shape[1])[1:4], out)
+    t = _k_step(states, X, m.dt, k, sm, oidx, step_workspace.py_func(sm, X.shape[1])[1:4], out)
     if t >= 0:
         raise SimulationError(f"the {k}-step prediction from sample {t} diverged.", step=int(t))
     return out

@@ -183,6 +183,9 @@ def _band(estimator, X, y, tests, test_info, *, n_members, seed):
         info.update(status=_failed(exc), time_s=time.perf_counter() - start)
         return info
     info.update(n_failed=int(ens.n_failed_), block_length=int(ens.block_length_))
+    from ..uncertainty._conformal import calibration_ranges, extrapolation
+
+    ranges = calibration_ranges(X, y)  # the members were fitted on resamples of the estimation record
     for name, test in tests.items():
         u, yt = test_record(test)
         n_init, first = test_info[name]["n_init"], test_info[name]["score_from"]
@@ -192,7 +195,8 @@ def _band(estimator, X, y, tests, test_info, *, n_members, seed):
         except Exception as exc:
             info["coverage"][name] = {"coverage": None, "status": _failed(exc)}
             continue
-        entry = {"n_diverged": band.n_diverged, "status": "ok"}
+        entry = {"n_diverged": band.n_diverged, "status": "ok",
+                 "extrapolation": extrapolation(ranges, u, band.median[:, band.outputs])}
         for tag, b in (("", band), ("measurement_", noisy)):
             lo, hi = b.lower[first:, b.outputs], b.upper[first:, b.outputs]
             entry[tag + "coverage"] = float(np.mean((yt[first:] >= lo) & (yt[first:] <= hi)))
@@ -247,7 +251,7 @@ def _conformal(estimator, X_val, y_val, tests, test_info, simulations=None, *, c
     ``calibrated``: the model whose validation errors set the half-width
     (default ``estimator``); the band is drawn around ``estimator``'s prediction.
     """
-    from ..uncertainty import conformal_calibration
+    from ..uncertainty import ExtrapolationWarning, conformal_calibration
 
     start = time.perf_counter()
     out = {"alpha": 0.05, "protocol": CONFORMAL_PROTOCOL if calibrated is None else HELD_OUT_PROTOCOL,
@@ -263,15 +267,27 @@ def _conformal(estimator, X_val, y_val, tests, test_info, simulations=None, *, c
                                                                     n_init=n_init, score_from=first)
             cal = calibrations[n_init, first]
             y_pred = (simulations or {}).get(name)
-            band = cal.band(estimator, u, y_init=yt[:n_init]) if y_pred is None else cal.around(y_pred)
+            with warnings.catch_warnings():  # an extrapolating band is recorded below, not printed
+                warnings.simplefilter("ignore", ExtrapolationWarning)
+                band = cal.band(estimator, u, y_init=yt[:n_init]) if y_pred is None else cal.around(y_pred, X=u)
         except Exception as exc:
             out["coverage"][name] = {"coverage": None, "status": _failed(exc)}
             continue
         out["name"] = cal.name if calibrated is estimator else HELD_OUT_NAME
         out["coverage"][name] = {"coverage": band.coverage(yt, first), "mean_width": band.mean_width(first),
-                                 "half_width": cal.half_width.tolist(), "n_scores": cal.n_scores, "status": "ok"}
+                                 "half_width": cal.half_width.tolist(), "n_scores": cal.n_scores, "status": "ok",
+                                 "extrapolation": band.extrapolation}
     out.update(status="ok", time_s=time.perf_counter() - start)
     return out
+
+
+def _extrapolation_note(found):
+    """``"; extrapolates: ..."`` when the test left the band's calibration range (``ConformalBand.extrapolation``)."""
+    if not found or not found.get("fraction"):
+        return ""
+    return (f"; **extrapolates**: {100 * found['fraction']:.1f} % of the test samples outside the calibration "
+            f"range (inputs {100 * found['fraction_inputs']:.1f} %, predicted outputs "
+            f"{100 * found['fraction_outputs']:.1f} %; calibration record: {found['calibration']}), not calibrated there")
 
 
 def report_best_model(benchmark, results, fitted, X, y, n_train, tests, *, quick, seed=0, simulations=None):
@@ -387,14 +403,16 @@ def best_model_markdown(best, h="##"):
         if conformal.get("status") != "ok":
             out.append(f"{conformal['name']}: {conformal.get('status')}.")
             continue
-        cells = ", ".join(f"`{k}` " + (f"{v['coverage']:.3f} (mean width {v['mean_width']:.3g})" if v["status"] == "ok"
+        cells = ", ".join(f"`{k}` " + (f"{v['coverage']:.3f} (mean width {v['mean_width']:.3g}"
+                                        f"{_extrapolation_note(v.get('extrapolation'))})" if v["status"] == "ok"
                                         else v["status"]) for k, v in conformal["coverage"].items())
         out.append(f"{conformal.get('name', 'conformal 95 % free-run band')} ({conformal['protocol']}; "
                    f"{conformal['time_s']:.2f} s): coverage {cells}.")
     band = best.get("band", {})
     if band.get("status") == "ok":
         cov = ", ".join(f"`{k}` {_num(v['coverage'], '.3f')} (with the residuals: "
-                        f"{_num(v.get('measurement_coverage'), '.3f')})" for k, v in band["coverage"].items())
+                        f"{_num(v.get('measurement_coverage'), '.3f')}{_extrapolation_note(v.get('extrapolation'))})"
+                        for k, v in band["coverage"].items())
         out.append(f"95 % prediction band ({band['protocol']}; {band['n_failed']} failed fits): coverage {cov}.")
     else:
         out.append(f"95 % prediction band: {band.get('status', '-')}.")

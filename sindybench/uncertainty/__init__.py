@@ -18,7 +18,8 @@ from .._covariance import ParameterCovariance, parameter_covariance
 from .._residual_tests import ModelErrorWarning, ResidualTest, residual_test
 from ._bands import PredictionBand, prediction_band
 from ._bootstrap import BootstrapEnsemble, circular_block_indices
-from ._conformal import ConformalBand, ConformalCalibration, conformal_calibration, conformal_quantile
+from ._conformal import (ConformalBand, ConformalCalibration, ExtrapolationWarning, conformal_calibration,
+                         conformal_quantile)
 from ._covariance import confidence_intervals, standard_errors
 from ._residuals import ResidualAnalysis, k_step_prediction, residual_analysis
 
@@ -26,6 +27,7 @@ __all__ = [
     "BootstrapEnsemble",
     "ConformalBand",
     "ConformalCalibration",
+    "ExtrapolationWarning",
     "ModelErrorWarning",
     "ParameterCovariance",
     "PredictionBand",

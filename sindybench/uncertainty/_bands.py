@@ -10,8 +10,8 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._divergence import DivergenceWarning
 from .._limits import check_memory
-from .._validation import check_signal
-from ._bootstrap import BootstrapEnsemble, check_alpha, circular_block_indices
+from .._validation import check_alpha, check_signal
+from ._bootstrap import BootstrapEnsemble, circular_block_indices
 
 __all__ = ["PredictionBand", "prediction_band"]
 

@@ -30,7 +30,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from .._base import DynamicsEstimator
 from .._limits import check_memory
-from .._validation import check_integer, is_records
+from .._validation import check_alpha, check_integer, is_records
 from ..io import SaveLoadMixin, register_model
 from .._covariance import insignificant_lag
 from ..simulate import SimulationError
@@ -65,13 +65,6 @@ def circular_block_indices(n, block_length, rng, n_source=None):
     starts = rng.integers(0, n_source, n_blocks) if hasattr(rng, "integers") else rng.randint(0, n_source, n_blocks)
     length = min(block_length, n)  # a longer block is cut at n anyway: never allocate past it
     return ((starts[:, None] + np.arange(length)[None, :]) % n_source).ravel()[:n]
-
-
-def check_alpha(alpha, what):
-    """``alpha`` as a float in (0, 1): ``1 - alpha`` ``what`` (bands, intervals)."""
-    if isinstance(alpha, bool) or not isinstance(alpha, numbers.Real) or not 0.0 < alpha < 1.0:
-        raise ValueError(f"alpha must be in (0, 1) (0.05 gives 95 % {what}); got {alpha!r}.")
-    return float(alpha)
 
 
 def _auto_block_length(e):

@@ -40,15 +40,15 @@ check it gives MAPIE's ``SplitConformalRegressor`` bounds on the same scores.
 """
 
 import math
+import warnings
 from typing import NamedTuple
 
 import numpy as np
 
-from .._validation import check_integer
-from ._bootstrap import check_alpha
+from .._validation import check_alpha, check_integer
 from ._residuals import check_record, free_run_prediction, k_step_prediction
 
-__all__ = ["ConformalBand", "ConformalCalibration", "conformal_calibration", "conformal_quantile"]
+__all__ = ["ConformalBand", "ConformalCalibration", "ExtrapolationWarning", "conformal_calibration", "conformal_quantile"]
 
 
 def conformal_quantile(scores, alpha):
@@ -99,6 +99,11 @@ class ConformalBand(NamedTuple):
         a k-step prediction, whose first ``k`` samples have no prediction).
     name : str
         The band's name in reports (``"conformal 95 % free-run band"``).
+    extrapolation : dict or None
+        Where the record leaves the range the band was calibrated on
+        (:func:`extrapolation`): the fractions of its samples whose inputs,
+        predicted outputs, or either lie outside the calibration record's, and
+        that record; ``None`` when the calibration kept no range.
     """
 
     prediction: np.ndarray
@@ -106,6 +111,7 @@ class ConformalBand(NamedTuple):
     upper: np.ndarray
     start: int
     name: str
+    extrapolation: dict = None
 
     def _measured(self, y, first):
         y = np.asarray(y, dtype=float).reshape(len(y), -1)
@@ -142,6 +148,11 @@ class ConformalCalibration(NamedTuple):
     block_length : int
     n_init : int
         Samples that start a free run (``y_init``).
+    ranges : dict or None
+        The calibration record's range (:func:`calibration_ranges`): of its
+        inputs and of the model's predicted outputs; a band of a record
+        outside it warns (:class:`ExtrapolationWarning`). ``None`` for a
+        calibration saved before the ranges were kept.
     """
 
     alpha: float
@@ -151,6 +162,7 @@ class ConformalCalibration(NamedTuple):
     n_blocks: int
     block_length: int
     n_init: int
+    ranges: dict = None
 
     @property
     def name(self):
@@ -197,21 +209,30 @@ class ConformalCalibration(NamedTuple):
                 raise ValueError(f"a {self.horizon}-step band needs y, the measured outputs of the record.")
             X, y = check_record(X, y, "ConformalCalibration.band")
             pred, start = k_step_prediction(model, X, y, self.horizon, Q=Q, R=R), self.horizon
-        return self.around(pred, start)
+        return self._around(pred, start, X, stacklevel=3)
 
-    def around(self, prediction, start=0):
+    def around(self, prediction, start=0, *, X=None):
         """The band around a prediction already made (the free run, or the k-step prediction of ``y[start:]``).
+
+        Warns (:class:`ExtrapolationWarning`) when the record's inputs ``X`` or
+        the prediction leave the range of the calibration record.
 
         Parameters
         ----------
         prediction : array-like of shape (n_predicted, n_outputs)
         start : int, default=0
             The first sample predicted (``horizon`` for a k-step prediction).
+        X : array-like of shape (n_samples, n_inputs), optional
+            The record's inputs (checked against the calibration's input range).
 
         Returns
         -------
         ConformalBand
         """
+        return self._around(prediction, start, X, stacklevel=3)
+
+    def _around(self, prediction, start, X, *, stacklevel):
+        """:meth:`around`; its warning points ``stacklevel`` frames up (at the user's call of ``band`` or ``around``)."""
         pred = np.asarray(prediction, dtype=float)
         pred = pred.reshape(len(pred), -1)
         if pred.shape[1] != self.half_width.shape[0]:
@@ -219,13 +240,22 @@ class ConformalCalibration(NamedTuple):
                              f"{self.half_width.shape[0]} (another model?).")
         if not np.all(np.isfinite(pred)):
             raise ValueError("the prediction contains NaN or inf (a diverged simulation); expected a finite one.")
-        return ConformalBand(pred, pred - self.half_width, pred + self.half_width, int(start), self.name)
+        found = None if self.ranges is None else extrapolation(self.ranges, None if X is None else X[int(start):], pred)
+        if found is not None and found["fraction"] > 0:
+            warnings.warn(f"the {self.name} extrapolates: {100 * found['fraction']:.1f} % of the record's samples "
+                          f"(inputs {100 * found['fraction_inputs']:.1f} %, predicted outputs "
+                          f"{100 * found['fraction_outputs']:.1f} %) lie outside the range of its calibration record "
+                          f"({found['calibration']}); the band is not calibrated there.", ExtrapolationWarning,
+                          stacklevel=stacklevel)
+        return ConformalBand(pred, pred - self.half_width, pred + self.half_width, int(start), self.name, found)
 
     def to_dict(self):
         """JSON-able dict; :meth:`from_dict` inverts it."""
         return {"alpha": self.alpha, "horizon": self.horizon, "half_width": self.half_width.tolist(),
                 "n_scores": self.n_scores, "n_blocks": self.n_blocks, "block_length": self.block_length,
-                "n_init": self.n_init, "name": self.name}
+                "n_init": self.n_init, "name": self.name,
+                "ranges": None if self.ranges is None else {k: np.asarray(v).tolist() if k != "n_samples" else v
+                                                            for k, v in self.ranges.items()}}
 
     @classmethod
     def from_dict(cls, data):
@@ -233,7 +263,84 @@ class ConformalCalibration(NamedTuple):
         horizon = data["horizon"]
         return cls(float(data["alpha"]), None if horizon is None else int(horizon),
                    np.asarray(data["half_width"], dtype=float).reshape(-1), int(data["n_scores"]),
-                   int(data["n_blocks"]), int(data["block_length"]), int(data["n_init"]))
+                   int(data["n_blocks"]), int(data["block_length"]), int(data["n_init"]),
+                   _ranges_from_dict(data.get("ranges")))  # absent in dicts written before the ranges were kept
+
+
+class ExtrapolationWarning(UserWarning):
+    """A band is asked for a record outside the range it was calibrated on (its coverage is not calibrated there)."""
+
+
+def calibration_ranges(X, prediction):
+    """The range (per column, min and max) of a calibration record's inputs and of the model's prediction of it.
+
+    Examples
+    --------
+    >>> r = calibration_ranges(np.array([[0.0], [2.0]]), np.array([[1.0], [-1.0]]))
+    >>> r["inputs"].tolist(), r["outputs"].tolist(), r["n_samples"]
+    ([[0.0], [2.0]], [[-1.0], [1.0]], 2)
+    """
+    pred = np.asarray(prediction, dtype=float)
+    pred = pred.reshape(len(pred), -1)
+    X = np.zeros((len(pred), 0)) if X is None else np.asarray(X, dtype=float).reshape(len(X), -1)
+    return {"inputs": np.vstack([X.min(axis=0), X.max(axis=0)]) if len(X) else np.zeros((2, X.shape[1])),
+            "outputs": np.vstack([pred.min(axis=0), pred.max(axis=0)]), "n_samples": int(len(pred))}
+
+
+def _ranges_from_dict(data):
+    if data is None:
+        return None
+    return {"inputs": np.asarray(data["inputs"], dtype=float).reshape(2, -1),
+            "outputs": np.asarray(data["outputs"], dtype=float).reshape(2, -1), "n_samples": int(data["n_samples"])}
+
+
+def _outside(values, bounds):
+    if values.shape[1] == 0 or values.shape[1] != bounds.shape[1]:
+        return np.zeros(len(values), dtype=bool)
+    return np.any((values < bounds[0]) | (values > bounds[1]), axis=1)
+
+
+def _interval_text(bounds):
+    return ", ".join(f"[{lo:.3g}, {hi:.3g}]" for lo, hi in zip(*bounds))
+
+
+def extrapolation(ranges, X, prediction):
+    """Where a record leaves a calibration's ranges (:func:`calibration_ranges`): fractions of its samples.
+
+    Parameters
+    ----------
+    ranges : dict
+    X : array-like of shape (n_samples, n_inputs) or None
+        The record's inputs, row for row with ``prediction``.
+    prediction : array-like of shape (n_samples, n_outputs)
+
+    Returns
+    -------
+    dict
+        ``fraction_inputs``, ``fraction_outputs`` (samples with an input, or
+        a predicted output, outside the calibration's range), ``fraction``
+        (either), ``n_samples`` and ``calibration`` (the calibration record in
+        words: its length and ranges).
+
+    Examples
+    --------
+    >>> r = calibration_ranges(np.array([[0.0], [2.0]]), np.array([[1.0], [-1.0]]))
+    >>> e = extrapolation(r, np.array([[1.0], [3.0], [1.0], [1.0]]), np.array([[0.0], [0.0], [5.0], [0.5]]))
+    >>> e["fraction_inputs"], e["fraction_outputs"], e["fraction"]
+    (0.25, 0.25, 0.5)
+    """
+    pred = np.asarray(prediction, dtype=float)
+    pred = pred.reshape(len(pred), -1)
+    out_u = np.zeros(len(pred), dtype=bool)
+    if X is not None:
+        X = np.asarray(X, dtype=float).reshape(len(X), -1)[:len(pred)]
+        out_u[:len(X)] = _outside(X, ranges["inputs"])
+    out_y = _outside(pred, ranges["outputs"])
+    n = max(len(pred), 1)
+    calibration = (f"{ranges['n_samples']} samples; inputs in {_interval_text(ranges['inputs']) or 'none'}, "
+                   f"predicted outputs in {_interval_text(ranges['outputs'])}")
+    return {"fraction_inputs": float(out_u.sum() / n), "fraction_outputs": float(out_y.sum() / n),
+            "fraction": float((out_u | out_y).sum() / n), "n_samples": int(len(pred)), "calibration": calibration}
 
 
 def _blocks(n, block_length, need, what):
@@ -320,13 +427,18 @@ def conformal_calibration(model, X, y, *, alpha=0.05, horizon=None, block_length
         horizon = check_integer(horizon, "horizon", low=1)
         n_init = 0
         blocks, length = _blocks(n, block_length, horizon, "the horizon")
-    scores = []
+    scores, inputs, predictions = [], [], []
     for i, (a, b) in enumerate(blocks):
         Xb = None if X is None else X[a:b]
         if horizon is None:
-            err = (y[a:b] - free_run_prediction(model, Xb, y[a:b], n_init))[score_from:]
+            pred = free_run_prediction(model, Xb, y[a:b], n_init)
+            err = (y[a:b] - pred)[score_from:]
         else:
-            err = y[a + horizon:b] - k_step_prediction(model, Xb, y[a:b], horizon, Q=Q, R=R)
+            pred = k_step_prediction(model, Xb, y[a:b], horizon, Q=Q, R=R)
+            err = y[a + horizon:b] - pred
+        predictions.append(pred)
+        if Xb is not None:
+            inputs.append(Xb)
         if not np.all(np.isfinite(err)):
             raise ValueError(f"the {'free run' if horizon is None else f'{horizon}-step prediction'} of calibration "
                              f"block {i} (samples {a}-{b}) diverged: NaN errors; expected a model that predicts "
@@ -334,4 +446,5 @@ def conformal_calibration(model, X, y, *, alpha=0.05, horizon=None, block_length
         scores.append(np.abs(err))
     scores = np.vstack(scores)
     q = conformal_quantile(scores, alpha)
-    return ConformalCalibration(alpha, horizon, q, int(scores.shape[0]), len(blocks), int(length), int(n_init))
+    ranges = calibration_ranges(np.vstack(inputs) if inputs else None, np.vstack(predictions))
+    return ConformalCalibration(alpha, horizon, q, int(scores.shape[0]), len(blocks), int(length), int(n_init), ranges)

@@ -206,34 +206,54 @@ def _cell(row, key, fmt):
     return "" if value is None else format(value, fmt)
 
 
+def _list_table(header, body, widths=None):
+    lines = [".. list-table::", "   :header-rows: 1"]
+    if widths:
+        lines.append(f"   :widths: {widths}")
+    lines.append("")
+    for cells in [header] + body:
+        lines.append(f"   * - {cells[0]}")
+        lines += [f"     - {c}" for c in cells[1:]]
+    return lines + [""]
+
+
 def write_table(rows, path, *, subset, seed):
-    """The results as an rst list-table (one row per system and method)."""
+    """The results in rst: the fit index per system and method (best in bold), then every score."""
+    methods = [m for m in METHODS if any(r["method"] == m for r in rows)]
+    systems = list(dict.fromkeys(r["system"] for r in rows))
+    by_key = {(r["system"], r["method"]): r for r in rows}
+    summary = []
+    for name in systems:
+        fits = {m: by_key[name, m].get("fit_index") for m in methods if (name, m) in by_key}
+        best = max((v for v in fits.values() if v is not None), default=None)
+        cells = [name]
+        for m in methods:
+            row = by_key.get((name, m))
+            text = "" if row is None else _cell(row, "fit_index", ".1f")
+            cells.append(f"**{text}**" if row is not None and fits.get(m) is not None and fits[m] == best else text)
+        summary.append(cells)
+    medians = ["median"]
+    for m in methods:
+        values = [by_key[name, m]["fit_index"] if by_key[name, m].get("fit_index") is not None else -np.inf
+                  for name in systems if (name, m) in by_key]
+        medians.append(f"{np.median(values):.1f}" if values else "")
+    summary.append(medians)
+    detail = [[r["system"], r["method"], _cell(r, "fit_index", ".1f"), _cell(r, "rmse", ".4g"), _cell(r, "r2", ".4f"),
+               _cell(r, "n_terms", "d"), _cell(r, "cpu_s", ".1f"), str(r.get("chosen", "")).replace("*", "\\*")]
+              for r in rows]
     lines = [
         ".. This file is written by benchmarks/bench_zoo.py; do not edit by hand.",
         "",
         f"Seed {seed}; systems: {subset}. Free run on the test record from its first {N_INIT} measured samples, "
-        "scored on the rest against the measured output; CPU seconds of one thread for the whole method "
-        "(tuning, fit, test simulation).",
+        "scored on the rest against the measured output. Fit index in percent (a failed or diverged "
+        "simulation counts as minus infinity in the median):",
         "",
-        ".. list-table::",
-        "   :header-rows: 1",
-        "",
-        "   * - system",
-        "     - method",
-        "     - fit index (%)",
-        "     - RMSE",
-        "     - R\\ :sup:`2`",
-        "     - terms",
-        "     - CPU (s)",
-        "     - chosen",
     ]
-    for row in rows:
-        cells = [row["system"], row["method"], _cell(row, "fit_index", ".1f"), _cell(row, "rmse", ".4g"),
-                 _cell(row, "r2", ".4f"), _cell(row, "n_terms", "d"), _cell(row, "cpu_s", ".1f"),
-                 str(row.get("chosen", "")).replace("*", "\\*")]
-        lines.append(f"   * - {cells[0]}")
-        lines += [f"     - {c}" for c in cells[1:]]
-    Path(path).write_text("\n".join(lines) + "\n")
+    lines += _list_table(["system"] + methods, summary)
+    lines += ["Every score; CPU seconds of one thread for the whole method (tuning, fit, test simulation):", ""]
+    lines += _list_table(["system", "method", "fit index (%)", "RMSE", "R\\ :sup:`2`", "terms", "CPU (s)", "chosen"],
+                         detail)
+    Path(path).write_text("\n".join(lines))
 
 
 def main(argv=None):
@@ -243,7 +263,11 @@ def main(argv=None):
     parser.add_argument("--methods", default=",".join(METHODS), help="comma-separated, from " + ", ".join(METHODS))
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default=None, help="rst table to write (e.g. docs/zoo_table.rst)")
-    parser.add_argument("--json", default=None, help="also write the rows as JSON")
+    parser.add_argument("--json", default=None, help="also write the rows as JSON (after every system)")
+    parser.add_argument("--merge", default=None, help="rows of an earlier run (its --json) to keep where this run "
+                                                      "has none; the table then holds both")
+    parser.add_argument("--subset-text", default=None, help="how the table names its systems (default: from the "
+                                                            "options)")
     parser.add_argument("--threads", default="1", help="threads of numba and BLAS (default 1)")
     args = parser.parse_args(argv)
     if args.systems:
@@ -260,6 +284,7 @@ def main(argv=None):
         parser.error(f"unknown methods {unknown}; expected some of {list(METHODS)}")
     if "fastcan" in methods:
         _fastcan()  # a clear message before any work if it is missing
+    earlier = json.loads(Path(args.merge).read_text()) if args.merge else []
     rows = []
     for system in systems:
         rec = system.record(args.seed)
@@ -269,10 +294,14 @@ def main(argv=None):
             print(f"{row['system']:30s} {method:9s} fit {_cell(row, 'fit_index', '.1f'):>8s}  "
                   f"rmse {_cell(row, 'rmse', '.4g'):>10s}  terms {_cell(row, 'n_terms', 'd'):>5s}  "
                   f"cpu {row['cpu_s']:6.1f} s  {row.get('chosen', '')}", flush=True)
+        if args.json:
+            Path(args.json).write_text(json.dumps(rows, indent=1, default=str))
+    new = {(r["system"], r["method"]) for r in rows}
+    order = {name: i for i, name in enumerate(s.name for s in zoo_systems())}
+    rows = sorted([r for r in earlier if (r["system"], r["method"]) not in new] + rows,
+                  key=lambda r: (order.get(r["system"], len(order)), list(METHODS).index(r["method"])))
     if args.out:
-        write_table(rows, args.out, subset=subset, seed=args.seed)
-    if args.json:
-        Path(args.json).write_text(json.dumps(rows, indent=1, default=str))
+        write_table(rows, args.out, subset=args.subset_text or subset, seed=args.seed)
 
 
 if __name__ == "__main__":

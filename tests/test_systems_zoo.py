@@ -184,6 +184,10 @@ def test_excitation_kinds(kind, params, check):
 def test_bad_arguments_are_refused():
     with pytest.raises(ValueError, match="kind must be one of"):
         Excitation("chirp")
+    with pytest.raises(ValueError, match="a 'steps' excitation takes"):
+        Excitation("steps", low=0.0, hold=3)
+    with pytest.raises(ValueError, match="a 'prbs' excitation takes"):
+        Excitation("prbs", amplitud=1.0)
     with pytest.raises(ValueError, match="unknown system 'nope'"):
         get_system("nope")
     with pytest.raises(ValueError, match="unknown tags"):

@@ -76,10 +76,23 @@ class Excitation:
     """
 
     KINDS = ("prbs", "steps", "multisine", "filtered_noise")
+    # kind -> (required parameters, optional parameters)
+    _PARAMS = {
+        "prbs": ((), ("amplitude", "offset", "hold")),
+        "steps": (("low", "high", "hold"), ()),
+        "multisine": (("f_max",), ("f_min", "std", "offset")),
+        "filtered_noise": (("f_max",), ("std", "offset")),
+    }
 
     def __init__(self, kind, **params):
         if kind not in self.KINDS:
             raise ValueError(f"kind must be one of {list(self.KINDS)}; got {kind!r}.")
+        required, optional = self._PARAMS[kind]
+        missing = [p for p in required if p not in params]
+        unknown = sorted(set(params) - set(required) - set(optional))
+        if missing or unknown:
+            raise ValueError(f"a {kind!r} excitation takes {list(required)} and optionally {list(optional)}; "
+                             f"got {sorted(params)}.")
         self.kind = kind
         self.params = params
 

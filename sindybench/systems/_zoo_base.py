@@ -328,6 +328,22 @@ class ZooSystem:
         One paragraph for the docs.
     truth : dict, optional
         Facts the tests check (``dc_gain``, ``open_loop_poles``, ...).
+
+    See Also
+    --------
+    sindybench.systems.zoo_systems : the registry, filtered by tags.
+
+    Examples
+    --------
+    >>> from sindybench.systems import get_system
+    >>> system = get_system("dead_time")
+    >>> system.tags, system.truth["delay"]
+    (('linear', 'dead_time'), 10)
+    >>> rec = system.record(0, n_samples=500, n_test=200)
+    >>> rec.u.shape, rec.y.shape, rec.y_test_true.shape
+    ((500, 1), (500, 1), (200, 1))
+    >>> bool(np.all(rec.y_true[:11] == 0.0))  # at rest until the delayed input arrives
+    True
     """
 
     def __init__(self, name, *, equations, tags, excitation, dt, n_samples, n_test, noise, noise_colour="white",

@@ -203,6 +203,8 @@ def _cell(row, key, fmt):
     value = row.get(key)
     if row.get("status") != "ok" and key in ("fit_index", "rmse", "r2"):
         return row.get("status", "")[:30]
+    if key in ("fit_index", "r2") and value is not None and value < -999:
+        return "< -999"  # drifted far away: the digits say nothing more
     return "" if value is None else format(value, fmt)
 
 

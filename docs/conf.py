@@ -31,6 +31,7 @@ sys.path.insert(0, str(HERE))
 from _apiref import write_api_reference  # noqa: E402  (docs helpers beside this file)
 from _casestudy import write_case_study_snippets  # noqa: E402
 from _notebooks import write_notebooks  # noqa: E402
+from _zoo import write_zoo_systems  # noqa: E402
 
 project = "sindybench"
 author = "sindybench developers"
@@ -54,13 +55,15 @@ numpydoc_class_members_toctree = False
 nitpicky = False
 
 templates_path = ["_templates"]
-exclude_patterns = ["_build", "_generated", "jupyter_execute", "Thumbs.db", ".DS_Store"]
+# zoo_table.rst: written by benchmarks/bench_zoo.py, included by zoo.rst
+exclude_patterns = ["_build", "_generated", "jupyter_execute", "zoo_table.rst", "Thumbs.db", ".DS_Store"]
 html_theme = "alabaster"
 html_static_path = ["_static"]
 html_theme_options = {"description": "SINDy with control for hidden states and hard nonlinearities"}
 
 write_case_study_snippets(HERE / "_generated", tuple(BENCHMARKS))  # the registry's benchmarks
 write_api_reference(HERE / "api.rst")  # generated: lists every public name
+write_zoo_systems(HERE / "_generated" / "zoo_systems.rst")  # the zoo's registry, for zoo.rst
 write_notebooks(HERE / "notebooks", HERE / "_generated" / "notebooks", HERE.parent / "examples")
 
 # myst-nb: executed outputs are reused (see _notebooks.py); a failing cell fails the build

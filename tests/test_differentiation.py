@@ -411,3 +411,13 @@ def test_data_differentiation_follows_the_bandwidth():
     assert as_differentiation("auto", slow, 0.01).window_length == w_slow
     with pytest.raises(ValueError, match="differentiation must be None, 'auto'"):
         as_differentiation("spline")
+
+
+def test_sindy_resolves_auto_differentiation_from_the_record():
+    from sindybench import SINDy
+    from sindybench.differentiation import data_differentiation
+
+    t = np.arange(1500) * 0.01
+    y = np.c_[np.sin(t), np.cos(t)]
+    model = SINDy(differentiation="auto", dt=0.01).fit(None, y)
+    assert model.differentiation_.window_length == data_differentiation(y, 0.01).window_length

@@ -44,8 +44,10 @@ class SINDy(DynamicsEstimator):
         Sparse regression ``fit(Theta, y_dot)`` exposing ``coef_`` of shape
         (n_states, n_terms); None means the default :class:`~sindybench.STLS`
         (threshold 0.1), whose ``optimizer__threshold`` is searchable.
-    differentiation : differentiation method or None, default=FiniteDifference()
-        Estimates ``y'`` from ``y``; None means the default; pysindy
+    differentiation : differentiation method, "auto" or None, default=FiniteDifference()
+        Estimates ``y'`` from ``y``; None means the default; ``"auto"``: the
+        method the (first) record's bandwidth chooses
+        (:func:`~sindybench.differentiation.data_differentiation`); pysindy
         differentiation objects are accepted.
     dt : float or None, default=None
         Sampling interval, used unless ``fit``/``simulate`` receive ``dt`` or ``t``.
@@ -247,10 +249,11 @@ class SINDy(DynamicsEstimator):
         dt, t = self._resolve_time(dt, t, ys[0].shape[0], self.dt)
         if self.refine is not None and t is not None:
             raise ValueError("refine needs uniformly sampled data (dt); got sample times t.")
-        differentiation = clone(as_differentiation(self.differentiation))
+        fitted_dt = dt if dt is not None else uniform_step(t)
+        # "auto": the first record's bandwidth chooses the derivative
+        differentiation = clone(as_differentiation(self.differentiation, ys[0], fitted_dt))
         derivatives = [self._derivative(differentiation, y_r, x_dot_r, dt, t, r, several)
                        for r, (y_r, x_dot_r) in enumerate(zip(ys, x_dots))]
-        fitted_dt = dt if dt is not None else uniform_step(t)
         return self._fit_stacked(differentiation, Xs, ys, derivatives, fitted_dt, y_1d)
 
     @staticmethod

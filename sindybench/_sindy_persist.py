@@ -88,11 +88,13 @@ def fitted_parts(model, fitted, default_optimizer):
     """
     expected = type(model.optimizer) if model.optimizer is not None else default_optimizer
     optimizer = check_fitted_kind(fitted_from_dict(fitted.fields("optimizer")), expected, "fitted.optimizer")
-    expected = type(check_params(as_differentiation, model.differentiation))
     differentiation = fitted.value("differentiation")
     if not isinstance(differentiation, BaseDifferentiation):
         raise ValueError(f"fitted.differentiation: expected a differentiation method; "
                          f"got {type(differentiation).__name__}.")
+    # "auto" fits whichever method the record chose
+    expected = (type(differentiation) if isinstance(model.differentiation, str) and model.differentiation == "auto"
+                else type(check_params(as_differentiation, model.differentiation)))
     return optimizer, check_fitted_kind(differentiation, expected, "fitted.differentiation")
 
 

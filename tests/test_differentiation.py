@@ -396,3 +396,28 @@ def test_a_step_the_stencil_cannot_resolve_is_a_value_error(dt):
         # weights that overflow give inf or NaN (a NaN "strategy states" error before)
         with pytest.raises(ValueError, match="FiniteDifference gave NaN or inf derivatives of the finite y"):
             FiniteDifference().derivative(y, dt=1e300)
+
+
+def test_data_differentiation_follows_the_bandwidth():
+    from sindybench.differentiation import as_differentiation, bandwidth, data_differentiation
+
+    t = np.arange(3000) * 0.01
+    slow, fast = np.sin(2 * np.pi * 0.2 * t)[:, None], np.sin(2 * np.pi * 5.0 * t)[:, None]
+    assert bandwidth(slow, 0.01) < bandwidth(fast, 0.01)
+    w_slow, w_fast = data_differentiation(slow, 0.01).window_length, data_differentiation(fast, 0.01).window_length
+    assert w_fast < w_slow and w_slow % 2 == 1 and w_fast % 2 == 1
+    assert data_differentiation(slow[:100], 0.01).window_length <= 20  # at most a fifth of the record
+    assert isinstance(data_differentiation(slow[:10], 0.01), FiniteDifference)  # too short for a window
+    assert as_differentiation("auto", slow, 0.01).window_length == w_slow
+    with pytest.raises(ValueError, match="differentiation must be None, 'auto'"):
+        as_differentiation("spline")
+
+
+def test_sindy_resolves_auto_differentiation_from_the_record():
+    from sindybench import SINDy
+    from sindybench.differentiation import data_differentiation
+
+    t = np.arange(1500) * 0.01
+    y = np.c_[np.sin(t), np.cos(t)]
+    model = SINDy(differentiation="auto", dt=0.01).fit(None, y)
+    assert model.differentiation_.window_length == data_differentiation(y, 0.01).window_length

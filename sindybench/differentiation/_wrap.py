@@ -2,8 +2,9 @@
 
 import numpy as np
 
+from ._auto import data_differentiation
 from ._base import BaseDifferentiation
-from ._local import FiniteDifference
+from ._local import FiniteDifference, SavitzkyGolay
 
 __all__ = ["PySINDyDifferentiation", "as_differentiation"]
 
@@ -56,12 +57,14 @@ class PySINDyDifferentiation(BaseDifferentiation):
         return out if order == 1 else self._call(out, t, step)
 
 
-def as_differentiation(obj):
+def as_differentiation(obj, y=None, dt=None):
     """Return a sindybench differentiation method for ``obj``.
 
-    ``None`` gives ``FiniteDifference()``; sindybench methods pass through
-    unchanged; pysindy differentiation objects are wrapped in
-    :class:`PySINDyDifferentiation`.
+    ``None`` gives ``FiniteDifference()``; ``"auto"`` the method the record
+    ``y`` sampled at ``dt`` chooses (:func:`data_differentiation`; without
+    ``y``, a Savitzky-Golay filter of the default window stands for it);
+    sindybench methods pass through unchanged; pysindy differentiation
+    objects are wrapped in :class:`PySINDyDifferentiation`.
 
     Examples
     --------
@@ -73,11 +76,15 @@ def as_differentiation(obj):
     """
     if obj is None:
         return FiniteDifference()
+    if isinstance(obj, str) and obj == "auto":
+        if y is None or dt is None:
+            return SavitzkyGolay()
+        return data_differentiation(y, dt)
     if isinstance(obj, BaseDifferentiation):
         return obj
     if hasattr(obj, "_differentiate"):
         return PySINDyDifferentiation(method=obj)
     raise ValueError(
-        "differentiation must be None, a sindybench.differentiation method or a pysindy "
+        "differentiation must be None, 'auto', a sindybench.differentiation method or a pysindy "
         f"differentiation object; got {obj!r}."
     )

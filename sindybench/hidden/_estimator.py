@@ -15,7 +15,7 @@ from .._equations import EquationRow
 from ..optimizers import STLS
 from .._validation import check_bool, check_dt, check_integer, check_option
 from .._records import in_record
-from ..differentiation import FiniteDifference, as_differentiation
+from ..differentiation import as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name
 from ..search import SEARCH_PENALTY, Categorical, check_search_space, minimize
@@ -73,10 +73,15 @@ class HiddenStateSINDy(DynamicsEstimator):
         Sparse regressor with ``coef_`` (n_targets, n_features); the default
         is plain least squares (None means the same), and
         ``optimizer__threshold`` sets sparsity in the units of your problem.
-    differentiation : object, default=FiniteDifference(accuracy=4)
+    differentiation : object or "auto", default="auto"
         Derivative method with ``derivative(y, *, dt, order)`` (see
         :mod:`sindybench.differentiation`); None means finite differences.
-        The default was ``FiniteDifference()`` (accuracy 2) before 0.2.
+        ``"auto"``: chosen from the (first) record as
+        :func:`~sindybench.identify.identify` chooses it: a cubic
+        Savitzky-Golay filter whose window follows the outputs' bandwidth
+        (:func:`~sindybench.differentiation.data_differentiation`).
+        The default was ``FiniteDifference()`` (accuracy 2) before 0.2 and
+        ``FiniteDifference(accuracy=4)`` in 0.2.
     dt : float, default=None
         Sampling interval (required, here or in ``fit``).
     validation_size : float or int, default=0.2
@@ -248,7 +253,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         hidden=DerivativeHiddenState(order=2),
         library="auto",
         optimizer=STLS(threshold=0.0),
-        differentiation=FiniteDifference(accuracy=4),
+        differentiation="auto",
         dt=None,
         validation_size=0.2,
         validation="block",
@@ -380,6 +385,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         dt, est_space = self._check_params(dt)
         X = [self.delayed_inputs(X_r) for X_r in X]
         self._check_refine_records(len(y))
+        # "auto": the first record's bandwidth chooses the derivative once, for every candidate
+        self._auto_differentiation = as_differentiation("auto", y[0], dt)
         hidden = clone(self.hidden) if self.hidden is not None else _default_strategy()
         hidden._validate()
         for i, (X_r, y_r) in enumerate(zip(X, y)):
@@ -396,7 +403,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         # the outputs' derivatives do not depend on a trial unless the differentiation is searched
         derivative = None
         if not any(k.split("__")[0] == "differentiation" for k in space):
-            derivative = Derivative(clone(as_differentiation(self.differentiation)), dt)
+            derivative = Derivative(self._differentiation_of(self.differentiation), dt)
             derivative.pin(y)
         if space:
             n_fit = [n_r - self._n_validation(n_r, record=i if several else None) for i, n_r in enumerate(n)]
@@ -459,8 +466,13 @@ class HiddenStateSINDy(DynamicsEstimator):
     def _components(self, est_values):
         est = clone(self).set_params(**est_values) if est_values else self
         optimizer = clone(est.optimizer) if est.optimizer is not None else STLS(threshold=0.0)
-        differentiation = clone(as_differentiation(est.differentiation))
-        return est, optimizer, differentiation
+        return est, optimizer, self._differentiation_of(est.differentiation)
+
+    def _differentiation_of(self, value):
+        """A fresh differentiation method for the parameter ``value`` (``"auto"``: the one ``fit`` chose)."""
+        if isinstance(value, str) and value == "auto":
+            return clone(self._auto_differentiation)
+        return clone(as_differentiation(value))
 
     def _simulation(self, dt, input_hold=None):
         """Simulation settings of the dynamics; the hold: ``input_hold``, else ``input_hold_``, else the parameter."""

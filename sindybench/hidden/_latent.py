@@ -103,6 +103,10 @@ class LatentHiddenState(HiddenStrategy):
         each with its own search and refinement, and keeps the one with the
         smallest simulation error on the validation block
         (``model.starts_`` records each).
+    block_rows : int, optional
+        Block rows of the subspace start's Hankel matrices (``start="subspace"``):
+        about the samples of the slowest dynamics to resolve; None =
+        ``max(2 n_states, 10)``.
 
     Notes
     -----
@@ -127,7 +131,7 @@ class LatentHiddenState(HiddenStrategy):
     _physical = ("tau", "gain")
 
     def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, bounds=None,
-                 latent_bounds=None, output_bounds=None, start="lag"):
+                 latent_bounds=None, output_bounds=None, start="lag", block_rows=None):
         self.n_latent = n_latent
         self.order = order
         self.driver = driver
@@ -138,6 +142,7 @@ class LatentHiddenState(HiddenStrategy):
         self.latent_bounds = latent_bounds
         self.output_bounds = output_bounds
         self.start = start
+        self.block_rows = block_rows
 
     def _validate(self):
         if isinstance(self.n_latent, bool) or not isinstance(self.n_latent, numbers.Integral) or self.n_latent < 1:
@@ -164,6 +169,9 @@ class LatentHiddenState(HiddenStrategy):
         check_bounds(self.output_bounds, 1, name="output_bounds")
         if self.start not in _STARTS:
             raise ValueError(f"start must be one of {_STARTS}; got {self.start!r}.")
+        if self.block_rows is not None and (isinstance(self.block_rows, bool) or not isinstance(
+                self.block_rows, numbers.Integral) or self.block_rows < 2):
+            raise ValueError(f"block_rows must be None or an integer >= 2; got {self.block_rows!r}.")
         self.search_space()
 
     def search_space(self):

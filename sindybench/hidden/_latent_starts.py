@@ -34,7 +34,8 @@ def subspace_start(strategy, u, y, dt, drivers):
     p, order, q = y.shape[1], int(strategy.order), int(strategy.n_latent)
     if u.shape[1] == 0:
         raise ValueError("start='subspace' needs at least one input; got none.")
-    z, z_dot, W, _ = subspace_states(u, y, p * order + q, dt, n_measured_rows=order)
+    z, z_dot, W, _ = subspace_states(u, y, p * order + q, dt, n_measured_rows=order,
+                                     block_rows=getattr(strategy, "block_rows", None))
     if strategy.scale == "range":
         lo, hi = strategy.latent_bounds
         span = np.ptp(z, axis=0)

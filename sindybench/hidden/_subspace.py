@@ -16,7 +16,7 @@ outputs (``D = 0``: a sampled continuous-time plant is strictly proper).
 import numpy as np
 from scipy.linalg import logm, null_space
 
-__all__ = ["moesp", "singular_values", "subspace_states"]
+__all__ = ["moesp", "moesp_orders", "singular_values", "subspace_states"]
 
 
 def _hankel(a, rows, cols):
@@ -75,27 +75,60 @@ def moesp(u, y, n_states, *, block_rows=None):
     (0.9, 1.0)
     """
     u, y = np.asarray(u, dtype=float), np.asarray(y, dtype=float)
-    n, (N, p), m = int(n_states), y.shape, u.shape[1]
-    U, sv = _projected_svd(u, y, n, block_rows)
+    U, sv = _projected_svd(u, y, int(n_states), block_rows)
+    return _from_svd(U, sv, u, y, int(n_states)) + (sv,)
+
+
+def moesp_orders(u, y, orders, *, block_rows=None, n_fit=None):
+    """``{n: (A, B, C, x0, d, y_hat)}`` of :func:`moesp` at each order of ``orders`` from one factorisation, and ``sv``.
+
+    The models are fitted on the first ``n_fit`` samples (default all):
+    ``A`` and ``C`` from the signals about their means; ``B``, ``x0`` and
+    ``d``, an output offset (``y[k] = C x[k] + d``), from the signals as they
+    are; ``y_hat`` is the free run over every sample of ``u``. Orders the
+    factorisation cannot hold (``n >= block_rows * n_outputs``) are left out.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> u = rng.standard_normal((400, 1))
+    >>> fits, sv = moesp_orders(u, np.cumsum(u, axis=0), [1, 2], block_rows=10)
+    >>> sorted(fits), round(float(fits[1][0][0, 0]), 3)
+    ([1, 2], 1.0)
+    """
+    u, y = np.asarray(u, dtype=float), np.asarray(y, dtype=float)
+    n_fit = len(y) if n_fit is None else int(n_fit)
+    i = int(block_rows or max(2 * max(orders), 10))
+    uf, yf = u[:n_fit], y[:n_fit]
+    U, sv = _projected_svd(uf - uf.mean(axis=0), yf - yf.mean(axis=0), 1, i)
+    return {int(n): _from_svd(U, sv, u, y, int(n), n_fit=n_fit) for n in orders if int(n) < i * y.shape[1]}, sv
+
+
+def _from_svd(U, sv, u, y, n, n_fit=None):
+    """``(A, B, C, x0)`` of order ``n`` from the projected SVD ``(U, sv)`` of :func:`_projected_svd`; with
+    ``n_fit``, fitted on the first ``n_fit`` samples with an output offset ``d``, and ``(d, y_hat)`` appended."""
+    (N, p), m = y.shape, u.shape[1]
     gamma = U[:, :n] * np.sqrt(sv[:n])
     C = gamma[:p]
     A = np.linalg.lstsq(gamma[:-p], gamma[p:], rcond=None)[0]
-    # B and x0: y[k] = C A^k x0 + sum_j C A^(k-1-j) B u[j], linear in (x0, B)
-    cols_x = np.empty((N, p, n))
-    xk = np.eye(n)
+    # B and x0: y[k] = C A^k x0 + sum_j C A^(k-1-j) B u[j], linear in (x0, B): the responses to x0's entries and to
+    # B's entry (r, c) (A^(.) e_r u_c), one propagation of their states
+    cols = np.empty((N, p, n + n * m))
+    state = np.zeros((n, n + n * m))
+    state[:, :n] = np.eye(n)
+    rows, where = np.tile(np.arange(n), m), n + np.arange(n * m)
     for k in range(N):
-        cols_x[k] = C @ xk
-        xk = A @ xk
-    cols_b = np.zeros((N, p, n * m))
-    state = np.zeros((n, n * m))
-    for k in range(N):
-        cols_b[k] = C @ state
+        cols[k] = C @ state
         state = A @ state
-        state += np.kron(u[k], np.eye(n))  # the response to entry (r, c) of B is A^(.) e_r u_c
-    reg = np.concatenate([cols_x, cols_b], axis=2).reshape(N * p, n + n * m)
-    theta = np.linalg.lstsq(reg, y.reshape(-1), rcond=None)[0]
-    x0, B = theta[:n], theta[n:].reshape(m, n).T
-    return A, B, C, x0, sv
+        state[rows, where] += np.repeat(u[k], n)
+    parts = [cols] + ([np.broadcast_to(np.eye(p), (N, p, p))] if n_fit is not None else [])
+    reg = np.concatenate(parts, axis=2).reshape(N * p, -1)
+    k_fit = N if n_fit is None else n_fit
+    theta = np.linalg.lstsq(reg[:k_fit * p], y[:k_fit].reshape(-1), rcond=None)[0]
+    x0, B = theta[:n], theta[n:n + n * m].reshape(m, n).T
+    if n_fit is None:
+        return A, B, C, x0
+    return A, B, C, x0, theta[n + n * m:], (reg @ theta).reshape(N, p)
 
 
 def _continuous(A, B, dt):
@@ -114,7 +147,7 @@ def _continuous(A, B, dt):
     return L[:n, :n], L[:n, n:]
 
 
-def subspace_states(u, y, n_states, dt, *, n_measured_rows=1):
+def subspace_states(u, y, n_states, dt, *, n_measured_rows=1, block_rows=None):
     """A linear model's state trajectory split into measured coordinates and the rest.
 
     Fits :func:`moesp` of order ``n_states``, simulates it on the record from
@@ -134,7 +167,9 @@ def subspace_states(u, y, n_states, dt, *, n_measured_rows=1):
     sv : ndarray
         The singular values of :func:`moesp`.
     """
-    A, B, C, x0, sv = moesp(u, y, n_states)
+    u = u - u.mean(axis=0)  # about the means: the model has no constant (the library's constants take them)
+    y = y - y.mean(axis=0)
+    A, B, C, x0, sv = moesp(u, y, n_states, block_rows=block_rows)
     Ac, Bc = _continuous(A, B, dt)
     rows = [C] if n_measured_rows == 1 else [C, C @ Ac]
     Mrows = np.vstack(rows)

@@ -15,6 +15,7 @@ from .._validation import (check_array_like, check_bool, check_dt, check_inputs_
 from ._advice import check_magnitude
 from ._criterion import CRITERIA, choose_criterion
 from ._resume import CandidateStore, fingerprint
+from ._linear import linear_base_index, linear_base_rule
 from ._search import describe_blocks, pareto_front, parsimonious_index, record_folds, segments, stls_threshold
 from ._space import n_terms
 from ._space import ALL_FAMILIES, FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
@@ -394,7 +395,7 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                              min_block=n_init + 2, validation=validation)
         # what the data decides, from the longest training part of the last fold (one record: all before its block)
         r, lo, hi = max(folds[-1][0], key=lambda part: part[2] - part[1])
-        settings = data_settings(X[r][lo:hi], y[r][lo:hi], dt)
+        settings = data_settings(X[r][lo:hi], y[r][lo:hi], dt, families=self.families)
         _, y_train = segments(X, y, folds[-1][0])
         X_all, y_all = np.vstack(X), np.vstack(y)
         structs = structures(X_all, y_all, dt, settings, families=self.families, libraries=self.libraries,
@@ -456,6 +457,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             if self.input_delay is None and settings["input_delay"] > 0:  # the advice's delay, confirmed against none
                 second += [(dict(rows[i], input_delay=0), libraries[i]) for i in keep[:2]]
             second += [(dict(s, threshold=0.0), lib) for s, lib in latent]
+            if self.input_delay is None and settings["input_delay"] > 0:  # in the latent and linear families too
+                second += [(dict(s, threshold=0.0, input_delay=0), lib) for s, lib in latent]
             second = second[: budget.take(len(second))]
             bar.total += len(second)
             results = run_stage(score_candidate, [(r, lib, ctx, None) for r, lib in second], stored_scores,
@@ -505,16 +508,27 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                              "larger time_budget / max_candidates / max_terms.")
         terms = [t if t is not None else 10**9 for t in table["n_terms"]]
         best = parsimonious_index(mean, table["std_validation_error"], terms, len(folds))
+        best, rule = linear_base_rule(best, rows, mean, table["std_validation_error"], len(folds))
         front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}
                  for i in pareto_front(list(mean), terms)]
-        chosen = {k: rows[best][k] for k in STRUCTURE + ("threshold", "refine")}
-        final = make_estimator(chosen, libraries[best], stls_threshold(chosen["threshold"], n), dt, settings,
-                               refine=refinement if chosen["refine"] else None, random_state=ctx["random_state"])
-        if several:
-            final.fit(X, y)
-        else:
-            final.fit(X[0], y[0][:, 0] if y_1d else y[0])
-        chosen["n_terms"], chosen["max_row_terms"], _ = n_terms(final)
+
+        def refit(i):
+            chosen = {k: rows[i][k] for k in STRUCTURE + ("threshold", "refine")}
+            final = make_estimator(chosen, libraries[i], stls_threshold(chosen["threshold"], n), dt, settings,
+                                   refine=refinement if chosen["refine"] else None, random_state=ctx["random_state"])
+            if several:
+                final.fit(X, y)
+            else:
+                final.fit(X[0], y[0][:, 0] if y_1d else y[0])
+            chosen["n_terms"], chosen["max_row_terms"], _ = n_terms(final)
+            return chosen, final
+
+        chosen, final = refit(best)
+        base = linear_base_index(rows, mean)
+        if chosen["n_terms"] == 0 and base is not None and base != best and mean[base] < mean[best]:
+            # a model with no term is never returned when the linear base validates better
+            best, rule = base, "the refit choice had no term left; the linear base validates better"
+            chosen, final = refit(best)
         # one record: (start, stop) of each block; several: (record, start, stop) of each fold's blocks
         blocks = [val[0][1:] for _, val in folds] if not several else [val for _, val in folds]
         splits = [{"train": describe_blocks(train, several), "validation": describe_blocks(val, several)}
@@ -530,8 +544,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         self.pareto_front_ = front
         self.criterion_ = {"name": criterion, "horizon": horizon, "reason": why}
         final.identification_ = {"settings": chosen, "data": settings, "blocks": blocks, "cv_results": table,
-                                 "pareto_front": front, "best_index": int(best), "validation": validation,
-                                 "splits": splits, "criterion": dict(self.criterion_),
+                                 "pareto_front": front, "best_index": int(best), "rule": rule,
+                                 "validation": validation, "splits": splits, "criterion": dict(self.criterion_),
                                  "n_init": n_init}  # the start samples the blocks were simulated from (the report's)
         self._warn_criterion(settings["advice"], float(mean[best]))
         self.best_estimator_ = final

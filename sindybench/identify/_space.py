@@ -17,27 +17,36 @@ from sklearn.base import clone
 
 from .._lag_sindy import LagSINDy
 from .._sindy import SINDy
-from ..differentiation import FiniteDifference, SavitzkyGolay, Spectral
+from ..differentiation import FiniteDifference, SavitzkyGolay, Spectral, bandwidth, savgol_window
 from ..hidden import DerivativeHiddenState, HiddenStateSINDy, LatentHiddenState
 from ..libraries import AbsProductLibrary, FrictionLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary
 from ..optimizers import STLS
 from ..refine import OutputErrorRefinement
 from ..search import LogUniform
 from ._advice import advice, detect_input_hold
+from ._linear import LINEAR_FAMILY, linear_order, make_linear, propose_linear
 
 __all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
 
 logger = logging.getLogger(__name__)
 
+#: the families of one module each: ``name -> (propose, make)``. ``propose(settings, n_outputs, n_inputs, hold,
+#: delay)`` gives the family's ``(structure, library)`` pairs from the data's settings (see
+#: :func:`data_settings`); ``make(structure, library, dt, differentiation, settings, random_state=)`` its unfitted
+#: estimator, which runs its own search and refinement inside ``fit`` (scored on every block at once, never screened
+#: on a pruning path). Adding a family: its module and one entry here (and its settings in ``data_settings``).
+FAMILY_TABLE = {LINEAR_FAMILY: (propose_linear, make_linear)}
 #: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3,
-#: and one latent state (one output only) at order 1 (driven by the input) and 2 (driven by the velocity)
-FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent")
+#: one latent state (one output only) at order 1 (driven by the input) and 2 (driven by the velocity), and the
+#: linear base (a linear state-space model whose order the data decide)
+FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent", LINEAR_FAMILY)
 #: every family a search may name: the default ones, two latent states (a chain of two lags of the input, at
 #: order 1; off the default list for its cost), and the discrete-time lag model on delay coordinates
 #: (:class:`~sindybench.LagSINDy`, its lags chosen in its fit; off the default list until the parsimony rule
 #: prefers an equation to it on a tie)
 ALL_FAMILIES = FAMILIES + ("order1+latent2", "lag")
-LATENT_FAMILIES = ("order1+latent", "order2+latent", "order1+latent2")
+#: the families with their own search and refinement inside ``fit`` (not screened on a pruning path)
+LATENT_FAMILIES = ("order1+latent", "order2+latent", "order1+latent2") + tuple(FAMILY_TABLE)
 _ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order1+latent": 1, "order2+latent": 2, "order1+latent2": 1,
           "lag": 1}
 #: the lag family's largest order (outputs and inputs), chosen in its fit by the free run of its last fifth
@@ -51,31 +60,9 @@ _MAX_ABS = 1e6  # the estimators' default divergence bound
 #: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
 LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
 _DEGREE = {"linear": 1, "poly2": 2, "poly3": 3}
-def _bandwidth(y, dt):
-    """The frequency below which 99.99 % of the power of the detrended outputs lies (clamped to the band)."""
-    fs = 1.0 / dt
-    n = y.shape[0]
-    t = np.arange(n)
-    power = np.zeros(n // 2 + 1)
-    for col in y.T:
-        resid = col - np.polyval(np.polyfit(t, col, 1), t)
-        power += np.abs(np.fft.rfft(resid * np.hanning(n))) ** 2
-    freqs = np.fft.rfftfreq(n, dt)
-    cum = np.cumsum(power)
-    if cum[-1] <= 0:
-        return fs / 4
-    f_c = float(freqs[np.searchsorted(cum, (1.0 - 1e-4) * cum[-1])])
-    return float(np.clip(f_c, fs / 400, fs / 4))
 
 
-def _savgol_window(f_c, dt, polyorder=3):
-    """Odd Savitzky-Golay window whose -3 dB cutoff is near ``f_c`` (Schafer's rule), at least 5 samples."""
-    w = ((polyorder + 1) / (f_c * dt) + 4.6) / 3.2
-    w = int(np.clip(round(w), polyorder + 2, 201))
-    return w if w % 2 else w + 1
-
-
-def data_settings(X, y, dt):
+def data_settings(X, y, dt, families=FAMILIES):
     """What the estimation record decides before any fit: advice, bandwidth, derivative methods, proposed terms.
 
     Parameters
@@ -96,8 +83,11 @@ def data_settings(X, y, dt):
         (per output, the upper level where it saturates, or None) and
         ``indicator`` (per output, the lower end of the proposed indicator of
         that level, or None), ``friction`` (outputs with a proposed Coulomb
-        friction term) and ``max_abs`` (the candidates' divergence bound: the
-        estimators' 1e6, or 1000 times the record's largest magnitude).
+        friction term), ``max_abs`` (the candidates' divergence bound: the
+        estimators' 1e6, or 1000 times the record's largest magnitude) and
+        ``linear``: the linear base's order and Hankel depth
+        (:func:`~sindybench.identify._linear.linear_order`; None when
+        ``families`` has no ``"linear_ss"`` or no model fits).
 
     Examples
     --------
@@ -108,13 +98,15 @@ def data_settings(X, y, dt):
     """
     report = _advice(X, y, dt)
     max_abs = max(_MAX_ABS, 1e3 * float(max(np.max(np.abs(X), initial=0.0), np.max(np.abs(y)))))
-    f_c = _bandwidth(y, dt)
-    window = _savgol_window(f_c, dt)
+    linear = linear_order(X, y) if LINEAR_FAMILY in families else None
+    f_c = bandwidth(y, dt)
+    window = savgol_window(f_c, dt)
     derivatives = {"finite_difference": {}, f"savgol_{window}": {"window_length": window},
                    f"spectral_{f_c:.3g}": {"cutoff": f_c}}
     if report is None:  # too short for the advice: no delay, the input's shape for the hold, no proposed terms
         hold = detect_input_hold(X)[0] if X.shape[1] else "zoh"
-        return {"advice": None, "input_delay": 0, "input_hold": hold, "bandwidth": f_c, "derivatives": derivatives,
+        return {"advice": None, "linear": linear, "input_delay": 0, "input_hold": hold, "bandwidth": f_c,
+                "derivatives": derivatives,
                 "proposed": [], "positive": [], "saturation": [None] * y.shape[1], "indicator": [None] * y.shape[1],
                 "friction": [], "max_abs": max_abs}
     terms = report.proposed_terms
@@ -125,7 +117,8 @@ def data_settings(X, y, dt):
     for p in terms:
         if p.kind == "indicator" and np.isinf(p.high):
             indicator[p.output] = float(p.low)
-    return {"advice": report, "input_delay": int(report.input_delay), "input_hold": report.input_hold,
+    return {"advice": report, "linear": linear, "input_delay": int(report.input_delay),
+            "input_hold": report.input_hold,
             "bandwidth": f_c, "derivatives": derivatives, "proposed": [str(p) for p in terms],
             "positive": [p.output for p in terms if p.kind == "sqrt"], "saturation": saturation, "indicator": indicator,
             "friction": [p.output for p in terms if p.kind == "friction"], "max_abs": max_abs}
@@ -212,6 +205,9 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
     delay = settings["input_delay"] if input_delay is None else input_delay
     out = []
     for family in families:
+        if family in FAMILY_TABLE:
+            out += FAMILY_TABLE[family][0](settings, n_outputs, n_inputs, hold, delay)
+            continue
         if family == "order2+latent":
             if n_outputs == 1:  # states (y, v, z): the latent state's products with the velocity
                 lib = PolynomialLibrary(degree=1) + AbsProductLibrary(pairs=[(1, 2)])
@@ -287,6 +283,9 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
     d_name = structure["derivative"]
     differentiation = _differentiation(d_name, settings["derivatives"].get(d_name, {}))
     hold, delay = structure["input_hold"], structure["input_delay"]
+    if structure["family"] in FAMILY_TABLE:
+        return FAMILY_TABLE[structure["family"]][1](structure, library, dt, differentiation, settings,
+                                                    random_state=random_state)
     if structure["family"] == "first_order":
         return SINDy(library=clone(library), optimizer=optimizer, differentiation=differentiation, dt=dt,
                      input_hold=hold, input_delay=delay, refine=refine)

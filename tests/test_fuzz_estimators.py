@@ -24,6 +24,8 @@ hypothesis = pytest.importorskip("hypothesis", reason="the test extra (hypothesi
 from hypothesis import HealthCheck, given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
+from _fuzz import nan_index, spoil  # noqa: E402
+
 from sindybench import STLS, HiddenStateSINDy, SINDy  # noqa: E402
 from sindybench.baselines import ARX, NNARX  # noqa: E402
 from sindybench.differentiation import FiniteDifference, SavitzkyGolay  # noqa: E402
@@ -138,33 +140,7 @@ def records(draw):
     kind = draw(st.one_of(st.just("none"), st.sampled_from(["none", "nan", "inf", "huge", "tiny", "complex", "strings",
                                                             "3d", "1d", "none-value", "short", "empty", "scalar",
                                                             "ragged", "constant"])))
-    if kind in ("nan", "inf") and a.size:
-        a = a.copy()
-        a.flat[draw(st.integers(0, a.size - 1))] = np.nan if kind == "nan" else np.inf
-    elif kind == "huge":
-        a = a * 1e300
-    elif kind == "tiny":
-        a = a * 1e-300
-    elif kind == "complex":
-        a = a + 1j
-    elif kind == "strings":
-        a = a.astype(str)
-    elif kind == "3d":
-        a = a[:, :, None]
-    elif kind == "1d":
-        a = a[:, 0] if a.shape[1] else a.reshape(-1)
-    elif kind == "none-value":
-        a = None
-    elif kind == "short":
-        a = a[: max(0, n - 3)]
-    elif kind == "empty":
-        a = a[:0]
-    elif kind == "scalar":
-        a = 1.0
-    elif kind == "ragged":
-        a = [list(row) for row in np.asarray(a)][:3] + [[1.0] * 5]
-    elif kind == "constant":
-        a = np.ones_like(a)
+    a = spoil(a, kind, index=nan_index(draw, a, kind, st.integers))
     return (a, y) if which == "X" else (X, a)
 
 

@@ -36,7 +36,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 from scipy.stats import f as f_dist
 
-from .._validation import check_inputs_outputs, check_integer, check_positive
+from .._validation import check_inputs_outputs, check_integer, check_positive, check_signal
 from ..baselines._arx import least_squares
 from ..baselines._lags import input_lags, output_lags
 from ..dynamics import SIGN, SQRT, STEP
@@ -364,7 +364,7 @@ def detect_input_hold(X):
     >>> detect_input_hold(np.column_stack([np.sin(t), np.repeat(np.arange(50.0) % 3, 10)]))
     ['linear', 'zoh']
     """
-    X = np.asarray(X, dtype=float)
+    X = check_signal(X, "X")
     holds = []
     for u in X.T:
         d1 = np.diff(u)
@@ -394,7 +394,7 @@ def excitation_order(X, *, max_order=50, tol=1e-9):
     >>> excitation_order(np.column_stack([np.sin(t) + np.sin(3.7 * t), np.ones_like(t)]), max_order=20)
     [4, 1]
     """
-    X = np.asarray(X, dtype=float)
+    X = check_signal(X, "X")
     orders = []
     for u in X.T:
         if not np.any(u):
@@ -443,7 +443,7 @@ def detect_saturation(y, *, min_fraction=0.005, ratio=4.0):
     >>> detect_saturation(np.column_stack([np.minimum(np.sin(t), 0.8), np.sin(t)]))
     [(0, 'upper', 0.8, 0.2...)]
     """
-    y = np.asarray(y, dtype=float).reshape(len(y), -1)
+    y = check_signal(y, "y")
     found = []
     for j, v in enumerate(y.T):
         span = np.ptp(v)

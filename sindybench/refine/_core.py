@@ -38,6 +38,7 @@ import numpy as np
 from scipy.optimize import least_squares
 from sklearn.exceptions import ConvergenceWarning
 
+from .._limits import shown
 from .._validation import check_bounds, check_integer, check_positive, check_signal, is_records
 from ..dynamics import Dynamics
 from ..libraries import evaluate_terms
@@ -284,7 +285,11 @@ def _check_records(u, y, x0, n_states):
     if not is_records(y):
         u = np.ascontiguousarray(check_signal(u, "u"))
         y = check_signal(y, "y", n_samples=u.shape[0])
-        x0 = np.asarray(x0, dtype=float).reshape(-1)
+        try:
+            x0 = np.asarray(x0, dtype=float).reshape(-1)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"x0 must be {n_states} real number(s) (the initial state); got {shown(x0)} "
+                             f"({exc}).") from None
         if x0.shape[0] != n_states:
             raise ValueError(f"x0 has {x0.shape[0]} entries; expected {n_states} (one per column of coef).")
         return [u], [y], [x0]

@@ -75,9 +75,13 @@ def conformal_quantile(scores, alpha):
     [18.0]
     """
     alpha = check_alpha(alpha, "bands")
-    scores = np.asarray(scores, dtype=float)
+    try:
+        scores = np.asarray(scores, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"scores must be an array of real numbers (the calibration errors); got {exc}.") from None
     if not np.all(np.isfinite(scores)):
-        raise ValueError("the calibration errors contain NaN or inf; expected a prediction that did not diverge.")
+        raise ValueError("scores (the calibration errors) contain NaN or inf; expected a prediction that did not "
+                         "diverge.")
     n = scores.shape[0]
     rank = math.ceil((n + 1) * (1.0 - alpha))
     if rank > n:

@@ -123,6 +123,8 @@ def _from_svd(U, sv, u, y, n, n_fit=None):
         state[rows, where] += np.repeat(u[k], n)
     parts = [cols] + ([np.broadcast_to(np.eye(p), (N, p, p))] if n_fit is not None else [])
     reg = np.concatenate(parts, axis=2).reshape(N * p, -1)
+    if not np.all(np.isfinite(reg)):  # an unstable A: its responses overflow (LAPACK would print and then fail)
+        raise np.linalg.LinAlgError(f"the responses of the order-{n} subspace model overflow (its A is unstable)")
     k_fit = N if n_fit is None else n_fit
     theta = np.linalg.lstsq(reg[:k_fit * p], y[:k_fit].reshape(-1), rcond=None)[0]
     x0, B = theta[:n], theta[n:n + n * m].reshape(m, n).T

@@ -329,10 +329,10 @@ def test_an_unknown_bounds_key_is_an_error_naming_the_accepted_ones(strategy, ma
         strategy.search_space()
 
 
-def test_default_derivative_recovers_a_noisy_oscillator():
-    # y'' = -4 y - 0.5 y' + 2 u, 1500 samples at 0.01 s, 0.2 % output noise: the default derivative (chosen from
-    # the data's bandwidth) gives the truth within 2 %, where fourth-order finite differences turn the noise into
-    # a second derivative larger than the signal's
+def test_auto_derivative_recovers_a_noisy_oscillator():
+    # y'' = -4 y - 0.5 y' + 2 u, 1500 samples at 0.01 s, 0.2 % output noise: differentiation="auto" (chosen from
+    # the data's bandwidth) gives the truth within 2 %, where the default fourth-order finite differences turn the
+    # noise into a second derivative larger than the signal's
     from scipy.signal import lsim, lti
 
     rng = np.random.default_rng(0)
@@ -341,7 +341,7 @@ def test_default_derivative_recovers_a_noisy_oscillator():
     y = lsim(lti([2.0], [1.0, 0.5, 4.0]), u, t)[1]
     y = y + 0.002 * np.std(y) * rng.standard_normal(t.size)
     model = HiddenStateSINDy(hidden=DerivativeHiddenState(order=2), library=PolynomialLibrary(degree=1),
-                             dt=0.01).fit(u[:, None], y[:, None])
+                             differentiation="auto", dt=0.01).fit(u[:, None], y[:, None])
     assert type(model.differentiation_).__name__ == "SavitzkyGolay"
     coef = dict(zip(model.library_.get_feature_names_out(["y0", "y0'", "u0"]), model.coef_[0]))
     np.testing.assert_allclose([coef["y0"], coef["y0'"], coef["u0"]], [-4.0, -0.5, 2.0], rtol=0.02)

@@ -89,6 +89,12 @@ def _next_fast(n):
     return 1 << int(np.ceil(np.log2(max(n, 1))))
 
 
+def _unit_peak(a):
+    """Each column of ``a`` divided by its largest absolute value (a zero column as it is)."""
+    peak = np.max(np.abs(a), axis=0) if a.shape[0] else np.ones(a.shape[1:])
+    return a / np.where(peak > 0, peak, 1.0)
+
+
 def correlation(a, b=None, *, max_lag):
     """Normalized correlation of the columns of ``a`` (with those of ``b``) at lags ``-max_lag .. max_lag``.
 
@@ -115,8 +121,8 @@ def correlation(a, b=None, *, max_lag):
     >>> bool(np.allclose(r[3], np.sum((e[1:] - e.mean()) * (e[:-1] - e.mean())) / np.sum((e - e.mean()) ** 2)))
     True
     """
-    a = np.asarray(a, dtype=float)
-    b = a if b is None else np.asarray(b, dtype=float)
+    a = _unit_peak(np.asarray(a, dtype=float))  # correlations do not depend on scale: none overflows or underflows
+    b = a if b is None else _unit_peak(np.asarray(b, dtype=float))
     a, b = a - a.mean(axis=0), b - b.mean(axis=0)
     n = a.shape[0]
     size = _next_fast(2 * n)
@@ -327,6 +333,8 @@ def residual_test(residuals, inputs=None, *, max_lag=25, alpha=0.05, windows=Non
     """
     e = _check_residuals(residuals, "residuals")
     n = e.shape[0]
+    if n < 8:  # max_lag >= 1 and max_lag < n / 4
+        raise ValueError(f"residuals have {n} sample(s); the residual test needs at least 8 (max_lag < n_samples / 4).")
     if isinstance(max_lag, bool) or not isinstance(max_lag, (int, np.integer)) or not 1 <= max_lag < n // 4:
         raise ValueError(f"max_lag must be an integer in [1, n_samples / 4) = [1, {n // 4}); got {max_lag!r}.")
     if isinstance(alpha, bool) or not isinstance(alpha, (int, float, np.floating)) or not 0.0 < alpha < 1.0:

@@ -269,3 +269,22 @@ def test_moved_covariance_names_still_import_from_refine_with_a_warning():
         assert refine.UncertaintyMixin is UncertaintyMixin
     with pytest.raises(AttributeError, match="has no attribute 'nothing'"):
         refine.nothing
+
+
+def test_the_residual_test_is_scale_free_at_extreme_scales(rng):
+    """Squares of residuals near 1e300 overflowed (p-value 1.0) and near 1e-300 underflowed (0.89) before."""
+    from scipy.signal import lfilter
+
+    from sindybench._residual_tests import residual_test
+    from sindybench.identify import excitation_order
+
+    e = lfilter([1.0], [1.0, -0.5], rng.standard_normal((2000, 1)), axis=0)  # coloured: not white
+    u = rng.standard_normal((2000, 1))
+    reference = residual_test(e, u)
+    for scale in (1e300, 1e-300):
+        scaled = residual_test(e * scale, u * scale)
+        assert np.isfinite(scaled.pvalue) and not scaled.white
+        np.testing.assert_allclose(scaled.pvalue, reference.pvalue, rtol=1e-6, atol=1e-300)
+    assert excitation_order(u * 1e300) == excitation_order(u)
+    with pytest.raises(ValueError, match="residuals have 7 sample"):
+        residual_test(e[:7])

@@ -400,7 +400,8 @@ def excitation_order(X, *, max_order=50, tol=1e-9):
         if not np.any(u):
             orders.append(0)
             continue
-        m = min(max_order, u.size // 2)
+        m = max(1, min(max_order, u.size // 2))
+        u = u / np.max(np.abs(u))  # the rank does not depend on scale: no Gram matrix overflows or underflows
         windows = sliding_window_view(u, m)  # every window of m samples: their span has the order's dimension
         eig = np.linalg.eigvalsh(windows.T @ windows)
         orders.append(int(np.sum(eig > tol * eig[-1])))

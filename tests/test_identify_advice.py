@@ -257,11 +257,40 @@ def test_advice_report_is_logged_and_printed(rng, caplog):
     (dict(dt=0.0), r"dt must be a finite number > 0; got 0\.0"),
     (dict(max_delay=-1), r"max_delay must be an integer >= 0; got -1"),
     (dict(X=np.zeros((30, 1)), y=np.zeros((30, 1))), r"30 samples are too few to estimate a delay"),
+    # was: a report warning of models 'with more than 0 pole pair(s)' (before that, an IndexError)
+    (dict(max_order=0), r"max_order must be an integer >= 1; got 0"),
+    (dict(X=np.empty((100, 0)), max_order="a"), r"max_order must be an integer >= 1; got 'a'"),
 ])
 def test_advice_bad_input(kwargs, message):
     args = dict(X=np.ones((100, 1)), y=np.ones((100, 1)), dt=DT) | kwargs
     with pytest.raises(ValueError, match=message):
         advice(args.pop("X"), args.pop("y"), **args)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    # each was an internal message naming nothing (or a silent, meaningless delay)
+    (dict(na=-1), r"na must be an integer >= 0; got -1"),  # was: need at least one array to concatenate
+    (dict(na="a"), r"na must be an integer >= 0; got 'a'"),  # was: a TypeError of '>'
+    (dict(nb=0), r"nb must be an integer >= 1; got 0"),  # was: a delay of 0 and 'lags [] within 1 %'
+    (dict(nb=1.5), r"nb must be an integer >= 1; got 1\.5"),  # was: slice indices must be integers
+    (dict(rtol=-1.0), r"rtol must be a finite number >= 0; got -1\.0"),  # was: a delay, 'within -100 %'
+    (dict(rtol=np.nan), r"rtol must be a finite number >= 0; got nan"),  # was: max() arg is an empty sequence
+])
+def test_estimate_delay_names_a_bad_setting(rng, kwargs, message):
+    u = _held_input(rng, 400)
+    with pytest.raises(ValueError, match=message):
+        estimate_delay(u, _first_order(u, 2), DT, **kwargs)
+
+
+@pytest.mark.parametrize("kwargs, message", [
+    (dict(X=np.ones((1, 1))), r"X has 1 sample\(s\); the excitation order of an input needs at least 2"),
+    (dict(max_order=0), r"max_order must be an integer >= 1; got 0"),  # was: order 1
+    (dict(tol=-1.0), r"tol must be a finite number >= 0; got -1\.0"),  # was: every order counted
+])
+def test_excitation_order_names_a_bad_input(kwargs, message):
+    args = dict(X=np.sin(np.arange(200.0))[:, None]) | kwargs
+    with pytest.raises(ValueError, match=message):
+        excitation_order(args.pop("X"), **args)
 
 
 # ---------------------------------------------------------------- the real records

@@ -307,8 +307,9 @@ def estimate_delay(X, y, dt, *, max_delay=20, hold=None, na=2, nb=3, rtol=0.01):
     hold : {"zoh", "linear"} or None, default=None
         The input hold; None detects it (:func:`detect_input_hold`).
     na, nb : int, default=2, 3
-        ARX orders of the candidates.
+        ARX orders of the candidates (``na >= 0`` output lags, ``nb >= 1`` input lags).
     rtol : float, default=0.01
+        Relative tolerance (``>= 0``) of the lags that score as well as the best.
 
     Returns
     -------
@@ -332,6 +333,8 @@ def _estimate_delay(X, y, dt, max_delay, hold, na, nb, rtol, say=False):
     """``(delay, losses, resolved)``; ``say``: warn here when the record does not resolve it (:func:`advice` says it
     in its own warnings)."""
     max_delay = check_integer(max_delay, "max_delay", low=0)
+    na, nb = check_integer(na, "na", low=0), check_integer(nb, "nb", low=1)
+    rtol = check_positive(rtol, "rtol", strict=False)
     if X.shape[1] == 0:
         return 0, {}, True
     hold = hold if hold is not None else detect_input_hold(X)[0]
@@ -395,6 +398,10 @@ def excitation_order(X, *, max_order=50, tol=1e-9):
     [4, 1]
     """
     X = check_signal(X, "X")
+    max_order = check_integer(max_order, "max_order")
+    tol = check_positive(tol, "tol", strict=False)
+    if X.shape[0] < 2:
+        raise ValueError(f"X has {X.shape[0]} sample(s); the excitation order of an input needs at least 2.")
     orders = []
     for u in X.T:
         if not np.any(u):
@@ -674,6 +681,7 @@ def advice(X, y, *, dt, max_delay=20, max_order=50, within_identify=False):
       warning: y0 saturates at its upper level 20.4003 (27.7 % of the samples)
     """
     X, y = _check(X, y, dt)
+    max_order = check_integer(max_order, "max_order")  # also without inputs: a wrong setting is named, not ignored
     n, p, m = y.shape[0], X.shape[1], y.shape[1]
     result = DataAdvice(n_samples=n, n_inputs=p, n_outputs=m, dt=float(dt))
     result.input_holds = detect_input_hold(X)

@@ -283,6 +283,18 @@ def test_estimate_delay_names_a_bad_setting(rng, kwargs, message):
 
 
 @pytest.mark.parametrize("kwargs, message", [
+    (dict(min_fraction=-1.0), r"min_fraction must be a finite number > 0; got -1\.0"),  # was: a level reported
+    (dict(min_fraction=2.0), r"min_fraction must be a fraction in \(0, 1\]; got 2\.0"),  # was: none, silently
+    (dict(min_fraction="a"), r"min_fraction must be a finite number > 0; got 'a'"),  # was: numpy's UFuncTypeError
+    (dict(ratio=0.5), r"ratio must be a finite number >= 1 .*; got 0\.5"),  # was: a sine's peak called saturated
+    (dict(ratio=np.nan), r"ratio must be a finite number > 0; got nan"),  # was: none, silently
+])
+def test_detect_saturation_names_a_bad_setting(kwargs, message):
+    with pytest.raises(ValueError, match=message):
+        detect_saturation(np.minimum(np.sin(np.arange(500) * 0.05), 0.8)[:, None], **kwargs)
+
+
+@pytest.mark.parametrize("kwargs, message", [
     (dict(X=np.ones((1, 1))), r"X has 1 sample\(s\); the excitation order of an input needs at least 2"),
     (dict(max_order=0), r"max_order must be an integer >= 1; got 0"),  # was: order 1
     (dict(tol=-1.0), r"tol must be a finite number >= 0; got -1\.0"),  # was: every order counted

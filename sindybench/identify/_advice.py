@@ -437,8 +437,9 @@ def detect_saturation(y, *, min_fraction=0.005, ratio=4.0):
     ----------
     y : array-like of shape (n_samples, n_outputs)
     min_fraction : float, default=0.005
-        Smallest fraction of samples at the level to report.
+        Smallest fraction of samples at the level to report, in (0, 1].
     ratio : float, default=4.0
+        Least ratio (``>= 1``) of the fraction at the extreme to the fraction in the next band of the same width.
 
     Returns
     -------
@@ -452,6 +453,11 @@ def detect_saturation(y, *, min_fraction=0.005, ratio=4.0):
     [(0, 'upper', 0.8, 0.2...)]
     """
     y = check_signal(y, "y")
+    if check_positive(min_fraction, "min_fraction") > 1:
+        raise ValueError(f"min_fraction must be a fraction in (0, 1]; got {min_fraction!r}.")
+    if check_positive(ratio, "ratio") < 1:
+        raise ValueError(f"ratio must be a finite number >= 1 (a pile-up has more samples at the extreme than in the "
+                         f"next band); got {ratio!r}.")
     found = []
     for j, v in enumerate(y.T):
         span = np.ptp(v)

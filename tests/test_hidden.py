@@ -200,6 +200,21 @@ def test_all_candidates_failing_is_a_clear_error(oscillator):
         model.predict(u[:300], y_init=y[:300])
 
 
+def test_predict_with_a_fitted_initial_state_of_a_diverging_model_fills_nan():
+    """initial_state='fit' on outputs over which the model's simulation diverges: the least squares of the initial
+    state cannot start, the guess stands and ``predict`` fills NaN from the divergence with a warning, as without
+    the fit (was: SimulationError 'cannot refine: the starting model's simulation diverges', raised out of predict and
+    out of identify's latent candidates)."""
+    t = np.arange(1200) * DT
+    y = np.exp(0.5 * t)[:, None]
+    model = _model(max_abs=100.0, initial_state="fit").fit(None, y[:400])
+    with pytest.warns(DivergenceWarning, match="HiddenStateSINDy.predict: the simulation diverged at sample"):
+        y_pred = model.predict(np.zeros((1200, 0)), y_init=y)  # y passes max_abs = 100 at sample ~920
+    assert np.isfinite(y_pred[0]).all() and np.isnan(y_pred[-1]).all()
+    with pytest.raises(SimulationError, match="diverged"):
+        model.simulate(np.zeros((1200, 0)), y_init=y)
+
+
 def test_predict_warns_from_which_sample_it_diverged():
     t = np.arange(400) * DT
     y = np.exp(0.5 * t)[:, None]

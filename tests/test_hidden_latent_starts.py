@@ -105,6 +105,24 @@ def test_more_latent_states_than_the_data_support_warn(rng):
         LatentHiddenState().check_fit(_model(dt2, len(u2), "subspace").fit(u2, y2), u2, y2, dt2)
 
 
+def test_a_start_whose_model_diverges_is_a_failed_start(rng, monkeypatch):
+    """A start whose fitted model raises SimulationError (as the initial-state fit of a diverging model did) is
+    recorded as failed with its reason; the other starts go on (was: the error ended the fit, and identify)."""
+    u, y, dt, _ = _motor(rng, n=300)
+    predict = HiddenStateSINDy.predict
+
+    def diverging(self, X, **kwargs):
+        if self.hidden.start == "subspace":
+            raise SimulationError("cannot refine: the starting model's simulation diverges on the record", step=3)
+        return predict(self, X, **kwargs)
+
+    monkeypatch.setattr(HiddenStateSINDy, "predict", diverging)
+    model = _model(dt, len(u), "auto", n_trials=2, refine=OutputErrorRefinement(max_nfev=3)).fit(u, y)
+    errors = {s["start"]: s["error"] for s in model.starts_}
+    assert errors["subspace"] == "SimulationError: cannot refine: the starting model's simulation diverges on the record"
+    assert errors["input lag"] is None and model.hidden_.start == "lag"
+
+
 def test_a_diverging_start_is_refined_by_prediction_error(rng, monkeypatch):
     """When the output-error refinement cannot start (the start diverges), prediction error refines it."""
     assert isinstance(LatentHiddenState().diverging_refinement(OutputErrorRefinement(prune=0.02)),

@@ -12,10 +12,11 @@ import sindybench
 from sindybench import HiddenStateSINDy, SINDy
 from sindybench.identify import IdentifyCV, identify
 from sindybench.identify._search import pareto_front, parsimonious_index, validation_blocks
-from sindybench.simulate import simulate
+from sindybench.simulate import SimulationError, simulate
 
 # sindybench.identify is also the function: the module by its full name
 stages_module = importlib.import_module("sindybench.identify._stages")
+estimator_module = importlib.import_module("sindybench.identify._estimator")
 DT = 0.01
 # a quick search: one derivative method, no refinement (the defaults are exercised by the slow tests)
 QUICK = dict(derivatives=["finite_difference"], n_refine=0, show_progress_bar=False)
@@ -210,6 +211,52 @@ def test_no_candidate_that_simulates_is_a_clear_error(oscillator, monkeypatch):
 
     monkeypatch.setattr(stages_module, "make_estimator", make_estimator)
     with pytest.raises(ValueError, match=r"none of the \d+ candidates .*RuntimeError: nothing fits.*expected a record"):
+        IdentifyCV(dt=DT, families=["first_order"], libraries=["linear"], **QUICK).fit(u, y)
+
+
+def _refit_diverges(monkeypatch, families, n_samples):
+    """The refit on the whole record (``n_samples``) of the ``families``' candidates raises, as a refinement whose
+    starting model diverges on the whole record did (the fits on the folds' training parts do not)."""
+    real = estimator_module.make_estimator
+
+    def make_estimator(structure, *args, **kwargs):
+        est = real(structure, *args, **kwargs)
+        if structure["family"] in families:
+            fit = est.fit
+
+            def fit_whole(X, y, **kw):
+                if len(X) == n_samples:
+                    raise SimulationError("cannot refine: the starting model's simulation diverges on the record",
+                                          step=7)
+                return fit(X, y, **kw)
+            est.fit = fit_whole
+        return est
+
+    monkeypatch.setattr(estimator_module, "make_estimator", make_estimator)
+
+
+def test_a_candidate_whose_refit_fails_is_recorded_and_the_next_one_chosen(oscillator, monkeypatch):
+    """(was: the SimulationError of the chosen candidate's refit ended identify)"""
+    u, y = oscillator
+    _refit_diverges(monkeypatch, ("order2",), len(u))
+    search = IdentifyCV(dt=DT, families=["first_order", "order2"], libraries=["linear"], **QUICK).fit(u, y)
+    table = search.cv_results_
+    failed = [i for i, s in enumerate(table["status"]) if s.startswith("failed at the refit")]
+    assert failed and all(table["family"][i] == "order2" for i in failed)
+    assert table["status"][failed[0]] == ("failed at the refit on the whole record: SimulationError: cannot refine: "
+                                          "the starting model's simulation diverges on the record")
+    assert all(np.isinf(table["mean_validation_error"][i]) for i in failed)
+    assert search.best_params_["family"] == "first_order" and table["status"][search.best_index_] == "ok"
+    assert not {p["index"] for p in search.pareto_front_} & set(failed)
+    assert np.isfinite(search.best_estimator_.predict(u, y_init=y[:20])).all()
+
+
+def test_every_refit_failing_is_a_clear_error(oscillator, monkeypatch):
+    u, y = oscillator
+    _refit_diverges(monkeypatch, ("first_order",), len(u))
+    with pytest.raises(ValueError, match=r"each of the \d+ candidate\(s\) that simulated every validation block failed "
+                       r'when refitted on the whole record \(reasons: \["failed at the refit on the whole '
+                       r"record: SimulationError: cannot refine"):
         IdentifyCV(dt=DT, families=["first_order"], libraries=["linear"], **QUICK).fit(u, y)
 
 

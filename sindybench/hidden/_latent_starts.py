@@ -14,6 +14,7 @@ import warnings
 import numpy as np
 from sklearn.base import clone
 
+from ..simulate import SimulationError
 from ._subspace import singular_values, subspace_states
 
 __all__ = ["fit_starts", "subspace_start", "support_warnings"]
@@ -87,7 +88,7 @@ def _best_start(estimator, X, y, dt):
             err = np.asarray(pred, dtype=float).reshape(n, -1)[n - n_val:] - np.asarray(y).reshape(n, -1)[n - n_val:]
             score = float(np.sqrt(np.mean(err ** 2)))
             entry["score"] = score if np.isfinite(score) else np.inf
-        except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
+        except (ValueError, FloatingPointError, np.linalg.LinAlgError, SimulationError) as exc:  # a failed start
             entry["error"] = f"{type(exc).__name__}: {exc}"
         entry["seconds"] = time.process_time() - t0
         record.append(entry)

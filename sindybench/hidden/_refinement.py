@@ -153,7 +153,9 @@ def initial_state(mode, fit, dynamics, x0, X, y_init):
     of the first ``len(y_init)`` samples (all states free, exact sensitivities
     when compiled); ``"periodic"``: ``X`` is one period of a periodic input;
     simulate two periods from the guess and start from the state reached (the
-    periodic steady state), without using ``y_init``.
+    periodic steady state), without using ``y_init``. When the model's simulation from the guess diverges within
+    ``y_init`` (the least squares cannot start), the guess stands: the simulation that follows diverges too (NaN
+    from ``predict``, a :class:`~sindybench.SimulationError` from ``simulate``).
     """
     if fit is not None and mode != "periodic":
         x0 = refine_guess(fit, dynamics, x0, X, y_init)
@@ -161,7 +163,11 @@ def initial_state(mode, fit, dynamics, x0, X, y_init):
         n = min(len(y_init), len(X))
         if n < 2:
             return x0
-        return estimate_initial_state(dynamics, X[:n], y_init[:n], x0=x0)
+        try:
+            return estimate_initial_state(dynamics, X[:n], y_init[:n], x0=x0)
+        except SimulationError as exc:  # the model diverges within y_init: its simulation diverges as predict says
+            logger.debug("initial state: the least squares cannot start, the guess is kept (%s)", exc)
+            return x0
     if mode == "periodic":
         period = np.vstack([X, X[:1]])
         for _ in range(2):

@@ -19,8 +19,8 @@ from ._linear import linear_base_index, linear_base_rule
 from ._search import describe_blocks, pareto_front, parsimonious_index, record_folds, segments, stls_threshold
 from ._space import n_terms
 from ._space import ALL_FAMILIES, FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
-from ._stages import (STRUCTURE, Budget, confirm_hold, hold_twin, parallel_map, run_stage, score_candidate,
-                      screen_structure, store_full, store_screen, stored_full, stored_screen)
+from ._stages import (STRUCTURE, Budget, confirm_hold, hold_twin, parallel_map, refit_choice, refit_failed, run_stage,
+                      score_candidate, screen_structure, store_full, store_screen, stored_full, stored_screen)
 from . import _persist  # noqa: F401  (model files keep identification_: registers its codec)
 
 __all__ = ["IdentifyCV", "identify"]
@@ -507,10 +507,10 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                              f"{reasons}); expected a record long and rich enough for at least one candidate, or a "
                              "larger time_budget / max_candidates / max_terms.")
         terms = [t if t is not None else 10**9 for t in table["n_terms"]]
-        best = parsimonious_index(mean, table["std_validation_error"], terms, len(folds))
-        best, rule = linear_base_rule(best, rows, mean, table["std_validation_error"], len(folds))
-        front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}
-                 for i in pareto_front(list(mean), terms)]
+
+        def choose(mean):
+            best = parsimonious_index(mean, table["std_validation_error"], terms, len(folds))
+            return linear_base_rule(best, rows, mean, table["std_validation_error"], len(folds))
 
         def refit(i):
             chosen = {k: rows[i][k] for k in STRUCTURE + ("threshold", "refine")}
@@ -523,12 +523,17 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
             chosen["n_terms"], chosen["max_row_terms"], _ = n_terms(final)
             return chosen, final
 
-        chosen, final = refit(best)
+        best, rule, chosen, final = refit_choice(choose, refit, table, mean)  # a failed refit: the next choice
+        front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}
+                 for i in pareto_front(list(mean), terms)]
         base = linear_base_index(rows, mean)
         if chosen["n_terms"] == 0 and base is not None and base != best and mean[base] < mean[best]:
             # a model with no term is never returned when the linear base validates better
-            best, rule = base, "the refit choice had no term left; the linear base validates better"
-            chosen, final = refit(best)
+            try:
+                chosen, final = refit(base)
+                best, rule = base, "the refit choice had no term left; the linear base validates better"
+            except Exception as exc:  # the linear base cannot be refitted: the refit choice stands
+                refit_failed(table, mean, base, exc)
         # one record: (start, stop) of each block; several: (record, start, stop) of each fold's blocks
         blocks = [val[0][1:] for _, val in folds] if not several else [val for _, val in folds]
         splits = [{"train": describe_blocks(train, several), "validation": describe_blocks(val, several)}

@@ -4,7 +4,7 @@
 candidate on every fold (refined or not); ``run_stage`` runs a stage's calls in
 order, reading back those a :class:`~sindybench.identify._resume.CandidateStore`
 holds and recording the others as they finish; ``Budget`` counts the
-candidates and seconds left.
+candidates and seconds left; ``refit_choice`` refits the choice on the whole record, the next one where that fails.
 """
 
 import time
@@ -15,8 +15,8 @@ from ._resume import CandidateStore
 from ._search import evaluate, path_thresholds, segments, stls_threshold
 from ._space import LATENT_FAMILIES, make_estimator
 
-__all__ = ["STRUCTURE", "Budget", "confirm_hold", "hold_twin", "parallel_map", "run_stage", "score_candidate",
-           "screen_structure", "store_full", "store_screen", "stored_full", "stored_screen"]
+__all__ = ["STRUCTURE", "Budget", "confirm_hold", "hold_twin", "parallel_map", "refit_choice", "refit_failed",
+           "run_stage", "score_candidate", "screen_structure", "store_full", "store_screen", "stored_full", "stored_screen"]
 
 # the settings that make a structure (the threshold and the refinement make a candidate of it)
 STRUCTURE = ("family", "library", "derivative", "input_hold", "input_delay")
@@ -163,3 +163,47 @@ def confirm_hold(pick, twin):
         return dict(twin, excluded=True,
                     status="not chosen: the other input hold, not better than the pick's by a standard error")
     return twin
+
+
+def refit_choice(choose, refit, table, mean):
+    """``(index, rule, chosen, final)``: the candidate ``choose(mean)`` picks, refitted on the whole record by ``refit``.
+
+    A candidate whose refit fails (a refinement whose starting model's
+    simulation diverges on the whole record though it simulated every
+    validation block, a fit that raises) is recorded as failed in ``table``
+    (``cv_results_``: its status says why, its mean and spread of validation
+    errors become inf; the block errors stay as measured), leaves ``mean``,
+    and the next choice is refitted. When none is left, a ``ValueError``
+    names the reasons.
+
+    Parameters
+    ----------
+    choose : callable
+        ``choose(mean) -> (index, rule)``: the choice among the finite ``mean`` errors.
+    refit : callable
+        ``refit(index) -> (chosen, final)``: the settings and the model fitted on the whole record.
+    table : dict of lists
+        The search's table (changed in place).
+    mean : ndarray
+        The candidates' mean validation errors, inf where not eligible (changed in place).
+    """
+    while True:
+        best, rule = choose(mean)
+        try:
+            return (best, rule, *refit(best))
+        except Exception as exc:  # a candidate that cannot be refitted is a failed candidate, not the end of fit
+            refit_failed(table, mean, best, exc)
+            if not np.any(np.isfinite(mean)):
+                failed = [s for s in table["status"] if s.startswith("failed at the refit")]
+                reasons = list(dict.fromkeys(failed))[:3]
+                raise ValueError(f"identify: each of the {len(failed)} candidate(s) that simulated every validation "
+                                 f"block failed when refitted on the whole record (reasons: {reasons}); expected a "
+                                 "record on which a chosen model can be fitted whole (a better-scaled or longer "
+                                 "record, other families, or n_refine=0).") from exc
+
+
+def refit_failed(table, mean, i, exc):
+    """Record candidate ``i`` of ``table`` as failed at its refit by ``exc``, and out of ``mean`` (see :func:`refit_choice`)."""
+    table["status"][i] = f"failed at the refit on the whole record: {type(exc).__name__}: {exc}"
+    table["mean_validation_error"][i] = table["std_validation_error"][i] = np.inf
+    mean[i] = np.inf

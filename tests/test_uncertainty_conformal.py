@@ -134,6 +134,66 @@ def test_a_band_outside_its_calibration_range_warns_and_says_how_much(sindy_mode
     assert inside.extrapolation["fraction"] == 0.0
 
 
+def _unit_calibration():
+    """A calibration whose predicted outputs spanned [0, 1] (no inputs), built directly."""
+    from sindybench.uncertainty._conformal import calibration_ranges
+
+    return ConformalCalibration(0.05, None, np.array([0.1]), 100, 1, 100, 1,
+                                calibration_ranges(None, np.linspace(0.0, 1.0, 100)))
+
+
+def test_a_sample_a_hair_outside_the_calibration_range_does_not_warn():
+    """One sample of 500 a thousandth of the range beyond it: reported (a measurement), not warned (was: warned at any
+    fraction above 0); ``max_outside=0, margin=0`` gives the former warning."""
+    cal = _unit_calibration()
+    prediction = np.linspace(0.0, 1.0, 500)
+    prediction[250] = 1.001
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        band = cal.around(prediction)
+    assert band.extrapolation["fraction"] == pytest.approx(1 / 500)
+    with pytest.warns(ExtrapolationWarning, match=r"0\.2 % of the record's samples .* the farthest by 0\.1 % of the "
+                                                  r"range's width.*max_outside = 0 of the samples or beyond margin = 0 "):
+        cal.around(prediction, max_outside=0, margin=0)
+
+
+@pytest.mark.parametrize("outside, value, match", [
+    (1, 1.5, r"0\.2 % of the record's samples .*the farthest by 50 % of the range's width"),  # one, far beyond
+    (10, 1.01, r"2\.0 % of the record's samples .*the farthest by 1 % of the range's width"),  # 2 % a little beyond
+])
+def test_far_or_many_samples_outside_warn(outside, value, match):
+    cal = _unit_calibration()
+    prediction = np.linspace(0.0, 1.0, 500)
+    prediction[:outside] = value
+    with pytest.warns(ExtrapolationWarning, match=match):
+        cal.around(prediction)
+    with warnings.catch_warnings():  # the tolerances are the caller's
+        warnings.simplefilter("error")
+        cal.around(prediction, max_outside=0.05, margin=1.0)
+
+
+def test_a_constant_calibration_input_warns_at_any_distance_beyond_it():
+    from sindybench.uncertainty._conformal import calibration_ranges
+
+    cal = ConformalCalibration(0.05, None, np.array([0.1]), 100, 1, 100, 1,
+                               calibration_ranges(np.ones((100, 1)), np.linspace(0.0, 1.0, 100)))
+    X = np.ones((500, 1))
+    X[0] = 1.0 + 1e-9  # a width of 0: any distance beyond it is infinitely far
+    with pytest.warns(ExtrapolationWarning, match="the farthest by inf % of the range's width"):
+        cal.around(np.linspace(0.0, 1.0, 500), X=X)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(max_outside=1.5), r"max_outside must be a fraction in \[0, 1\]; got 1\.5"),
+    (dict(max_outside=-0.1), r"max_outside must be a finite number >= 0; got -0\.1"),
+    (dict(margin="a"), r"margin must be a finite number >= 0; got 'a'"),
+    (dict(margin=np.nan), r"margin must be a finite number >= 0; got nan"),
+])
+def test_bad_extrapolation_tolerances(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        _unit_calibration().around(np.linspace(0.0, 1.0, 50), **kwargs)
+
+
 def test_the_calibration_range_survives_to_dict_and_old_dicts_load_without(sindy_model):
     u, y = first_order(1, 600)
     cal = conformal_calibration(sindy_model, u, y, n_init=1, block_length=150)

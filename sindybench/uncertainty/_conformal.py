@@ -45,10 +45,15 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._validation import check_alpha, check_integer
+from .._validation import check_alpha, check_integer, check_positive
 from ._residuals import check_record, free_run_prediction, k_step_prediction
 
 __all__ = ["ConformalBand", "ConformalCalibration", "ExtrapolationWarning", "conformal_calibration", "conformal_quantile"]
+
+
+#: The extrapolation warning's default tolerances: the fraction of samples outside the calibration's range, and the
+#: distance beyond it (a fraction of the range's width), that do not warn (see :meth:`ConformalCalibration.around`).
+MAX_OUTSIDE, MARGIN = 0.01, 0.1
 
 
 def conformal_quantile(scores, alpha):
@@ -174,8 +179,12 @@ class ConformalCalibration(NamedTuple):
         what = "free-run" if self.horizon is None else f"{self.horizon}-step"
         return f"conformal {100 * (1 - self.alpha):g} % {what} band"
 
-    def band(self, model, X, *, y_init=None, y=None, Q=None, R=None):
+    def band(self, model, X, *, y_init=None, y=None, Q=None, R=None, max_outside=MAX_OUTSIDE, margin=MARGIN):
         """The calibrated band of ``model``'s prediction of a new record.
+
+        Warns (:class:`ExtrapolationWarning`) when the record leaves the range
+        of the calibration record by more than ``max_outside`` and ``margin``
+        allow (see :meth:`around`).
 
         Parameters
         ----------
@@ -191,6 +200,8 @@ class ConformalCalibration(NamedTuple):
         Q, R : array-like, optional
             Noise covariances of a state-space model's k-step prediction
             (default: estimated on ``(X, y)``, as in the calibration).
+        max_outside, margin : float, default=0.01, 0.1
+            The extrapolation warning's tolerances (see :meth:`around`).
 
         Returns
         -------
@@ -213,13 +224,21 @@ class ConformalCalibration(NamedTuple):
                 raise ValueError(f"a {self.horizon}-step band needs y, the measured outputs of the record.")
             X, y = check_record(X, y, "ConformalCalibration.band")
             pred, start = k_step_prediction(model, X, y, self.horizon, Q=Q, R=R), self.horizon
-        return self._around(pred, start, X, stacklevel=3)
+        return self._around(pred, start, X, (max_outside, margin), stacklevel=3)
 
-    def around(self, prediction, start=0, *, X=None):
+    def around(self, prediction, start=0, *, X=None, max_outside=MAX_OUTSIDE, margin=MARGIN):
         """The band around a prediction already made (the free run, or the k-step prediction of ``y[start:]``).
 
         Warns (:class:`ExtrapolationWarning`) when the record's inputs ``X`` or
-        the prediction leave the range of the calibration record.
+        the prediction leave the range of the calibration record: when more
+        than ``max_outside`` of the samples lie outside it, or any sample lies
+        beyond it by more than ``margin`` of its width (per column). A few
+        samples a little outside (noise on a test input that reaches the same
+        peaks) cannot move the coverage by more than their fraction, and the
+        errors at the range's edge are calibrated; a sample far beyond it is
+        a regime the calibration never saw. ``max_outside=0, margin=0`` warns
+        at any sample outside. The band's ``extrapolation`` reports the
+        fractions outside whether it warns or not.
 
         Parameters
         ----------
@@ -228,15 +247,38 @@ class ConformalCalibration(NamedTuple):
             The first sample predicted (``horizon`` for a k-step prediction).
         X : array-like of shape (n_samples, n_inputs), optional
             The record's inputs (checked against the calibration's input range).
+        max_outside : float in [0, 1], default=0.01
+            Largest fraction of the samples outside the range that does not warn.
+        margin : float >= 0, default=0.1
+            Largest distance beyond the range, as a fraction of its width,
+            that does not warn.
 
         Returns
         -------
         ConformalBand
-        """
-        return self._around(prediction, start, X, stacklevel=3)
 
-    def _around(self, prediction, start, X, *, stacklevel):
+        Examples
+        --------
+        >>> cal = ConformalCalibration(0.05, None, np.array([0.1]), 100, 1, 100, 1,
+        ...                            calibration_ranges(None, np.linspace(0.0, 1.0, 100)))
+        >>> band = cal.around(np.linspace(0.0, 1.001, 200))  # one sample 0.1 % of the range beyond it: no warning
+        >>> band.extrapolation["fraction"]
+        0.005
+        >>> import warnings
+        >>> with warnings.catch_warnings(record=True) as caught:
+        ...     warnings.simplefilter("always")
+        ...     band = cal.around(np.linspace(0.0, 1.001, 200), max_outside=0, margin=0)
+        >>> [w.category.__name__ for w in caught]
+        ['ExtrapolationWarning']
+        """
+        return self._around(prediction, start, X, (max_outside, margin), stacklevel=3)
+
+    def _around(self, prediction, start, X, tolerance, *, stacklevel):
         """:meth:`around`; its warning points ``stacklevel`` frames up (at the user's call of ``band`` or ``around``)."""
+        max_outside, margin = tolerance
+        if check_positive(max_outside, "max_outside", strict=False) > 1:
+            raise ValueError(f"max_outside must be a fraction in [0, 1]; got {max_outside!r}.")
+        margin = check_positive(margin, "margin", strict=False)
         pred = np.asarray(prediction, dtype=float)
         pred = pred.reshape(len(pred), -1)
         if pred.shape[1] != self.half_width.shape[0]:
@@ -244,13 +286,16 @@ class ConformalCalibration(NamedTuple):
                              f"{self.half_width.shape[0]} (another model?).")
         if not np.all(np.isfinite(pred)):
             raise ValueError("the prediction contains NaN or inf (a diverged simulation); expected a finite one.")
-        found = None if self.ranges is None else extrapolation(self.ranges, None if X is None else X[int(start):], pred)
-        if found is not None and found["fraction"] > 0:
+        X = None if X is None else X[int(start):]
+        found = None if self.ranges is None else extrapolation(self.ranges, X, pred)
+        beyond = 0.0 if found is None or found["fraction"] == 0 else excursion(self.ranges, X, pred)
+        if found is not None and (found["fraction"] > max_outside or beyond > margin):
             warnings.warn(f"the {self.name} extrapolates: {100 * found['fraction']:.1f} % of the record's samples "
                           f"(inputs {100 * found['fraction_inputs']:.1f} %, predicted outputs "
                           f"{100 * found['fraction_outputs']:.1f} %) lie outside the range of its calibration record "
-                          f"({found['calibration']}); the band is not calibrated there.", ExtrapolationWarning,
-                          stacklevel=stacklevel)
+                          f"({found['calibration']}), the farthest by {100 * beyond:.3g} % of the range's width; the "
+                          f"band is not calibrated there (warns above max_outside = {max_outside:g} of the samples "
+                          f"or beyond margin = {margin:g} of the width).", ExtrapolationWarning, stacklevel=stacklevel)
         return ConformalBand(pred, pred - self.half_width, pred + self.half_width, int(start), self.name, found)
 
     def to_dict(self):
@@ -302,6 +347,37 @@ def _outside(values, bounds):
     if values.shape[1] == 0 or values.shape[1] != bounds.shape[1]:
         return np.zeros(len(values), dtype=bool)
     return np.any((values < bounds[0]) | (values > bounds[1]), axis=1)
+
+
+def _beyond(values, bounds):
+    """The largest distance of ``values`` outside ``bounds``, per column as a fraction of its width (inf for a
+    column of width 0 left)."""
+    if values.size == 0 or values.shape[1] != bounds.shape[1]:
+        return 0.0
+    distance = np.max(np.maximum(np.maximum(bounds[0] - values, values - bounds[1]), 0.0), axis=0)
+    width = bounds[1] - bounds[0]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        relative = np.where(distance > 0, distance / np.where(width > 0, width, 0.0), 0.0)
+    return float(np.max(relative))
+
+
+def excursion(ranges, X, prediction):
+    """How far a record goes beyond a calibration's ranges: the largest distance of an input or a predicted output
+    outside its range, as a fraction of the range's width (0 inside; inf beyond a range of width 0).
+
+    Examples
+    --------
+    >>> r = calibration_ranges(np.array([[0.0], [2.0]]), np.array([[1.0], [-1.0]]))
+    >>> excursion(r, np.array([[1.0], [2.5]]), np.array([[0.0], [0.0]]))
+    0.25
+    """
+    pred = np.asarray(prediction, dtype=float)
+    pred = pred.reshape(len(pred), -1)
+    beyond = _beyond(pred, ranges["outputs"])
+    if X is not None:
+        X = np.asarray(X, dtype=float).reshape(len(X), -1)[:len(pred)]
+        beyond = max(beyond, _beyond(X, ranges["inputs"]))
+    return beyond
 
 
 def _interval_text(bounds):

@@ -27,26 +27,32 @@ by ``str()``:
 Detected features propose library terms (:class:`ProposedTerm`): an
 indicator at a saturation level, friction (``sign``) terms of a velocity
 that changes sign, square roots of a positive signal.
+
+This module holds the report (:class:`DataAdvice`, :class:`ProposedTerm`,
+:func:`advice`); the checks live beside it, each group in its own module:
+``_advice_signals`` (the record's magnitude, the input hold, excitation,
+saturation, trend, bandwidth), ``_advice_delay`` (the input delay) and
+``_advice_feedback`` (feedback and the poles of an ARX model). The public
+checks stay importable from here.
 """
 
 import logging
 from dataclasses import dataclass, field
 
 import numpy as np
-from numpy.lib.stride_tricks import sliding_window_view
-from scipy.stats import f as f_dist
 
-from .._validation import check_inputs_outputs, check_integer, check_positive, check_signal
-from ..baselines._arx import least_squares
-from ..baselines._lags import input_lags, output_lags
+from .._validation import check_integer
 from ..dynamics import SIGN, SQRT, STEP
+from ._advice_delay import estimate_delay, estimate_delay_details
+from ._advice_feedback import arx_poles, feedback_test, pole_findings
+from ._advice_signals import (MAX_MAGNITUDE, check_magnitude, check_record, detect_input_hold,  # noqa: F401
+                              detect_saturation, excitation_order, noise_std, output_bandwidth, trend_share)
 
 __all__ = ["DataAdvice", "ProposedTerm", "advice", "detect_input_hold", "detect_saturation", "estimate_delay",
            "excitation_order"]
 
 logger = logging.getLogger(__name__)
 
-_HELD_OUT = 0.25  # the block at the end that confirms a delay
 _FEEDBACK_P = 1e-3  # F-test level of the feedback check
 # the least share of the ARX residual the inputs' innovations must explain to call a record closed-loop: on long
 # open-loop records a tiny dependence (a non-Gaussian input's innovations and a nonlinear misfit) is significant; the
@@ -211,397 +217,10 @@ def _fmt(values):
     return "[]" if values is None else "[" + ", ".join(f"{v:.4g}" for v in np.ravel(values)) + "]"
 
 
-#: the largest magnitude a record may reach: the ARX fits and the candidates' cubic terms square and cube it
-MAX_MAGNITUDE = 1e100
-
-
-def check_magnitude(X, y):
-    """Refuse a record whose inputs or outputs reach beyond :data:`MAX_MAGNITUDE` (their squares overflow).
-
-    Examples
-    --------
-    >>> check_magnitude(np.ones((3, 1)), 1e200 * np.ones((3, 1)))
-    Traceback (most recent call last):
-    ...
-    ValueError: y reaches 1e+200 (output column 0): beyond 1e+100, where squares and cubes of it overflow float64; expected a record in units where it stays below 1e+100 (rescale it, e.g. y / 1e+200).
-    """
-    for name, values, kind in (("X", X, "input"), ("y", y, "output")):
-        if values.size == 0:
-            continue
-        peak = np.max(np.abs(values), axis=0)
-        j = int(np.argmax(peak))
-        if peak[j] > MAX_MAGNITUDE:
-            raise ValueError(f"{name} reaches {peak[j]:.3g} ({kind} column {j}): beyond {MAX_MAGNITUDE:.0e}, where "
-                             f"squares and cubes of it overflow float64; expected a record in units where it stays "
-                             f"below {MAX_MAGNITUDE:.0e} (rescale it, e.g. {name} / {peak[j]:.3g}).")
-
-
-def _check(X, y, dt):
-    X, y = check_inputs_outputs(X, y)
-    check_positive(dt, "dt")
-    check_magnitude(X, y)
-    return X, y
-
-
-# ----------------------------------------------------------------------- delay
-def _delay_losses(X, y, max_nk, na, nb):
-    """Held-out one-step error of ARX(na, nb, nk) for nk = 0 .. max_nk, each relative to the output's variance."""
-    n = y.shape[0]
-    start = max(na, max_nk + nb - 1)
-    n_fit = start + int((1 - _HELD_OUT) * (n - start))
-    if n_fit - start < 4 * (na * y.shape[1] + nb * X.shape[1] + 1) or n - n_fit < 10:
-        raise ValueError(f"{n} samples are too few to estimate a delay of up to {max_nk - 1} samples with ARX("
-                         f"na={na}, nb={nb}); expected at least {start + 8 * (na + nb + 1) + 20}.")
-    target = y[start:]
-    scale = np.var(target[n_fit - start:], axis=0)
-    scale = np.where(scale > 0, scale, 1.0)
-    y_part = output_lags(y, na, start)
-    losses = {}
-    for nk in range(max_nk + 1):
-        phi = np.hstack([y_part, input_lags(X, nb, nk, start)])
-        coef, intercept, _ = least_squares(phi[: n_fit - start], target[: n_fit - start])
-        residual = target[n_fit - start:] - phi[n_fit - start:] @ coef - intercept
-        losses[nk] = float(np.mean(np.mean(residual ** 2, axis=0) / scale))
-    return losses
-
-
-def _chosen_lag(losses, rtol, nb):
-    """``(nk, resolved)``: the largest lag whose loss is within ``rtol`` of the best.
-
-    Shorter lags reach the response with their longer windows, so the lags
-    within ``rtol`` span at most ``nb`` when the record resolves the delay.
-    Otherwise (a smooth input: any window extrapolates to the others) the
-    delay is not resolved: ``(None, False)``.
-    """
-    best = min(losses.values())
-    close = [nk for nk, loss in losses.items() if loss <= best * (1 + rtol) + 1e-15]
-    if max(close) - min(close) <= nb - 1:
-        return max(close), True
-    return None, False
-
-
-def estimate_delay(X, y, dt, *, max_delay=20, hold=None, na=2, nb=3, rtol=0.01):
-    """Input delay in samples: the ``input_delay`` of :class:`~sindybench.SINDy` and :class:`~sindybench.HiddenStateSINDy`.
-
-    An ARX model ``y[t] = a_1 y[t-1] + ... + b_0 u[t-nk] + ... + b_{nb-1} u[t-nk-nb+1] + c``
-    is fitted by least squares on the first 75 % of the record for each input
-    lag ``nk`` from 0 to ``max_delay + 1`` and scored by its one-step error on
-    the last 25 % (the held-out block). The lag is the largest ``nk`` whose
-    held-out error is within ``rtol`` of the best (shorter lags reach the
-    response with their longer windows; longer ones miss its start). A
-    continuous-time model driven through a zero-order hold responds at lag 1
-    without delay, so its delay is ``nk - 1``; with a linear hold the input
-    acts within the sample, so it is ``nk``. An input that is smooth at the
-    sampling rate may not resolve the delay (lags further apart than ``nb``
-    all score within ``rtol``): then the delay is 0 (no delay) and a warning
-    is logged; confirm the delay on validation data (the simulation error of
-    models with neighbouring delays).
-
-    Parameters
-    ----------
-    X : array-like of shape (n_samples, n_inputs)
-    y : array-like of shape (n_samples, n_outputs)
-    dt : float
-        Sampling interval (for the message).
-    max_delay : int, default=20
-    hold : {"zoh", "linear"} or None, default=None
-        The input hold; None detects it (:func:`detect_input_hold`).
-    na, nb : int, default=2, 3
-        ARX orders of the candidates (``na >= 0`` output lags, ``nb >= 1`` input lags).
-    rtol : float, default=0.01
-        Relative tolerance (``>= 0``) of the lags that score as well as the best.
-
-    Returns
-    -------
-    int
-
-    Examples
-    --------
-    >>> rng = np.random.default_rng(0)
-    >>> u = rng.standard_normal((2000, 1))
-    >>> y = np.zeros((2000, 1))
-    >>> for t in range(5, 2000):
-    ...     y[t] = 0.9 * y[t - 1] + 0.5 * u[t - 4]
-    >>> estimate_delay(u, y, 0.01, hold="zoh")
-    3
-    """
-    X, y = _check(X, y, dt)
-    return _estimate_delay(X, y, dt, max_delay, hold, na, nb, rtol, say=True)[0]
-
-
-def _estimate_delay(X, y, dt, max_delay, hold, na, nb, rtol, say=False):
-    """``(delay, losses, resolved)``; ``say``: warn here when the record does not resolve it (:func:`advice` says it
-    in its own warnings)."""
-    max_delay = check_integer(max_delay, "max_delay", low=0)
-    na, nb = check_integer(na, "na", low=0), check_integer(nb, "nb", low=1)
-    rtol = check_positive(rtol, "rtol", strict=False)
-    if X.shape[1] == 0:
-        return 0, {}, True
-    hold = hold if hold is not None else detect_input_hold(X)[0]
-    losses = _delay_losses(X, y, max_delay + 1, na, nb)
-    nk, resolved = _chosen_lag(losses, rtol, nb)
-    delay = 0 if nk is None else max(nk - 1, 0) if hold == "zoh" else min(nk, max_delay)
-    if not resolved and say:
-        logger.warning("estimate_delay: the record does not resolve the input delay (ARX input lags %s score within "
-                       "%g %% of the best, as for a smooth input); taking %d samples (no delay): confirm it on validation data",
-                       sorted(k for k, v in losses.items() if v <= min(losses.values()) * (1 + rtol)), 100 * rtol,
-                       delay)
-    logger.info("estimate_delay: input lag nk = %s (%s hold) -> input_delay = %d samples (%.4g s)", nk, hold, delay,
-                delay * dt)
-    return delay, losses, resolved
-
-
-# ------------------------------------------------------------------------ hold
-def detect_input_hold(X):
-    """``"zoh"`` or ``"linear"`` for each input column, from its shape.
-
-    Piecewise constant (over half of the steps repeat the previous value, or
-    the second differences are as large as the first: a new value every
-    sample, as a zero-order hold of a random sequence) is ``"zoh"``; smooth
-    at the sample rate (second differences under half the first) is
-    ``"linear"``.
-
-    Examples
-    --------
-    >>> t = np.arange(500) * 0.01
-    >>> detect_input_hold(np.column_stack([np.sin(t), np.repeat(np.arange(50.0) % 3, 10)]))
-    ['linear', 'zoh']
-    """
-    X = check_signal(X, "X")
-    holds = []
-    for u in X.T:
-        d1 = np.diff(u)
-        if d1.size < 3 or not np.any(d1):
-            holds.append("zoh")
-            continue
-        repeats = np.mean(np.abs(d1) <= 1e-12 * (np.ptp(u) or 1.0))
-        roughness = np.sqrt(np.mean(np.diff(d1) ** 2) / np.mean(d1 ** 2))
-        holds.append("zoh" if repeats > 0.5 or roughness >= 0.5 else "linear")
-    return holds
-
-
-# ------------------------------------------------------------------ excitation
-def excitation_order(X, *, max_order=50, tol=1e-9):
-    """Persistent-excitation order of each input: the rank of the matrix of its windows of ``max_order`` samples.
-
-    The windows ``u[t:t + max_order]`` span a space whose dimension is the
-    order (numerical rank: eigenvalues of their Gram matrix above ``tol``
-    times the largest): a sum of ``k`` sines excites order ``2 k``, a
-    constant order 1 (the offset), white noise every order, zero none. A
-    model with more poles than the order cannot be told apart from others
-    on this record.
-
-    Examples
-    --------
-    >>> t = np.arange(2000) * 0.01
-    >>> excitation_order(np.column_stack([np.sin(t) + np.sin(3.7 * t), np.ones_like(t)]), max_order=20)
-    [4, 1]
-    """
-    X = check_signal(X, "X")
-    max_order = check_integer(max_order, "max_order")
-    tol = check_positive(tol, "tol", strict=False)
-    if X.shape[0] < 2:
-        raise ValueError(f"X has {X.shape[0]} sample(s); the excitation order of an input needs at least 2.")
-    orders = []
-    for u in X.T:
-        if not np.any(u):
-            orders.append(0)
-            continue
-        m = max(1, min(max_order, u.size // 2))
-        u = u / np.max(np.abs(u))  # the rank does not depend on scale: no Gram matrix overflows or underflows
-        windows = sliding_window_view(u, m)  # every window of m samples: their span has the order's dimension
-        eig = np.linalg.eigvalsh(windows.T @ windows)
-        orders.append(int(np.sum(eig > tol * eig[-1])))
-    return orders
-
-
-# ------------------------------------------------------------------ saturation
-def _noise_std(y):
-    """Measurement-noise estimate from second differences (an upper bound for smooth signals)."""
-    return np.sqrt(np.mean(np.diff(y, 2) ** 2) / 6) if y.size > 2 else 0.0
-
-
-def detect_saturation(y, *, min_fraction=0.005, ratio=4.0):
-    """Levels where an output's samples pile up at the top or bottom of its range.
-
-    For each output and each end of its range, the fraction of samples within
-    ``tol`` of the extreme (``tol``: 0.1 % of the range, or 3 noise standard
-    deviations if larger) is compared with the fraction in the next band of
-    the same width: a smooth signal (a sine near its peak) has at most about
-    2.4 times as many at its extreme; a saturated one has a point mass there.
-    The extreme of a noisy saturated output is a noise sample about ``tol``
-    beyond the level, so bands twice as wide are compared too; a pile-up found
-    only so is reported at the median of the samples within ``2 tol`` of the extreme.
-
-    Parameters
-    ----------
-    y : array-like of shape (n_samples, n_outputs)
-    min_fraction : float, default=0.005
-        Smallest fraction of samples at the level to report, in (0, 1].
-    ratio : float, default=4.0
-        Least ratio (``>= 1``) of the fraction at the extreme to the fraction in the next band of the same width.
-
-    Returns
-    -------
-    list of (int, str, float, float)
-        ``(output, "upper" or "lower", level, fraction)``.
-
-    Examples
-    --------
-    >>> t = np.arange(2000) * 0.01
-    >>> detect_saturation(np.column_stack([np.minimum(np.sin(t), 0.8), np.sin(t)]))
-    [(0, 'upper', 0.8, 0.2...)]
-    """
-    y = check_signal(y, "y")
-    if check_positive(min_fraction, "min_fraction") > 1:
-        raise ValueError(f"min_fraction must be a fraction in (0, 1]; got {min_fraction!r}.")
-    if check_positive(ratio, "ratio") < 1:
-        raise ValueError(f"ratio must be a finite number >= 1 (a pile-up has more samples at the extreme than in the "
-                         f"next band); got {ratio!r}.")
-    found = []
-    for j, v in enumerate(y.T):
-        span = np.ptp(v)
-        if span == 0:
-            continue
-        tol = max(1e-3 * span, 3 * _noise_std(v) if v.size > 2 else 0.0)
-        for side, extreme, dist in (("upper", v.max(), v.max() - v), ("lower", v.min(), v - v.min())):
-            for width in (tol, 2 * tol):  # the extreme itself, then a noisy level (the extreme ~ tol beyond it)
-                band = dist <= width
-                at = np.mean(band)
-                if at >= min_fraction and at > ratio * np.mean((dist > width) & (dist <= 2 * width)):
-                    found.append((j, side, float(extreme if width == tol else np.median(v[band])), float(at)))
-                    break
-    return found
-
-
-# ------------------------------------------------------------------- the rest
-def _trend_share(v):
-    """Share of the variance of ``v`` that a straight line in time explains."""
-    t = np.arange(v.size, dtype=float)
-    var = np.var(v)
-    if var == 0:
-        return 0.0
-    slope = np.polyfit(t, v, 1)[0]
-    return float(min(1.0, slope ** 2 * np.var(t) / var))
-
-
-def _innovations(X, order):
-    """Per input, the one-step prediction errors of an AR(``order``) fit, and the smallest share of variance left.
-
-    Row ``k`` of the errors belongs to sample ``order + k``.
-    """
-    n = X.shape[0]
-    errors = np.zeros((n - order, X.shape[1]))
-    shares = []
-    for i, u in enumerate(X.T):
-        _, _, resid = least_squares(output_lags(u[:, None], order, order), u[order:, None])
-        errors[:, i] = resid[:, 0]
-        var = np.var(u[order:])
-        shares.append(float(np.var(resid) / var) if var > 0 else 0.0)
-    return errors, min(shares, default=0.0)
-
-
-def _feedback(X, y, nk, na=4, nb=10, n_future=10, ar_order=20):
-    """The feedback check: ``(p, effect)``, or ``(None, reason)`` when the record cannot tell.
-
-    The test asks whether the *innovations* of the inputs (what an AR(``ar_order``)
-    model of each input cannot predict from its own past) at the next
-    ``n_future`` samples improve an ARX(``na``, ``nb``, ``nk``) prediction of ``y[t]`` (an F test,
-    ``p``), and by how much (``effect``: the share of the ARX residual's sum of
-    squares they explain). In open loop an input's innovation is independent of
-    everything before it, the output's noise and the ARX model's misfit
-    included, so it adds nothing however poor the ARX model is (a slow, lightly
-    damped or nonlinear plant); with feedback the inputs react to the output's
-    noise, and so do their innovations. Raw future inputs, the former
-    regressors, are correlated with the past inputs that a misfitting ARX
-    model leaves in its residual: on the open-loop Silverbox and Bouc-Wen
-    records they gave p = 0 and 1e-105. The innovation of ``u[t]`` itself is
-    left out: a band-limited input's value at ``t`` tells what the plant saw
-    between the samples (on Silverbox it explained 7 % of the residual). So a
-    controller that reacts within the sample to a slow disturbance, and only
-    then, is not seen (its later inputs are predictable from ``u[t]``).
-
-    Inputs that their own past predicts (a periodic multisine: less than 1e-8
-    of the variance left) have no innovations to test, and a record without
-    residual noise has nothing to react to: ``(None, reason)``.
-    """
-    innovations, share = _innovations(X, ar_order)
-    if share < 1e-8:
-        return None, "the inputs are predictable from their own past (periodic, e.g. a multisine)"
-    start = max(na, nk + nb - 1, ar_order - 1)
-    n = y.shape[0] - n_future
-    past = np.hstack([output_lags(y[:n], na, start), input_lags(X[:n], nb, nk, start)])
-    future = np.hstack([innovations[start - ar_order + k : n - ar_order + k] for k in range(1, n_future + 1)])
-    target = y[start:n]
-    _, _, r_past = least_squares(past, target)
-    _, _, r_both = least_squares(np.hstack([past, future]), target)
-    q = future.shape[1] * target.shape[1]
-    dof = target.size - (past.shape[1] + future.shape[1] + 1) * target.shape[1]
-    rss_past, rss_both = float(np.sum(r_past ** 2)), float(np.sum(r_both ** 2))
-    if dof <= 0 or rss_both <= 1e-20 * float(np.sum((target - target.mean(axis=0)) ** 2)):
-        return None, "no residual noise"
-    p = float(f_dist.sf((rss_past - rss_both) / q / (rss_both / dof), q, dof))
-    return p, 1.0 - rss_both / rss_past
-
-
-def _arx_poles(X, y, nk, orders=(1, 2, 3, 4, 6, 8), rtol=0.01):
-    """Discrete poles of each output's own lags in the ARX(n, n, ``nk``) model, ``n`` the smallest of ``orders``
-    whose held-out one-step error is within ``rtol`` of the best; an array per output."""
-    n_samples = y.shape[0]
-    fits = {}
-    for n in orders:
-        start = max(n, nk + n - 1)
-        n_fit = start + int((1 - _HELD_OUT) * (n_samples - start))
-        if n_fit - start < 4 * (n * (y.shape[1] + X.shape[1]) + 1) or n_samples - n_fit < 10:
-            break
-        phi = np.hstack([output_lags(y, n, start), input_lags(X, n, nk, start)])
-        target = y[start:]
-        coef, intercept, _ = least_squares(phi[: n_fit - start], target[: n_fit - start])
-        residual = target[n_fit - start:] - phi[n_fit - start:] @ coef - intercept
-        scale = np.where(np.var(target, axis=0) > 0, np.var(target, axis=0), 1.0)
-        fits[n] = (float(np.mean(np.mean(residual ** 2, axis=0) / scale)), coef)
-    if not fits:
-        return []
-    best = min(loss for loss, _ in fits.values())
-    n = min(k for k, (loss, _) in fits.items() if loss <= best * (1 + rtol) + 1e-15)
-    coef = fits[n][1]
-    m = y.shape[1]
-    return [np.roots(np.concatenate([[1.0], -coef[j: n * m: m, j]])) for j in range(m)]
-
-
-def _pole_findings(poles, dt, duration):
-    """``(unstable, integrating)`` output indices: a pole that grows within half the record, or one whose time
-    constant is longer than half the record (its free run drifts as an integrator's does)."""
-    unstable, integrating = [], []
-    for j, p in enumerate(poles):
-        p = p[np.abs(p) > 0]
-        rate = np.log(np.abs(p)) / dt  # the real part of the continuous pole
-        if np.any(rate > 2.0 / duration):
-            unstable.append(j)
-        elif np.any((np.abs(rate) <= 2.0 / duration) & (np.abs(np.angle(p)) < np.pi / 4)):
-            integrating.append(j)
-    return unstable, integrating
-
-
-def _bandwidth(y, dt, share=0.95):
-    """Per output, the frequency below which ``share`` of its detrended power lies."""
-    out = []
-    for v in y.T:
-        v = v - np.polyval(np.polyfit(np.arange(v.size), v, 1), np.arange(v.size))
-        power = np.abs(np.fft.rfft(v)) ** 2
-        freq = np.fft.rfftfreq(v.size, dt)
-        cumulative = np.cumsum(power[1:])
-        if cumulative.size == 0 or cumulative[-1] == 0:
-            out.append(float(freq[-1]) if freq.size else 0.0)
-            continue
-        out.append(float(freq[1:][np.searchsorted(cumulative, share * cumulative[-1])]))
-    return np.array(out)
-
-
 def _proposals(y, saturation, dt):
     terms = []
     for j, side, level, frac in saturation:
-        tol = max(1e-3 * np.ptp(y[:, j]), 3 * _noise_std(y[:, j]))
+        tol = max(1e-3 * np.ptp(y[:, j]), 3 * noise_std(y[:, j]))
         low, high = (level - tol, np.inf) if side == "upper" else (-np.inf, level + tol)
         terms.append(ProposedTerm("indicator", f"y{j}", j, 0, low, high,
                                   f"{100 * frac:.1f} % of the samples at the {side} level {level:.6g}"))
@@ -686,13 +305,13 @@ def advice(X, y, *, dt, max_delay=20, max_order=50, within_identify=False):
       warning: y0 has an offset (mean 19.87, std 0.519): centre it (normalize=True)
       warning: y0 saturates at its upper level 20.4003 (27.7 % of the samples)
     """
-    X, y = _check(X, y, dt)
+    X, y = check_record(X, y, dt)
     max_order = check_integer(max_order, "max_order")  # also without inputs: a wrong setting is named, not ignored
     n, p, m = y.shape[0], X.shape[1], y.shape[1]
     result = DataAdvice(n_samples=n, n_inputs=p, n_outputs=m, dt=float(dt))
     result.input_holds = detect_input_hold(X)
     result.input_hold = result.input_holds[0] if p else "zoh"
-    result.input_delay, result.delay_losses, result.delay_resolved = _estimate_delay(
+    result.input_delay, result.delay_losses, result.delay_resolved = estimate_delay_details(
         X, y, dt, max_delay, result.input_hold, 2, 3, 0.01)
     remedy = (lambda kind, **values: _IDENTIFY_REMEDIES[kind].format(**values)) if within_identify else None
     if not result.delay_resolved:
@@ -708,9 +327,9 @@ def advice(X, y, *, dt, max_delay=20, max_order=50, within_identify=False):
             result.offsets.append(name)
             warn.append(f"{name} has an offset (mean {mean:.4g}, std {std:.3g}): "
                         + (remedy("offset") if remedy else "centre it (normalize=True)"))
-    input_trend = max([_trend_share(u) for u in X.T], default=0.0)
+    input_trend = max([trend_share(u) for u in X.T], default=0.0)
     for j, v in enumerate(y.T):
-        share = _trend_share(v)
+        share = trend_share(v)
         if share > 0.5 and input_trend < 0.25:
             result.drift.append(f"y{j}")
             warn.append(f"y{j} drifts (a straight line explains {100 * share:.0f} % of its variance; no input "
@@ -724,7 +343,7 @@ def advice(X, y, *, dt, max_delay=20, max_order=50, within_identify=False):
     for j, side, level, frac in result.saturation:
         warn.append(f"y{j} saturates at its {side} level {level:.6g} ({100 * frac:.1f} % of the samples)")
     if p and n > 200:
-        p_value, effect = _feedback(X, y, result.input_delay + (result.input_hold == "zoh"))
+        p_value, effect = feedback_test(X, y, result.input_delay + (result.input_hold == "zoh"))
         if p_value is None:
             result.feedback_note = effect
         else:
@@ -734,8 +353,8 @@ def advice(X, y, *, dt, max_delay=20, max_order=50, within_identify=False):
             warn.append(f"the inputs react to the output's noise (their innovations explain {100 * effect:.1f} % of "
                         f"an ARX model's residual, F test p = {p_value:.2g}): the record looks closed-loop (feedback) "
                         "or its output was filtered non-causally; open-loop fits may be biased")
-    result.poles = _arx_poles(X, y, result.input_delay + (result.input_hold == "zoh")) if p else []
-    result.unstable, result.integrating = _pole_findings(result.poles, dt, n * dt)
+    result.poles = arx_poles(X, y, result.input_delay + (result.input_hold == "zoh")) if p else []
+    result.unstable, result.integrating = pole_findings(result.poles, dt, n * dt)
     for j in result.unstable:
         warn.append(f"y{j}: an ARX model of the record has a pole that grows within half the record (max |pole| "
                     f"{np.max(np.abs(result.poles[j])):.4f}): an open-loop unstable plant; free runs drift, so "
@@ -743,7 +362,7 @@ def advice(X, y, *, dt, max_delay=20, max_order=50, within_identify=False):
     for j in result.integrating:
         warn.append(f"y{j}: an ARX model of the record has a pole slower than half the record (an integrator or "
                     "nearly): free runs may drift, so k-step prediction may rank candidates better")
-    result.bandwidth = _bandwidth(y, dt)
+    result.bandwidth = output_bandwidth(y, dt)
     with np.errstate(divide="ignore"):
         result.samples_per_period = 1.0 / (dt * result.bandwidth)
     for j, spp in enumerate(result.samples_per_period):

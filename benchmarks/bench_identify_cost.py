@@ -148,7 +148,7 @@ def report(clock, total):
     return "\n".join(lines)
 
 
-def run(system_name, n_samples, seed):
+def run(system_name, n_samples, seed, families=None):
     from sindybench import HiddenStateSINDy
     from sindybench.identify import identify
     from sindybench.systems import get_system
@@ -156,6 +156,7 @@ def run(system_name, n_samples, seed):
     rec = get_system(system_name).record(seed, n_samples=n_samples, n_test=1000)
     u, y, dt = rec.u, rec.y, rec.dt
     clock = StageClock()
+    kwargs = {} if families is None else {"families": families}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         start = time.process_time()
@@ -163,7 +164,7 @@ def run(system_name, n_samples, seed):
         ref_s = time.process_time() - start
         with instrumented(clock):
             start = time.process_time()
-            model = identify(u, y, dt=dt, show_progress_bar=False)
+            model = identify(u, y, dt=dt, show_progress_bar=False, **kwargs)
             total = time.process_time() - start
     chosen = model.identification_["settings"]
     target = TARGET_S.get(n_samples)
@@ -171,8 +172,9 @@ def run(system_name, n_samples, seed):
     print(f"== {system_name}: {n_samples} samples at dt={dt}, seed {seed}")
     print(f"   identify: CPU {total:.1f} s{verdict}; {total / ref_s:.0f}x one default HiddenStateSINDy fit "
           f"({ref_s:.2f} s)")
+    base = model.identification_["data"].get("linear")
     print(f"   chosen: {chosen['family']} / {chosen['library']}, {chosen['n_terms']} terms; linear base: "
-          f"{model.identification_['data'].get('linear', {}) and {k: model.identification_['data']['linear'][k] for k in ('order', 'block_rows')}}")
+          + ("none" if base is None else f"order {base['order']}, {base['block_rows']} block rows"))
     print(report(clock, total), flush=True)
     return total
 
@@ -202,6 +204,7 @@ def main(argv=None):
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--benchmark", default=None, help="comma-separated benchmarks (bench_identify.py's rows) "
                         "instead of a zoo record (needs SINDYBENCH_DATA)")
+    parser.add_argument("--families", default=None, help="comma-separated families (default: identify's)")
     parser.add_argument("--threads", default="1", help="numba/BLAS threads (set before the import)")
     args = parser.parse_args(argv)
     from bench_identify import _warm_up  # the same warm-up search (the scripts' folder is on sys.path)
@@ -214,7 +217,7 @@ def main(argv=None):
             run_benchmark(name)
         return
     for n in (int(v) for v in args.samples.split(",")):
-        run(args.system, n, args.seed)
+        run(args.system, n, args.seed, None if args.families is None else tuple(args.families.split(",")))
 
 
 if __name__ == "__main__":

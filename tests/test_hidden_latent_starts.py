@@ -8,7 +8,7 @@ import pytest
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import LatentHiddenState
-from sindybench.hidden._subspace import _responses, moesp, moesp_orders, singular_values
+from sindybench.hidden._subspace import _responses, _states, moesp, moesp_orders, singular_values, subspace_states
 from sindybench.libraries import ConcatLibrary, IndicatorLibrary, PolynomialLibrary
 from sindybench.refine import OutputErrorRefinement, PredictionErrorRefinement
 from sindybench.simulate import SimulationError, simulate
@@ -95,6 +95,41 @@ def test_moesp_orders_fits_match_the_former_propagation(rng, monkeypatch):
     for order in slow:
         for got, want in zip(fast[order], slow[order]):
             np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-10 * max(1.0, np.max(np.abs(want))))
+
+
+def test_subspace_states_simulation_matches_the_plain_loop(rng):
+    """The compiled state simulation of the subspace start equals ``x[k+1] = A x[k] + B u[k]`` to 1e-10."""
+    A = rng.standard_normal((4, 4))
+    A *= 0.99 / np.max(np.abs(np.linalg.eigvals(A)))
+    B, x0, u = rng.standard_normal((4, 2)), rng.standard_normal(4), rng.standard_normal((900, 2))
+    x = np.empty((900, 4))
+    x[0] = x0
+    for k in range(899):
+        x[k + 1] = A @ x[k] + B @ u[k]
+    np.testing.assert_allclose(_states(A, B, x0, u), x, rtol=0, atol=1e-10 * np.max(np.abs(x)))
+
+
+def test_subspace_states_fit_moesp_once_for_the_same_data(rng, monkeypatch):
+    """Candidates that differ only in what the start does not read (the hold) share one MOESP fit, as copies."""
+    from collections import OrderedDict
+
+    import sindybench.hidden._subspace as subspace
+
+    calls = []
+    monkeypatch.setattr(subspace, "_FITS", OrderedDict())
+    monkeypatch.setattr(subspace, "moesp", lambda *a, **k: calls.append(1) or moesp(*a, **k))
+    u, y = rng.standard_normal((600, 1)), np.cumsum(rng.standard_normal((600, 1)), axis=0) * 0.1
+    first = subspace_states(u, y, 3, 0.1, block_rows=10)
+    first[0][:] = np.nan  # the caller's arrays are its own
+    again = subspace_states(u, y, 3, 0.1, block_rows=10)
+    assert len(calls) == 1 and np.all(np.isfinite(again[0]))
+    monkeypatch.setattr(subspace, "_FITS", OrderedDict())
+    fresh = subspace_states(u, y, 3, 0.1, block_rows=10)
+    for got, want in zip(again, fresh):
+        np.testing.assert_array_equal(got, want)
+    subspace_states(u, y + 1e-3 * rng.standard_normal(y.shape), 3, 0.1, block_rows=10)  # other data: fitted anew
+    subspace_states(u, y, 2, 0.1, block_rows=10)  # another order: fitted anew
+    assert len(calls) == 4
 
 
 def test_subspace_start_fits_the_hidden_current_motor(rng):

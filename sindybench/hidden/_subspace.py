@@ -13,11 +13,20 @@ observability matrix, from which ``C`` and ``A`` follow (shift invariance);
 outputs (``D = 0``: a sampled continuous-time plant is strictly proper).
 """
 
+import hashlib
+from collections import OrderedDict
+
 import numpy as np
 from numba import njit
 from scipy.linalg import logm, null_space
 
 __all__ = ["moesp", "moesp_orders", "singular_values", "subspace_states"]
+
+
+#: the last fits of :func:`subspace_states` (a few small arrays each), by their data and settings: a search fits the
+#: same start for each of its candidates that differ only in what the start does not read (the input hold)
+_FITS = OrderedDict()
+_MAX_FITS = 16
 
 
 def _hankel(a, rows, cols):
@@ -165,6 +174,24 @@ def _responses(A, C, u):
     return cols
 
 
+@njit(cache=True)
+def _states(A, B, x0, u):
+    """The states ``x[k+1] = A x[k] + B u[k]`` from ``x[0] = x0`` (n_samples, n)."""
+    n, (N, m) = A.shape[0], u.shape
+    x = np.empty((N, n))
+    x[0] = x0
+    for k in range(N - 1):
+        for r in range(n):
+            acc = 0.0
+            for i in range(n):
+                acc += A[r, i] * x[k, i]
+            forced = 0.0
+            for c in range(m):
+                forced += B[r, c] * u[k, c]
+            x[k + 1, r] = acc + forced
+    return x
+
+
 def _continuous(A, B, dt):
     """``(Ac, Bc)`` whose zero-order-hold sampling at ``dt`` is ``(A, B)`` (Euler when the logarithm is not real)."""
     n, m = B.shape
@@ -179,6 +206,25 @@ def _continuous(A, B, dt):
         return (A - np.eye(n)) / dt, B / dt
     L = np.real(L)
     return L[:n, :n], L[:n, n:]
+
+
+def _moesp_once(u, y, n_states, block_rows):
+    """:func:`moesp` of ``(u, y)``, computed once for the same data and settings (copies of the stored fit)."""
+    digest = hashlib.blake2b(digest_size=16)
+    for a in (u, y):
+        a = np.ascontiguousarray(a, dtype=float)
+        digest.update(repr(a.shape).encode())
+        digest.update(a.tobytes())
+    key = (digest.hexdigest(), int(n_states), block_rows)
+    fit = _FITS.get(key)
+    if fit is None:
+        fit = moesp(u, y, n_states, block_rows=block_rows)
+        _FITS[key] = fit
+        while len(_FITS) > _MAX_FITS:
+            _FITS.popitem(last=False)
+    else:
+        _FITS.move_to_end(key)
+    return tuple(np.array(a, copy=True) for a in fit)
 
 
 def subspace_states(u, y, n_states, dt, *, n_measured_rows=1, block_rows=None):
@@ -203,16 +249,13 @@ def subspace_states(u, y, n_states, dt, *, n_measured_rows=1, block_rows=None):
     """
     u = u - u.mean(axis=0)  # about the means: the model has no constant (the library's constants take them)
     y = y - y.mean(axis=0)
-    A, B, C, x0, sv = moesp(u, y, n_states, block_rows=block_rows)
+    A, B, C, x0, sv = _moesp_once(u, y, n_states, block_rows)
     Ac, Bc = _continuous(A, B, dt)
     rows = [C] if n_measured_rows == 1 else [C, C @ Ac]
     Mrows = np.vstack(rows)
     N = null_space(Mrows).T
     T = np.vstack([Mrows, N])
-    x = np.empty((len(u), A.shape[0]))
-    x[0] = x0
-    for k in range(len(u) - 1):
-        x[k + 1] = A @ x[k] + B @ u[k]
+    x = _states(A, B, x0, np.ascontiguousarray(u, dtype=float))
     z = x @ N.T
     z_dot = (x @ Ac.T + u @ Bc.T) @ N.T
     Tinv = np.linalg.pinv(T)

@@ -8,7 +8,7 @@ import pytest
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import LatentHiddenState
-from sindybench.hidden._subspace import moesp, singular_values
+from sindybench.hidden._subspace import _responses, _states, moesp, moesp_orders, singular_values, subspace_states
 from sindybench.libraries import ConcatLibrary, IndicatorLibrary, PolynomialLibrary
 from sindybench.refine import OutputErrorRefinement, PredictionErrorRefinement
 from sindybench.simulate import SimulationError, simulate
@@ -57,6 +57,79 @@ def test_moesp_recovers_a_second_order_system(rng):
     assert sv[2] < 1e-8 * sv[0] < sv[1]  # two states: the third singular value is zero
     with pytest.raises(ValueError, match="needs more samples"):
         moesp(u[:30], y[:30], 2)
+
+
+def _responses_by_states(A, C, u):
+    """The responses of :func:`_responses` by propagating the states of every column (the former loop)."""
+    (N, m), n, p = u.shape, A.shape[0], C.shape[0]
+    cols, state = np.empty((N, p, n + n * m)), np.zeros((n, n + n * m))
+    state[:, :n] = np.eye(n)
+    for k in range(N):
+        cols[k] = C @ state
+        state = A @ state
+        for c in range(m):
+            state[np.arange(n), n + c * n + np.arange(n)] += u[k, c]
+    return cols
+
+
+@pytest.mark.parametrize("n, m, p", [(1, 1, 1), (6, 1, 1), (3, 2, 2)])
+def test_moesp_responses_match_the_state_propagation(rng, n, m, p):
+    """The row-by-row responses (C S_k A instead of C A S_k) equal the states' propagation to 1e-10."""
+    A = rng.standard_normal((n, n))
+    A *= 0.99 / np.max(np.abs(np.linalg.eigvals(A)))  # stable, slowly decaying: a long memory
+    C, u = rng.standard_normal((p, n)), rng.standard_normal((800, m))
+    expected = _responses_by_states(A, C, u)
+    np.testing.assert_allclose(_responses(A, C, u), expected, rtol=0, atol=1e-10 * np.max(np.abs(expected)))
+
+
+def test_moesp_orders_fits_match_the_former_propagation(rng, monkeypatch):
+    """Every order's (A, B, C, x0, d, y_hat) is the one the former state propagation gave, to 1e-10."""
+    import sindybench.hidden._subspace as subspace
+
+    u = rng.standard_normal((700, 1))
+    y = np.cumsum(np.convolve(u[:, 0], [0.5, 0.3, 0.1])[:700])[:, None] * 0.1 + 0.01 * rng.standard_normal((700, 1))
+    fast, _ = moesp_orders(u, y, range(1, 6), block_rows=10, n_fit=560)
+    monkeypatch.setattr(subspace, "_responses", _responses_by_states)
+    slow, _ = moesp_orders(u, y, range(1, 6), block_rows=10, n_fit=560)
+    assert sorted(fast) == sorted(slow) == [1, 2, 3, 4, 5]
+    for order in slow:
+        for got, want in zip(fast[order], slow[order]):
+            np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-10 * max(1.0, np.max(np.abs(want))))
+
+
+def test_subspace_states_simulation_matches_the_plain_loop(rng):
+    """The compiled state simulation of the subspace start equals ``x[k+1] = A x[k] + B u[k]`` to 1e-10."""
+    A = rng.standard_normal((4, 4))
+    A *= 0.99 / np.max(np.abs(np.linalg.eigvals(A)))
+    B, x0, u = rng.standard_normal((4, 2)), rng.standard_normal(4), rng.standard_normal((900, 2))
+    x = np.empty((900, 4))
+    x[0] = x0
+    for k in range(899):
+        x[k + 1] = A @ x[k] + B @ u[k]
+    np.testing.assert_allclose(_states(A, B, x0, u), x, rtol=0, atol=1e-10 * np.max(np.abs(x)))
+
+
+def test_subspace_states_fit_moesp_once_for_the_same_data(rng, monkeypatch):
+    """Candidates that differ only in what the start does not read (the hold) share one MOESP fit, as copies."""
+    from collections import OrderedDict
+
+    import sindybench.hidden._subspace as subspace
+
+    calls = []
+    monkeypatch.setattr(subspace, "_FITS", OrderedDict())
+    monkeypatch.setattr(subspace, "moesp", lambda *a, **k: calls.append(1) or moesp(*a, **k))
+    u, y = rng.standard_normal((600, 1)), np.cumsum(rng.standard_normal((600, 1)), axis=0) * 0.1
+    first = subspace_states(u, y, 3, 0.1, block_rows=10)
+    first[0][:] = np.nan  # the caller's arrays are its own
+    again = subspace_states(u, y, 3, 0.1, block_rows=10)
+    assert len(calls) == 1 and np.all(np.isfinite(again[0]))
+    monkeypatch.setattr(subspace, "_FITS", OrderedDict())
+    fresh = subspace_states(u, y, 3, 0.1, block_rows=10)
+    for got, want in zip(again, fresh):
+        np.testing.assert_array_equal(got, want)
+    subspace_states(u, y + 1e-3 * rng.standard_normal(y.shape), 3, 0.1, block_rows=10)  # other data: fitted anew
+    subspace_states(u, y, 2, 0.1, block_rows=10)  # another order: fitted anew
+    assert len(calls) == 4
 
 
 def test_subspace_start_fits_the_hidden_current_motor(rng):

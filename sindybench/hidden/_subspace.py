@@ -13,10 +13,20 @@ observability matrix, from which ``C`` and ``A`` follow (shift invariance);
 outputs (``D = 0``: a sampled continuous-time plant is strictly proper).
 """
 
+import hashlib
+from collections import OrderedDict
+
 import numpy as np
+from numba import njit
 from scipy.linalg import logm, null_space
 
 __all__ = ["moesp", "moesp_orders", "singular_values", "subspace_states"]
+
+
+#: the last fits of :func:`subspace_states` (a few small arrays each), by their data and settings: a search fits the
+#: same start for each of its candidates that differ only in what the start does not read (the input hold)
+_FITS = OrderedDict()
+_MAX_FITS = 16
 
 
 def _hankel(a, rows, cols):
@@ -113,14 +123,7 @@ def _from_svd(U, sv, u, y, n, n_fit=None):
     A = np.linalg.lstsq(gamma[:-p], gamma[p:], rcond=None)[0]
     # B and x0: y[k] = C A^k x0 + sum_j C A^(k-1-j) B u[j], linear in (x0, B): the responses to x0's entries and to
     # B's entry (r, c) (A^(.) e_r u_c), one propagation of their states
-    cols = np.empty((N, p, n + n * m))
-    state = np.zeros((n, n + n * m))
-    state[:, :n] = np.eye(n)
-    rows, where = np.tile(np.arange(n), m), n + np.arange(n * m)
-    for k in range(N):
-        cols[k] = C @ state
-        state = A @ state
-        state[rows, where] += np.repeat(u[k], n)
+    cols = _responses(np.ascontiguousarray(A), np.ascontiguousarray(C), np.ascontiguousarray(u, dtype=float))
     parts = [cols] + ([np.broadcast_to(np.eye(p), (N, p, p))] if n_fit is not None else [])
     reg = np.concatenate(parts, axis=2).reshape(N * p, -1)
     if not np.all(np.isfinite(reg)):  # an unstable A: its responses overflow (LAPACK would print and then fail)
@@ -131,6 +134,62 @@ def _from_svd(U, sv, u, y, n, n_fit=None):
     if n_fit is None:
         return A, B, C, x0
     return A, B, C, x0, theta[n + n * m:], (reg @ theta).reshape(N, p)
+
+
+@njit(cache=True)
+def _responses(A, C, u):
+    """The outputs ``C x[k]`` (n_samples, p, n + n m) of the states ``x[k+1] = A x[k] + e_r u_c[k]`` from ``x[0] = e_r``
+    (the initial state's entries, columns ``r``) and from ``x[0] = 0`` (B's entries, columns ``n + c n + r``).
+
+    Row by row, in O(p n^2 (1 + m)) per sample: the free responses are ``C A^k``; the forced ones
+    ``C S_k`` with ``S_k = sum_(j<k) A^(k-1-j) u_c[j]``, a polynomial in ``A`` (so ``A S_k = S_k A``), hence
+    ``C S_(k+1) = (C S_k) A + C u_c[k]``.
+    """
+    n, p, (N, m) = A.shape[0], C.shape[0], u.shape
+    cols = np.empty((N, p, n + n * m))
+    free = C.copy()  # C A^k
+    forced = np.zeros((m, p, n))  # C S_k per input
+    row = np.empty(n)
+    for k in range(N):
+        for a in range(p):
+            for r in range(n):
+                cols[k, a, r] = free[a, r]
+            for c in range(m):
+                for r in range(n):
+                    cols[k, a, n + c * n + r] = forced[c, a, r]
+        for a in range(p):
+            for r in range(n):
+                acc = 0.0
+                for i in range(n):
+                    acc += free[a, i] * A[i, r]
+                row[r] = acc
+            free[a] = row
+            for c in range(m):
+                for r in range(n):
+                    acc = C[a, r] * u[k, c]
+                    for i in range(n):
+                        acc += forced[c, a, i] * A[i, r]
+                    row[r] = acc
+                forced[c, a] = row
+    return cols
+
+
+@njit(cache=True)
+def _states(A, B, x0, u):
+    """The states ``x[k+1] = A x[k] + B u[k]`` from ``x[0] = x0`` (n_samples, n)."""
+    n, (N, m) = A.shape[0], u.shape
+    x = np.empty((N, n))
+    x[0] = x0
+    for k in range(N - 1):
+        for r in range(n):
+            acc = 0.0
+            for i in range(n):
+                acc += A[r, i] * x[k, i]
+            forced = 0.0
+            for c in range(m):
+                forced += B[r, c] * u[k, c]
+            x[k + 1, r] = acc + forced
+    return x
 
 
 def _continuous(A, B, dt):
@@ -147,6 +206,25 @@ def _continuous(A, B, dt):
         return (A - np.eye(n)) / dt, B / dt
     L = np.real(L)
     return L[:n, :n], L[:n, n:]
+
+
+def _moesp_once(u, y, n_states, block_rows):
+    """:func:`moesp` of ``(u, y)``, computed once for the same data and settings (copies of the stored fit)."""
+    digest = hashlib.blake2b(digest_size=16)
+    for a in (u, y):
+        a = np.ascontiguousarray(a, dtype=float)
+        digest.update(repr(a.shape).encode())
+        digest.update(a.tobytes())
+    key = (digest.hexdigest(), int(n_states), block_rows)
+    fit = _FITS.get(key)
+    if fit is None:
+        fit = moesp(u, y, n_states, block_rows=block_rows)
+        _FITS[key] = fit
+        while len(_FITS) > _MAX_FITS:
+            _FITS.popitem(last=False)
+    else:
+        _FITS.move_to_end(key)
+    return tuple(np.array(a, copy=True) for a in fit)
 
 
 def subspace_states(u, y, n_states, dt, *, n_measured_rows=1, block_rows=None):
@@ -171,16 +249,13 @@ def subspace_states(u, y, n_states, dt, *, n_measured_rows=1, block_rows=None):
     """
     u = u - u.mean(axis=0)  # about the means: the model has no constant (the library's constants take them)
     y = y - y.mean(axis=0)
-    A, B, C, x0, sv = moesp(u, y, n_states, block_rows=block_rows)
+    A, B, C, x0, sv = _moesp_once(u, y, n_states, block_rows)
     Ac, Bc = _continuous(A, B, dt)
     rows = [C] if n_measured_rows == 1 else [C, C @ Ac]
     Mrows = np.vstack(rows)
     N = null_space(Mrows).T
     T = np.vstack([Mrows, N])
-    x = np.empty((len(u), A.shape[0]))
-    x[0] = x0
-    for k in range(len(u) - 1):
-        x[k + 1] = A @ x[k] + B @ u[k]
+    x = _states(A, B, x0, np.ascontiguousarray(u, dtype=float))
     z = x @ N.T
     z_dot = (x @ Ac.T + u @ Bc.T) @ N.T
     Tinv = np.linalg.pinv(T)

@@ -31,14 +31,19 @@ LATENT_HINGE = "linear+latent_hinge"
 _QUANTILES = (0.8, 0.2)
 
 
-def latent_hinge_library(X, n_outputs=1):
-    """Linear terms plus hinges of the latent state (column ``n_outputs`` of ``Z = [y, z, u]``), or None.
+def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
+    """Linear terms (or ``base``) plus hinges of the latent state (column ``n_outputs`` of ``Z = [y, z, u]``), or None.
 
     Parameters
     ----------
     X : ndarray of shape (n_samples, n_inputs)
         The estimation record's inputs.
     n_outputs : int, default=1
+    base : library, optional
+        The terms beside the hinges (default: linear).
+    lower : bool, default=True
+        Also the lower hinge (not for a latent state held non-negative: its
+        bound is its lower level).
 
     Returns
     -------
@@ -62,8 +67,10 @@ def latent_hinge_library(X, n_outputs=1):
     if not high > low:
         return None
     z, inputs = n_outputs, list(range(n_outputs + 1, n_outputs + 1 + X.shape[1]))
-    terms = hinge_terms(z, high, side="upper", times=inputs) + hinge_terms(z, low, side="lower", times=inputs)
-    return PolynomialLibrary(degree=1) + TermsLibrary(terms=terms)
+    terms = hinge_terms(z, high, side="upper", times=inputs)
+    if lower:
+        terms += hinge_terms(z, low, side="lower", times=inputs)
+    return (PolynomialLibrary(degree=1) if base is None else base) + TermsLibrary(terms=terms)
 
 
 def offset_range(library):
@@ -78,6 +85,6 @@ def offset_range(library):
     >>> offset_range(latent_hinge_library(np.linspace(0.0, 10.0, 101)[:, None]))
     Uniform(low=-3.0, high=3.0)
     """
-    levels = sorted({f[2] for lib in library.libraries[1:] for term in lib.terms for f in term if f[1] == HINGE})
+    levels = sorted({f[2] for term in library.libraries[-1].terms for f in term if f[1] == HINGE})
     half = 0.5 * (levels[-1] - levels[0]) if len(levels) > 1 else max(abs(levels[0]), 1.0)
     return Uniform(-half, half)

@@ -77,13 +77,16 @@ def test_a_model_with_a_latent_hinge_round_trips_through_json(fitted, tmp_path):
 
 
 def test_the_filter_sees_the_hinge(fitted):
-    """The one-step map's Jacobian (the filters') steps at the held level: the hinge's exact derivative."""
+    """The Jacobian of the terms (the filters') steps at the held level, and the model's filter follows the record."""
+    from sindybench.estimation import extended_kalman_filter
     from sindybench.libraries import evaluate_terms_jacobian
 
-    model, _, _, held = fitted
+    model, u, y, held = fitted
     terms = hinge_terms(1, held)
     Z = np.array([[0.0, held - 0.1, 0.0], [0.0, held + 0.1, 0.0]])
     assert evaluate_terms_jacobian(terms, Z)[:, 0, 1].tolist() == [0.0, 1.0]
+    result = extended_kalman_filter(model, u, y, Q=1e-8, R=0.002**2)
+    assert np.sqrt(np.mean((result.states[:, 0] - y[:, 0]) ** 2)) < 0.004
 
 
 def test_hinge_terms_check_their_arguments():

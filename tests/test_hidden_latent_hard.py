@@ -99,7 +99,8 @@ def test_hinge_terms_check_their_arguments():
 
 def test_the_units_gauge_starts_in_the_drivers_units():
     s = LatentHiddenState(scale="units")
-    assert s.resolve_params({"tau": 4.0}) == {"tau": 4.0, "gain": 0.25, "offset": 0.0}
+    assert s.resolve_params({"tau": 4.0}) == {"tau": 4.0, "gain": 0.25}  # offset 0: the parameters of old files
+    assert LatentHiddenState(offset=0.5).resolve_params({"tau": 4.0}) == {"tau": 4.0, "gain": 1.0, "offset": 0.5}
     searched = LatentHiddenState(scale="units", offset=None, bounds={"offset": (-1.0, 1.0)})
     assert sorted(searched.search_space()) == ["offset", "tau"]
     with pytest.raises(ValueError, match="offset must be a finite number or None"):
@@ -107,3 +108,26 @@ def test_the_units_gauge_starts_in_the_drivers_units():
     assert "held at its start value 1/tau" in s.gauge()
     with pytest.raises(ValueError, match="scale must be one of"):
         LatentHiddenState(scale="offset")._validate()
+
+
+def test_a_model_file_from_before_the_offset_still_loads(tmp_path):
+    """Files written before ``offset`` existed have no such key: they load as ``offset=0`` and predict alike."""
+    import json
+
+    u, y = _record(300)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = HiddenStateSINDy(hidden=LatentHiddenState(), dt=DT, n_trials=2, show_progress_bar=False,
+                                 refine=OutputErrorRefinement(max_nfev=3)).fit(u, y)
+    model.to_json(tmp_path / "new.json")
+
+    def strip(obj):
+        if isinstance(obj, dict):
+            return {k: strip(v) for k, v in obj.items() if k != "offset"}
+        return [strip(v) for v in obj] if isinstance(obj, list) else obj
+
+    old = strip(json.loads((tmp_path / "new.json").read_text()))
+    (tmp_path / "old.json").write_text(json.dumps(old))
+    loaded = load_model(tmp_path / "old.json")
+    assert loaded.hidden.offset == 0.0
+    np.testing.assert_allclose(loaded.predict(u, y_init=y[:5]), model.predict(u, y_init=y[:5]), rtol=1e-12)

@@ -215,7 +215,10 @@ class LatentHiddenState(HiddenStrategy):
             values = {"tau": 1.0, "gain": 1.0, "offset": 0.0, **values}
         params = {name: getattr(self, name) if getattr(self, name) is not None else values.get(name)
                   for name in self._physical}
-        params["offset"] = float(params["offset"]) if params["offset"] is not None else None
+        if self.offset is not None and float(self.offset) == 0.0:
+            del params["offset"]  # the default start: the parameters (and the model files) of before the offset
+        elif params["offset"] is not None:
+            params["offset"] = float(params["offset"])
         missing = [name for name, value in params.items() if value is None]
         if missing:
             raise ValueError(f"no value for the searched parameter {missing[0]!r}.")

@@ -14,8 +14,8 @@ SQRT      ``sqrt(clip(z, a, b))``            ``1 / (2 sqrt(z))`` inside ``(a, b)
 SIGN      ``sign(z)``                        0                                          ``sign(z)``
 STEP      ``1`` if ``a <= z <= b``, else 0   0                                          ``[z>=a]``, ``[z<=b]``,
                                                                                         ``[a<=z<=b]``
-HINGE     ``max(z - a, 0)`` (``b >= 0``),    1 above ``a`` (``b >= 0``), -1 below ``a``   ``max(z-a, 0)``,
-          ``max(a - z, 0)`` (``b < 0``)      (``b < 0``), else 0                        ``max(a-z, 0)``
+HINGE     ``max(z - a, 0)`` (``b >= 0``),    1 above ``a`` (``b >= 0``), -1 below       ``max(z-a, 0)``,
+          ``max(a - z, 0)`` (``b < 0``)      ``a`` (``b < 0``), else 0                  ``max(a-z, 0)``
 ========  =================================  =========================================  ======================
 
 ``HINGE`` is a continuous piecewise-linear factor with its kink at the level ``a``: the

@@ -314,9 +314,9 @@ class LatentHiddenState(HiddenStrategy):
         first = {"input": "u0", "velocity": "v0", "output": "y0"}[self.driver]
         drivers = [first] + [f"z{j}" for j in range(q - 1)]
         if model is None and self.scale == "units":
-            return "\n".join(f"z{j}: the coefficient of {d} in z{j}' is held at its start value 1/tau by the refinement "
-                              f"(scale gauge: static gain 1 at the start, z{j} in {d}'s units); with hinge terms of "
-                              f"z{j}, their levels are held and z{j}'s offset is fitted (level gauge)"
+            return "\n".join(f"z{j}: the coefficient of {d} in z{j}' is held at its start value 1/tau by the "
+                              f"refinement (scale gauge: static gain 1 at the start, z{j} in {d}'s units); with hinge "
+                              f"terms of z{j}, their levels are held and z{j}'s offset is fitted (level gauge)"
                               for j, d in enumerate(drivers))
         if model is None:
             return "\n".join(f"z{j}: the coefficient of {d} in z{j}' is held at 1 by the refinement (scale gauge)"

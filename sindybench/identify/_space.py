@@ -306,8 +306,9 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
         search = hinge and not positive  # the start's offset searched (a latent state held >= 0 keeps its zero)
         tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
         hidden = LatentHiddenState(n_latent=2 if structure["family"] == "order1+latent2" else 1, order=1,
-                                   driver="input", bounds={"tau": tau, "offset": offset_range(library)} if search
-                                   else {"tau": tau}, scale="units" if hinge else "driver", offset=None if search else 0.0,
+                                   driver="input", scale="units" if hinge else "driver",
+                                   bounds={"tau": tau, "offset": offset_range(library)} if search else {"tau": tau},
+                                   offset=None if search else 0.0,
                                    latent_bounds=(0.0, np.inf) if positive else None,
                                    output_bounds=(0.0, np.inf if top is None else top) if positive else None)
         return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,

@@ -6,6 +6,7 @@ from numpy.testing import assert_allclose
 
 from sindybench.dynamics import (
     ABS_POW,
+    HINGE,
     POW,
     SIGN,
     SQRT,
@@ -21,7 +22,8 @@ from sindybench.dynamics import (
 from sindybench.refine import simulate_sensitivity
 
 FACTORS = [(0, POW, 1.0, 0.0), (0, POW, 2.0, 0.0), (0, POW, 3.0, 0.0), (0, POW, 2.5, 0.0), (0, ABS_POW, 1.0, 0.0),
-           (0, ABS_POW, 1.5, 0.0), (0, SQRT, 0.1, 2.0), (0, SIGN, 0.0, 0.0), (0, STEP, 0.5, 1.5)]
+           (0, ABS_POW, 1.5, 0.0), (0, SQRT, 0.1, 2.0), (0, SIGN, 0.0, 0.0), (0, STEP, 0.5, 1.5),
+           (0, HINGE, 1.0, 1.0), (0, HINGE, 1.0, -1.0)]
 
 
 @pytest.mark.parametrize("factor", FACTORS, ids=lambda f: f"op{f[1]}a{f[2]}")
@@ -68,7 +70,7 @@ def test_the_table_holds_every_builtin_operation_once():
     from sindybench.dynamics._ops import BUILTIN_OPS
 
     assert [op.code for op in OPERATIONS] == list(range(len(OPERATIONS))) == list(BUILTIN_OPS)
-    assert [op.name for op in OPERATIONS] == ["POW", "ABS_POW", "SQRT", "SIGN", "STEP"]
+    assert [op.name for op in OPERATIONS] == ["POW", "ABS_POW", "SQRT", "SIGN", "STEP", "HINGE"]
     assert len(OPERATIONS) < USER
 
 
@@ -96,6 +98,9 @@ def test_every_operation_has_its_written_forms():
                       str(operation(code).sympy(sympy, z, 0.5, 2.0))) for code in (POW, ABS_POW, SQRT, SIGN, STEP)}
     assert written[SQRT] == ("sqrt(z)", r"\sqrt{z}", "sqrt(z)")
     assert written[STEP][0] == "[0.5<=z<=2]" and written[ABS_POW][0] == "|z|^0.5"
+    assert (operation(HINGE).text("z", 9.937, 1.0), operation(HINGE).text("z", -0.5, -1.0)) == (
+        "max(z-9.937, 0)", "max(-0.5-z, 0)")
+    assert str(operation(HINGE).sympy(sympy, z, 0.5, 1.0)) == "Max(0, z - 0.5)"
     op = register_op(np.tanh)
     assert (operation(op).text("v", 0, 0), str(operation(op).sympy(sympy, z, 0, 0))) == ("tanh(v)", "tanh(z)")
     with pytest.raises(ValueError, match="unknown factor operation 7"):

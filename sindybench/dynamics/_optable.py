@@ -14,7 +14,14 @@ SQRT      ``sqrt(clip(z, a, b))``            ``1 / (2 sqrt(z))`` inside ``(a, b)
 SIGN      ``sign(z)``                        0                                          ``sign(z)``
 STEP      ``1`` if ``a <= z <= b``, else 0   0                                          ``[z>=a]``, ``[z<=b]``,
                                                                                         ``[a<=z<=b]``
+HINGE     ``max(z - a, 0)`` (``b >= 0``),    1 above ``a`` (``b >= 0``), -1 below       ``max(z-a, 0)``,
+          ``max(a - z, 0)`` (``b < 0``)      ``a`` (``b < 0``), else 0                  ``max(a-z, 0)``
 ========  =================================  =========================================  ======================
+
+``HINGE`` is a continuous piecewise-linear factor with its kink at the level ``a``: the
+amount by which ``z`` passes the level upwards (``b >= 0``) or downwards (``b < 0``). A
+saturation of ``z`` at ``a`` is ``z - max(z - a, 0)``; its text writes the level exactly
+(the shortest decimal that reads back as the same float).
 
 ``value(v, a, b)`` and ``derivative(v, value, a, b)`` are plain functions of scalars in the
 subset of Python that numba compiles: the compiled dispatch of :mod:`._ops` (``op_value``,
@@ -44,7 +51,8 @@ from typing import Callable, NamedTuple
 import numpy as np
 from numba import njit
 
-__all__ = ["ABS_POW", "OPERATIONS", "Operation", "POW", "SIGN", "SQRT", "STEP", "builtin_operation", "power"]
+__all__ = ["ABS_POW", "HINGE", "OPERATIONS", "Operation", "POW", "SIGN", "SQRT", "STEP", "builtin_operation",
+           "power"]
 
 
 class Operation(NamedTuple):
@@ -186,6 +194,37 @@ def _step_sympy(sp, z, a, b):
     return sp.Piecewise((1, inside), (0, True))
 
 
+# ---------------------------------------------------------------------------------------------- HINGE
+def _hinge_value(v, a, b):
+    d = v - a if b >= 0.0 else a - v
+    return 0.0 if d <= 0.0 else d  # NaN stays NaN
+
+
+def _hinge_derivative(v, value, a, b):
+    if b >= 0.0:
+        return 1.0 if v > a else 0.0
+    return -1.0 if v < a else 0.0
+
+
+def _exact(a):
+    """The level ``a`` as the shortest decimal that reads back as the same float (``7.5``, ``9.937``)."""
+    return repr(float(a))
+
+
+def _hinge_text(z, a, b, minus):
+    """``max(z-a, 0)`` or ``max(a-z, 0)``, with ``z+|a|`` for a negative level."""
+    if b >= 0.0:
+        inner = f"{z}{minus}{_exact(a)}" if a > 0 else f"{z}+{_exact(-a)}" if a < 0 else z
+    else:
+        inner = f"{_exact(a)}{minus}{z}" if a != 0 else f"{minus}{z}"
+    return f"max({inner}, 0)"
+
+
+def _hinge_sympy(sp, z, a, b):
+    level = sp.Float(repr(float(a)))
+    return sp.Max(z - level, 0) if b >= 0.0 else sp.Max(level - z, 0)
+
+
 OPERATIONS = (
     Operation(0, "POW", _pow_value, _pow_derivative,
               text=lambda z, a, b: _text_power(z, a),
@@ -213,10 +252,15 @@ OPERATIONS = (
               sympy=_step_sympy,
               casadi=lambda ca, v, a, b: ca.if_else(ca.logic_and(v >= a, v <= b), 1.0, 0.0),
               gate=True),
+    Operation(5, "HINGE", _hinge_value, _hinge_derivative,
+              text=lambda z, a, b: _hinge_text(z, a, b, "-"),
+              latex=lambda z, a, b: _hinge_text(z, a, b, " - ").replace("max(", r"\max(", 1),
+              sympy=_hinge_sympy,
+              casadi=lambda ca, v, a, b: ca.fmax(v - a if b >= 0.0 else a - v, 0.0)),
 )
 """The built-in operations, by code (``OPERATIONS[code].code == code``)."""
 
-POW, ABS_POW, SQRT, SIGN, STEP = (op.code for op in OPERATIONS)
+POW, ABS_POW, SQRT, SIGN, STEP, HINGE = (op.code for op in OPERATIONS)
 
 
 def builtin_operation(code):

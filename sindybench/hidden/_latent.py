@@ -23,8 +23,16 @@ cannot be regressed on, so its equation is found by simulation error:
 **Gauge.** A latent state is defined only up to its scale: ``z -> s z`` gives
 another model with the same outputs. ``scale="driver"`` fixes it by holding the
 coefficient of each latent row's driver (``u0`` or ``v0`` for ``z0``, ``z(j-1)``
-for ``zj``) at 1 during the refinement; ``scale="range"`` by the latent
-state's finite bounds. A mixing ``z -> z + k y`` that leaves the outputs
+for ``zj``) at 1 during the refinement; ``scale="units"`` holds it at
+``1 / tau``, its value in a start whose static gain from the driver is 1 (the
+latent state in the driver's units, so that a level of it, such as the kink
+of a hinge ``max(z - L, 0)``, can be named from the data before the time
+constant is searched); ``scale="range"`` by the latent state's finite bounds.
+With hinge terms of a latent state in the library (:mod:`._latent_hard`), the
+level in the library is held and the latent state's offset (the constant of
+its row) is fitted instead: the same family of models as a free level with
+the offset held, and :meth:`LatentHiddenState.gauge` gives the fitted level
+in the coordinates where the latent state rests at 0. A mixing ``z -> z + k y`` that leaves the outputs
 unchanged is moved, after the refinement, to the point where ``y_i'`` has no
 linear ``y_i`` term, and refined there (the mixing gauge).
 :meth:`LatentHiddenState.gauge` says which in words,
@@ -43,9 +51,10 @@ from sklearn.base import clone
 from .._limits import check_memory
 from .._validation import check_bounds
 from ..io import register_model
-from ..libraries import POW, PolynomialLibrary
+from ..libraries import HINGE, POW, PolynomialLibrary
 from ..refine import OutputErrorRefinement, PredictionErrorRefinement
 from ..simulate import TermsRHS, simulate
+from ._latent_hard import level_lines
 from ._latent_starts import subspace_start, support_warnings
 from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term, with_defaults
 
@@ -71,9 +80,12 @@ class LatentHiddenState(HiddenStrategy):
     tau : float, optional
         Time constant of the starting lag chain; None = searched within
         ``bounds["tau"]`` (log scale).
-    scale : {"driver", "range"}, default="driver"
+    scale : {"driver", "units", "range"}, default="driver"
         The gauge. ``"driver"``: the coefficient of each latent row's driver
-        is held at 1. ``"range"``: each latent state ranges over
+        is held at 1. ``"units"``: the start is ``z' = (d - z) / tau`` (static
+        gain 1 from the driver ``d``: the latent state in the driver's units)
+        and the coefficient of the driver is held at its start value
+        ``1 / tau``. ``"range"``: each latent state ranges over
         ``latent_bounds`` (finite, e.g. ``(0, 10)`` for a tank that overflows
         at its top), which sets its scale; every coefficient of its row is
         free and the start's driver gain ``gain`` is searched.
@@ -81,9 +93,16 @@ class LatentHiddenState(HiddenStrategy):
         Driver gain of the starting lags with ``scale="range"``; None =
         searched within ``bounds["gain"]`` (log scale). Unused with
         ``scale="driver"`` (the gain is the gauge, 1).
+    offset : float or None, default=0.0
+        Offset of the driver in the starting lag chain: ``z0`` starts as the
+        lag of ``d - offset``. It moves the start's latent state against the
+        levels of hinge terms in the library (held there: the level gauge);
+        None = searched within ``bounds["offset"]`` (linear scale), as a
+        free level is searched before the refinement moves it.
     bounds : dict, optional
         Search ranges: ``"tau"`` (time units of ``dt``; default
-        ``(1e-3, 1e3)``) and ``"gain"`` (default ``(1e-3, 1e3)``); a pair
+        ``(1e-3, 1e3)``), ``"gain"`` (default ``(1e-3, 1e3)``) and
+        ``"offset"`` (no default: needed with ``offset=None``); a pair
         ``(low, high)`` is searched on a log scale, a dimension of
         :mod:`sindybench.search` (``LogNormal`` prior, ...) as it says.
     latent_bounds : (float, float), optional
@@ -128,16 +147,17 @@ class LatentHiddenState(HiddenStrategy):
     ['y0', 'v0', 'z0']
     """
 
-    _physical = ("tau", "gain")
+    _physical = ("tau", "gain", "offset")
 
-    def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, bounds=None,
-                 latent_bounds=None, output_bounds=None, start="lag", block_rows=None):
+    def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, offset=0.0,
+                 bounds=None, latent_bounds=None, output_bounds=None, start="lag", block_rows=None):
         self.n_latent = n_latent
         self.order = order
         self.driver = driver
         self.scale = scale
         self.tau = tau
         self.gain = gain
+        self.offset = offset
         self.bounds = bounds
         self.latent_bounds = latent_bounds
         self.output_bounds = output_bounds
@@ -157,7 +177,10 @@ class LatentHiddenState(HiddenStrategy):
             raise ValueError("driver='velocity' needs order=2 (the velocities are states only then).")
         if self.scale not in _SCALES:
             raise ValueError(f"scale must be one of {_SCALES}; got {self.scale!r}.")
-        for name in self._physical:
+        if self.offset is not None and (isinstance(self.offset, bool) or not isinstance(self.offset, numbers.Real)
+                                        or not np.isfinite(self.offset)):
+            raise ValueError(f"offset must be a finite number or None (searched); got {self.offset!r}.")
+        for name in ("tau", "gain"):
             value = getattr(self, name)
             if value is not None and (isinstance(value, bool) or not isinstance(value, numbers.Real)
                                       or not np.isfinite(value) or value <= 0):
@@ -179,21 +202,30 @@ class LatentHiddenState(HiddenStrategy):
         names = ("tau", "gain") if self.scale == "range" else ("tau",)
         if self.start == "subspace":
             names = ()  # the subspace model sets the start: nothing to search
-        return bounds_space(self, names, bounds, positive=True)
+        space = bounds_space(self, names, bounds, positive=True)
+        if self.offset is None and self.start != "subspace":
+            space.update(bounds_space(self, ("offset",), bounds))
+        return space
 
     def resolve_params(self, values=None):
         values = dict(values or {})
-        if self.scale == "driver":
+        if self.scale in ("driver", "units"):
             values["gain"] = 1.0
         if self.start == "subspace":  # unused by the start; the initial state's first guess only
-            values = {"tau": 1.0, "gain": 1.0, **values}
+            values = {"tau": 1.0, "gain": 1.0, "offset": 0.0, **values}
         params = {name: getattr(self, name) if getattr(self, name) is not None else values.get(name)
                   for name in self._physical}
+        if self.offset is not None and float(self.offset) == 0.0:
+            del params["offset"]  # the default start: the parameters (and the model files) of before the offset
+        elif params["offset"] is not None:
+            params["offset"] = float(params["offset"])
         missing = [name for name, value in params.items() if value is None]
         if missing:
             raise ValueError(f"no value for the searched parameter {missing[0]!r}.")
         if self.scale == "driver":
             params["gain"] = 1.0
+        elif self.scale == "units":  # static gain 1: the latent state in the driver's units
+            params["gain"] = 1.0 / float(params["tau"])
         return params
 
     def refinable(self, params):
@@ -272,6 +304,8 @@ class LatentHiddenState(HiddenStrategy):
         >>> print(LatentHiddenState(n_latent=2).gauge())
         z0: the coefficient of u0 in z0' is held at 1 by the refinement (scale gauge)
         z1: the coefficient of z0 in z1' is held at 1 by the refinement (scale gauge)
+        >>> print(LatentHiddenState(scale="units").gauge())
+        z0: the coefficient of u0 in z0' is held at its start value 1/tau by the refinement (scale gauge: static gain 1 at the start, z0 in u0's units); with hinge terms of z0, their levels are held and z0's offset is fitted (level gauge)
         """
         self._validate()
         q = int(self.n_latent)
@@ -279,6 +313,11 @@ class LatentHiddenState(HiddenStrategy):
             return "\n".join(f"z{j}: ranges over {tuple(self.latent_bounds)} (range gauge)" for j in range(q))
         first = {"input": "u0", "velocity": "v0", "output": "y0"}[self.driver]
         drivers = [first] + [f"z{j}" for j in range(q - 1)]
+        if model is None and self.scale == "units":
+            return "\n".join(f"z{j}: the coefficient of {d} in z{j}' is held at its start value 1/tau by the "
+                              f"refinement (scale gauge: static gain 1 at the start, z{j} in {d}'s units); with hinge "
+                              f"terms of z{j}, their levels are held and z{j}'s offset is fitted (level gauge)"
+                              for j, d in enumerate(drivers))
         if model is None:
             return "\n".join(f"z{j}: the coefficient of {d} in z{j}' is held at 1 by the refinement (scale gauge)"
                               for j, d in enumerate(drivers))
@@ -342,20 +381,27 @@ class LatentHiddenState(HiddenStrategy):
         if self.start == "subspace":
             z, z_dot = subspace_start(self, u, y, dt, self._drivers(y.shape[1]))
         else:
-            z, z_dot = self._lags(self._drive(states, u, y.shape[1]), params, dt)
+            z, z_dot = self._lags(self._drive(states, u, y.shape[1]) - float(params.get("offset", 0.0)), params, dt)
         return Design(states=np.c_[states, z], targets=np.c_[derivative(y, order=int(self.order)), z_dot])
 
     def refine_free(self, coef, terms, *, n_outputs, n_inputs):
         """Entries of the learned block freed by a refinement.
 
-        The outputs' nonzero coefficients, and every term of the latent rows
-        except, with ``scale="driver"``, each row's gauge term (its driver's
-        linear term, held at its value).
+        The outputs' nonzero coefficients and their hinges of a latent state
+        (a hinge the start never reaches has a zero coefficient, which the
+        refinement must still move), and every term of the latent rows
+        except, with ``scale="driver"`` or ``"units"``, each row's gauge term
+        (its driver's linear term, held at its value).
         """
         if terms is None:
             raise ValueError("LatentHiddenState needs a library of built-in terms (compiled); got a Python library.")
         free = coef != 0
         terms = [tuple(t) for t in terms]
+        n_meas = n_outputs * int(self.order)
+        latent = range(n_meas, n_meas + int(self.n_latent))
+        for t, term in enumerate(terms):
+            if any(op == HINGE and col in latent for col, op, _, _ in term):
+                free[t, :n_outputs] = True
         for j, col in enumerate(self._drivers(n_outputs)):
             free[:, n_outputs + j] = True
             if self.scale == "range":
@@ -372,7 +418,7 @@ class LatentHiddenState(HiddenStrategy):
         q = int(self.n_latent)
         meas = np.asarray(self._measured(y_init, derivative)[0], dtype=float)
         zlo, zhi = self._latent_range(params)
-        drive0 = self._drive(meas, np.asarray(u[0], dtype=float), y_init.shape[1])
+        drive0 = self._drive(meas, np.asarray(u[0], dtype=float), y_init.shape[1]) - float(params.get("offset", 0.0))
         start = np.clip(np.cumprod(np.full(q, float(params["tau"]) * float(params["gain"]))) * drive0, zlo[0], zhi[0])
 
         def residual(z):
@@ -403,6 +449,7 @@ def _fitted_gauge(strategy, model, drivers):
             continue
         held = "held in the refinement" if refined else "from the starting lag, not held: no refinement ran"
         lines.append(f"z{j}: the coefficient of {name} in z{j}' is {c:.4g} (scale gauge, {held})")
+    lines += level_lines(model)
     held = {tuple(h[:2]): h for h in ((model.refinement_ or {}).get("mixing_held") or [])} if refined else {}
     names = model.structure_.state_names
     for j in range(len(drivers)):
@@ -548,7 +595,7 @@ def canonical_mixing(strategy, cand, x0, n_inputs):
 
 _DRIVERS = ("input", "velocity", "output")
 _STARTS = ("lag", "subspace", "auto")
-_SCALES = ("driver", "range")
+_SCALES = ("driver", "units", "range")
 
 
 register_model(LatentHiddenState)

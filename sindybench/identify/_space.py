@@ -24,6 +24,7 @@ from ..optimizers import STLS
 from ..refine import OutputErrorRefinement
 from ..search import LogUniform
 from ._advice import advice, detect_input_hold
+from ._latent_hard import LATENT_HINGE, latent_hinge_library, offset_range
 from ._linear import LINEAR_FAMILY, linear_order, make_linear, propose_linear
 
 __all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
@@ -176,6 +177,14 @@ def _latent_hard_terms(settings, n_inputs):
     return lib
 
 
+def _latent_hinges(X, settings, n_inputs, libraries):
+    """The order-1 latent family's hinge candidate (when a ``+hard`` library is searched), or None."""
+    if not any(name.endswith("+hard") for name in libraries):
+        return None
+    positive = bool(settings["positive"])  # the latent state held >= 0: its bound is its lower level
+    return latent_hinge_library(X, 1, base=_latent_hard_terms(settings, n_inputs), lower=not positive)
+
+
 def _library(name, family, settings, n_outputs, n_inputs):
     base = name.split("+")[0]
     lib = PolynomialLibrary(degree=_DEGREE[base])
@@ -228,7 +237,8 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
         if family == "order1+latent":
             if n_outputs == 1 and n_inputs >= 1:  # states (y, z), driven by u0; refined, so one derivative
                 for lib_name, lib in (("linear", PolynomialLibrary(degree=1)),
-                                      ("linear+hard", _latent_hard_terms(settings, n_inputs))):
+                                      ("linear+hard", _latent_hard_terms(settings, n_inputs)),
+                                      (LATENT_HINGE, _latent_hinges(X, settings, n_inputs, libraries))):
                     if lib is not None:
                         out.append(({"family": family, "library": lib_name, "derivative": "finite_difference",
                                      "input_hold": hold, "input_delay": delay}, lib))
@@ -292,9 +302,13 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
     order = _ORDER[structure["family"]]
     if structure["family"] in ("order1+latent", "order1+latent2"):  # lags of the input as the start, then refined
         positive, top = bool(settings["positive"]), settings["saturation"][0]
+        hinge = structure["library"] == LATENT_HINGE  # in u0's units: the hinges' levels are named in them
+        search = hinge and not positive  # the start's offset searched (a latent state held >= 0 keeps its zero)
+        tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
         hidden = LatentHiddenState(n_latent=2 if structure["family"] == "order1+latent2" else 1, order=1,
-                                   driver="input", bounds={"tau": LogUniform(_LATENT_TAU[0] * dt,
-                                                                                      _LATENT_TAU[1] * dt)},
+                                   driver="input", scale="units" if hinge else "driver",
+                                   bounds={"tau": tau, "offset": offset_range(library)} if search else {"tau": tau},
+                                   offset=None if search else 0.0,
                                    latent_bounds=(0.0, np.inf) if positive else None,
                                    output_bounds=(0.0, np.inf if top is None else top) if positive else None)
         return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,

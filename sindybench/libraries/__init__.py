@@ -13,6 +13,7 @@ from ._custom import CustomLibrary, as_library
 from ._spec import fitted_library_from_dict, fitted_library_to_dict, library_from_spec, library_to_spec
 from ._terms import (
     ABS_POW,
+    HINGE,
     POW,
     SIGN,
     SQRT,

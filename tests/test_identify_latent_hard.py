@@ -1,0 +1,51 @@
+"""identify._latent_hard: the latent family's hinge candidate (levels from the estimation record's input)."""
+
+import numpy as np
+import pytest
+
+from sindybench.hidden import HiddenStateSINDy
+from sindybench.identify._latent_hard import LATENT_HINGE, latent_hinge_library, offset_range
+from sindybench.identify._space import data_settings, make_estimator, structures
+from sindybench.libraries import PolynomialLibrary, SqrtLibrary
+
+
+def test_the_levels_are_the_inputs_quantiles():
+    u = np.r_[np.ones(50), np.linspace(1.0, 11.0, 101)][:, None]
+    lib = latent_hinge_library(u).fit(np.zeros((1, 3)))
+    names = lib.get_feature_names_out(["y0", "z0", "u0"]).tolist()
+    high, low = float(np.quantile(u, 0.8)), float(np.quantile(u, 0.2))
+    assert names[4:] == [f"max(z0-{high!r}, 0)", f"max(z0-{high!r}, 0) u0", f"max({low!r}-z0, 0)",
+                         f"max({low!r}-z0, 0) u0"]
+    assert offset_range(lib).low == pytest.approx(-0.5 * (high - low))
+    base = PolynomialLibrary(degree=1) + SqrtLibrary(variables=[0, 1])
+    lib = latent_hinge_library(u, base=base, lower=False).fit(np.zeros((1, 3)))
+    assert lib.get_feature_names_out(["y0", "z0", "u0"]).tolist()[-2:] == [f"max(z0-{high!r}, 0)",
+                                                                        f"max(z0-{high!r}, 0) u0"]
+
+
+def test_no_level_without_a_varying_input():
+    assert latent_hinge_library(np.zeros((10, 0))) is None
+    assert latent_hinge_library(np.ones((10, 1))) is None
+
+
+def _record(n=600):
+    t = np.arange(n) * 0.05
+    u = np.sin(0.7 * t)[:, None]
+    y = np.cos(0.5 * t)[:, None] - 2.0  # a negative output: no root proposed, the lower hinge kept
+    return u, y
+
+
+def test_the_latent_family_gets_one_hinge_candidate_with_hard_libraries_only():
+    u, y = _record()
+    settings = data_settings(u, y, 0.05, families=["order1+latent"])
+    hinge = [s for s, _ in structures(u, y, 0.05, settings, families=["order1+latent"]) if s["library"] == LATENT_HINGE]
+    assert len(hinge) == 1
+    assert not [s for s, _ in structures(u, y, 0.05, settings, families=["order1+latent"], libraries=["linear"])
+                if s["library"] == LATENT_HINGE]
+    (struct, lib), = [(s, lib) for s, lib in structures(u, y, 0.05, settings, families=["order1+latent"])
+                      if s["library"] == LATENT_HINGE]
+    est = make_estimator(struct, lib, 0.0, 0.05, settings)
+    assert isinstance(est, HiddenStateSINDy)
+    hidden = est.hidden
+    assert (hidden.scale, hidden.offset, hidden.latent_bounds) == ("units", None, None)
+    assert sorted(hidden.search_space()) == ["offset", "tau"]

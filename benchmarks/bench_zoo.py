@@ -92,12 +92,12 @@ def choose(candidates, fit, predict, u, y):
 
 
 # ---------------------------------------------------------------------------------------------- methods
-def run_identify(rec):
+def run_identify(rec, **kwargs):
     from sindybench import identify
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = identify(rec.u, rec.y, dt=rec.dt, show_progress_bar=False, random_state=0)
+        model = identify(rec.u, rec.y, dt=rec.dt, show_progress_bar=False, random_state=0, **kwargs)
     y_hat = model.predict(rec.u_test, y_init=rec.y_test[:N_INIT])
     settings = model.identification_["settings"]
     return y_hat, settings.get("n_terms"), str(settings.get("family"))
@@ -175,7 +175,20 @@ def run_fastcan(rec):
     return y_hat, n_terms, "lags={}, degree={}, terms={}".format(*settings)
 
 
-METHODS = {"identify": run_identify, "arx": run_arx, "nnarx": run_nnarx, "fastcan": run_fastcan}
+def run_linear(rec):
+    """The linear base alone: ``identify(..., families=["linear_ss"])``."""
+    return run_identify(rec, families=["linear_ss"])
+
+
+def run_identify_nl(rec):
+    """``identify`` with the default families and the opt-in nonlinear family on the linear base."""
+    from sindybench.identify._space import FAMILIES
+
+    return run_identify(rec, families=[*FAMILIES, "linear_ss+nl"])
+
+
+METHODS = {"identify": run_identify, "arx": run_arx, "nnarx": run_nnarx, "fastcan": run_fastcan,
+           "linear": run_linear, "identify_nl": run_identify_nl}
 
 
 # ---------------------------------------------------------------------------------------------- scoring

@@ -26,6 +26,7 @@ from ..search import LogUniform
 from ._advice import advice, detect_input_hold
 from ._latent_hard import LATENT_HINGE, latent_hinge_library, offset_range
 from ._linear import LINEAR_FAMILY, linear_order, make_linear, propose_linear
+from ._linear_nl import LINEAR_NL_FAMILY, make_linear_nl, propose_linear_nl
 
 __all__ = ["FAMILIES", "LIBRARIES", "data_settings", "make_estimator", "n_terms", "structures"]
 
@@ -36,7 +37,7 @@ logger = logging.getLogger(__name__)
 #: :func:`data_settings`); ``make(structure, library, dt, differentiation, settings, random_state=)`` its unfitted
 #: estimator, which runs its own search and refinement inside ``fit`` (scored on every block at once, never screened
 #: on a pruning path). Adding a family: its module and one entry here (and its settings in ``data_settings``).
-FAMILY_TABLE = {LINEAR_FAMILY: (propose_linear, make_linear)}
+FAMILY_TABLE = {LINEAR_FAMILY: (propose_linear, make_linear), LINEAR_NL_FAMILY: (propose_linear_nl, make_linear_nl)}
 #: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3,
 #: one latent state (one output only) at order 1 (driven by the input) and 2 (driven by the velocity), and the
 #: linear base (a linear state-space model whose order the data decide)
@@ -44,8 +45,9 @@ FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent",
 #: every family a search may name: the default ones, two latent states (a chain of two lags of the input, at
 #: order 1; off the default list for its cost), and the discrete-time lag model on delay coordinates
 #: (:class:`~sindybench.LagSINDy`, its lags chosen in its fit; off the default list until the parsimony rule
-#: prefers an equation to it on a tie)
-ALL_FAMILIES = FAMILIES + ("order1+latent2", "lag")
+#: prefers an equation to it on a tie), and the linear base's states plus the outputs' polynomial and the proposed
+#: hard terms (:mod:`~sindybench.identify._linear_nl`; off the default list for its cost)
+ALL_FAMILIES = FAMILIES + ("order1+latent2", "lag", LINEAR_NL_FAMILY)
 #: the families with their own search and refinement inside ``fit`` (not screened on a pruning path)
 LATENT_FAMILIES = ("order1+latent", "order2+latent", "order1+latent2") + tuple(FAMILY_TABLE)
 _ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order1+latent": 1, "order2+latent": 2, "order1+latent2": 1,
@@ -88,7 +90,7 @@ def data_settings(X, y, dt, families=FAMILIES):
         estimators' 1e6, or 1000 times the record's largest magnitude) and
         ``linear``: the linear base's order and Hankel depth
         (:func:`~sindybench.identify._linear.linear_order`; None when
-        ``families`` has no ``"linear_ss"`` or no model fits).
+        ``families`` has neither ``"linear_ss"`` nor ``"linear_ss+nl"``, or no model fits).
 
     Examples
     --------
@@ -99,7 +101,7 @@ def data_settings(X, y, dt, families=FAMILIES):
     """
     report = _advice(X, y, dt)
     max_abs = max(_MAX_ABS, 1e3 * float(max(np.max(np.abs(X), initial=0.0), np.max(np.abs(y)))))
-    linear = linear_order(X, y) if LINEAR_FAMILY in families else None
+    linear = linear_order(X, y) if {LINEAR_FAMILY, LINEAR_NL_FAMILY} & set(families) else None
     f_c = bandwidth(y, dt)
     window = savgol_window(f_c, dt)
     derivatives = {"finite_difference": {}, f"savgol_{window}": {"window_length": window},

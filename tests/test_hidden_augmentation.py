@@ -7,6 +7,7 @@ from sindybench import STLS, HiddenStateSINDy
 from sindybench.datasets import load_pick_and_place
 from sindybench.differentiation import SavitzkyGolay
 from sindybench.hidden import DerivativeHiddenState
+from sindybench.hidden._augmentation import start_derivatives
 from sindybench.libraries import PolynomialLibrary
 from sindybench.metrics import r2
 from sindybench.simulate import TermsRHS, simulate
@@ -114,8 +115,19 @@ def test_initial_derivatives_use_what_the_differentiation_needs(rng):
     assert r2(y, model.predict(u, y_init=y[:21])) > 0.99
 
 
-def test_short_y_init_is_named_with_the_samples_needed(rng):
-    # before: "y has 10 samples; SavitzkyGolay needs at least 21 for order=1 with these parameters."
+def test_a_y_init_shorter_than_the_window_starts_from_one_polynomial_over_it(rng):
+    # before: "y_init has 10 samples; too short ... SavitzkyGolay: expected at least 21" (predict refused it)
     model, u, y = _wide_window_model(rng)
-    with pytest.raises(ValueError, match="y_init has 10 samples; too short .* SavitzkyGolay: expected at least 21"):
-        model.predict(u, y_init=y[:10])
+    x0 = model.estimate_initial_state(u, y[:10])
+    t = np.arange(10) * DT
+    cubic = np.polynomial.polynomial.polyfit(t, y[:10, 0], 3)  # its value and slope at the first sample
+    np.testing.assert_allclose(x0, cubic[:2], rtol=1e-8)
+    assert r2(y, model.predict(u, y_init=y[:10])) > 0.99
+    with pytest.raises(ValueError, match="y_init has 1 samples; too short .* order 1: expected at least 2"):
+        model.predict(u, y_init=y[:1])
+
+
+def test_start_derivatives_are_exact_on_a_polynomial_of_their_degree():
+    t = np.arange(7) * 0.05
+    y = np.column_stack([1.0 - t + 3 * t**2 - 2 * t**3, 2.0 + 0.5 * t])
+    np.testing.assert_allclose(start_derivatives(y, 0.05, 2), [1.0, 2.0, -1.0, 0.5, 6.0, 0.0], atol=1e-9)

@@ -1,12 +1,14 @@
 """Derivative-coordinate augmentation: states ``(y, y', ..., y^(n-1))``."""
 
+import math
+
 import numpy as np
 
 from .._validation import check_integer
 from ..io import register_model
 from ._base import Design, HiddenStrategy, Structure, linear_term
 
-__all__ = ["DerivativeHiddenState"]
+__all__ = ["DerivativeHiddenState", "start_derivatives"]
 
 
 class DerivativeHiddenState(HiddenStrategy):
@@ -17,7 +19,12 @@ class DerivativeHiddenState(HiddenStrategy):
     learns the highest derivative from ``Z = [y, y', ..., u]``. On new data the
     initial derivatives come from the first ``init_size`` output samples with
     the estimator's differentiation method (more when the method needs more:
-    a ``SavitzkyGolay(window_length=21)`` uses 21).
+    a ``SavitzkyGolay(window_length=21)`` uses 21). Given fewer samples than
+    the method needs (a window chosen from a long training record is often
+    longer than the 20 start samples ``predict`` gets), the start comes from
+    one local polynomial of the method's degree (cubic when it has none)
+    fitted to all of them (:func:`start_derivatives`); the training
+    derivatives are the method's own.
 
     States are ordered derivative by derivative: for outputs ``y0, y1`` and
     ``order=2`` they are ``(y0, y1, y0', y1')``.
@@ -28,7 +35,8 @@ class DerivativeHiddenState(HiddenStrategy):
         Order of the learned derivative (1 = plain SINDy on the outputs).
     init_size : int, default=20
         Output samples used to estimate the initial derivatives on new data,
-        or as many as the differentiation method needs if that is more.
+        or as many as the differentiation method needs if that is more (and
+        ``y_init`` holds them).
 
     Examples
     --------
@@ -68,14 +76,55 @@ class DerivativeHiddenState(HiddenStrategy):
 
     def initial_state(self, u, y_init, dt, *, derivative, params, model):
         need = samples_needed(derivative, self.order - 1)
-        if y_init.shape[0] < need:
-            method = type(getattr(derivative, "differentiation", derivative)).__name__
-            raise ValueError(
-                f"y_init has {y_init.shape[0]} samples; too short to estimate the initial derivatives up to order "
-                f"{self.order - 1} with {method}: expected at least {need} samples."
-            )
+        if y_init.shape[0] < need:  # fewer start samples than the method's window: the same local fit, shorter
+            return start_derivatives(y_init, dt, self.order - 1,
+                                     degree=getattr(getattr(derivative, "differentiation", None), "polyorder", 3))
         y_init = y_init[: max(self.init_size, need)]
         return np.concatenate([derivative(y_init, k)[0] for k in range(self.order)])
+
+
+def start_derivatives(y_init, dt, order, *, degree=3):
+    """Derivatives 0 to ``order`` of ``y_init`` at its first sample, from one polynomial fitted to all of it.
+
+    The start of a simulation from fewer samples than the differentiation
+    method needs (a Savitzky-Golay window chosen from a long training record
+    is often longer than the 20 samples ``predict`` is given): the least-squares
+    polynomial of degree ``degree`` (at most ``n - 1`` for ``n`` samples, at
+    least ``order``) over every sample of ``y_init``, differentiated at the
+    first sample -- what a Savitzky-Golay filter with ``mode="interp"`` does
+    at the start of a record, over a shorter window.
+
+    Parameters
+    ----------
+    y_init : ndarray of shape (n_samples, n_outputs)
+    dt : float
+    order : int
+        The highest derivative.
+    degree : int, default=3
+
+    Returns
+    -------
+    ndarray of shape ((order + 1) * n_outputs,)
+        Derivative by derivative: ``y(0), y'(0), ...``, each for every output.
+
+    Examples
+    --------
+    >>> t = np.arange(6) * 0.1
+    >>> start_derivatives((1.0 + 2.0 * t + t**3)[:, None], 0.1, 1).round(6).tolist()
+    [1.0, 2.0]
+    """
+    y_init = np.asarray(y_init, dtype=float)
+    n = y_init.shape[0]
+    if n < order + 1:
+        raise ValueError(f"y_init has {n} samples; too short to estimate the initial derivatives up to order "
+                         f"{order}: expected at least {order + 1} samples.")
+    degree = int(min(max(degree, order), n - 1))
+    t = np.arange(n) / (n - 1) if n > 1 else np.zeros(1)  # on [0, 1]: a well-conditioned fit, rescaled below
+    coef = np.polynomial.polynomial.polyfit(t, y_init, degree) if n > 1 else y_init[:1]
+    span = (n - 1) * dt if n > 1 else 1.0
+    # the k-th derivative at t = 0 is k! times the coefficient of t^k, divided by span^k for the time unit of dt
+    return np.concatenate([np.atleast_1d(coef[k]) * math.factorial(k) / span**k if k <= degree
+                           else np.zeros(y_init.shape[1]) for k in range(order + 1)])
 
 
 def samples_needed(derivative, order):

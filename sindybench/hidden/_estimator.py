@@ -15,7 +15,7 @@ from .._equations import EquationRow
 from ..optimizers import STLS
 from .._validation import check_bool, check_dt, check_integer, check_option
 from .._records import in_record
-from ..differentiation import FiniteDifference, as_differentiation
+from ..differentiation import as_differentiation
 from ..io import register_model
 from ..libraries import as_library, term_name
 from ..search import SEARCH_PENALTY, Categorical, check_search_space, minimize
@@ -73,17 +73,18 @@ class HiddenStateSINDy(DynamicsEstimator):
         Sparse regressor with ``coef_`` (n_targets, n_features); the default
         is plain least squares (None means the same), and
         ``optimizer__threshold`` sets sparsity in the units of your problem.
-    differentiation : object or "auto", default=FiniteDifference(accuracy=4)
+    differentiation : object or "auto", default="auto"
         Derivative method with ``derivative(y, *, dt, order)`` (see
         :mod:`sindybench.differentiation`); None means finite differences.
         ``"auto"``: chosen from the (first) record as
         :func:`~sindybench.identify.identify` chooses it: a cubic
         Savitzky-Golay filter whose window follows the outputs' bandwidth
-        (:func:`~sindybench.differentiation.data_differentiation`); on a noisy
-        record it is far better than the default, but its window also sets
-        how many start samples ``predict`` needs (often more than 20), so it
-        is not the default yet. The default was ``FiniteDifference()``
-        (accuracy 2) before 0.2.
+        (:func:`~sindybench.differentiation.data_differentiation`). New data
+        shorter than that window (``predict`` with 20 start samples) starts
+        from one cubic fitted to the samples it has
+        (:class:`~sindybench.hidden.DerivativeHiddenState`). The default was
+        ``FiniteDifference()`` (accuracy 2) before 0.2 and
+        ``FiniteDifference(accuracy=4)`` in 0.2; model files keep theirs.
     dt : float, default=None
         Sampling interval (required, here or in ``fit``).
     validation_size : float or int, default=0.2
@@ -255,7 +256,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         hidden=DerivativeHiddenState(order=2),
         library="auto",
         optimizer=STLS(threshold=0.0),
-        differentiation=FiniteDifference(accuracy=4),
+        differentiation="auto",
         dt=None,
         validation_size=0.2,
         validation="block",

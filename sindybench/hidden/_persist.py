@@ -231,20 +231,34 @@ def _load_input_hold(model, fitted):
     Such a file has no ``fitted.input_hold``: it simulates with its ``input_hold``
     parameter, and a parameter it did not store (so that loading gave it the
     current default) takes the default of its time: ``input_hold="zoh"``,
-    ``library=None``, ``refine=None``, ``differentiation=FiniteDifference()``.
+    ``library=None``, ``refine=None``, ``differentiation=FiniteDifference()``
+    (see :func:`_load_differentiation`).
     """
     if "input_hold" in fitted.data:
         model.input_hold_ = fitted.str("input_hold")
         if model.input_hold_ not in HOLDS:
             raise ValueError(f"fitted.input_hold: expected one of {list(HOLDS)}; got {model.input_hold_!r}.")
+        _load_differentiation(model, before_02=False)
         return
     old = {"input_hold": "zoh", "library": None, "refine": None}  # "auto" did not exist before 0.2
     model.set_params(**{k: v for k, v in old.items() if is_auto(getattr(model, k))})
-    fd = model.differentiation
-    if (type(fd) is FiniteDifference and fd.accuracy == 4 and type(model.differentiation_) is FiniteDifference
-            and model.differentiation_.accuracy == 2):
-        model.differentiation = FiniteDifference()  # the default before 0.2, as fitted
+    _load_differentiation(model, before_02=True)
     model.input_hold_ = model.input_hold
+
+
+def _load_differentiation(model, *, before_02):
+    """The ``differentiation`` parameter of a file that did not store it: the default of its time, as fitted.
+
+    Loading gives a missing parameter today's default, ``"auto"`` (since 0.3).
+    A file whose fitted method is a ``FiniteDifference`` that ``"auto"`` cannot
+    have chosen (any, before 0.2, when ``"auto"`` did not exist; accuracy 4,
+    the default of 0.2, after) was fitted with the old default, which it keeps:
+    a refit of the loaded model is the fit of its time.
+    """
+    fitted = model.differentiation_
+    if (is_auto(model.differentiation) and type(fitted) is FiniteDifference
+            and (before_02 or fitted.accuracy == 4)):
+        model.differentiation = clone(fitted)
 
 
 def hidden_sindy_from_dict(model, fitted):

@@ -117,7 +117,8 @@ def test_a_model_file_from_before_the_offset_still_loads(tmp_path):
     u, y = _record(300)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        model = HiddenStateSINDy(hidden=LatentHiddenState(), dt=DT, n_trials=2, show_progress_bar=False,
+        model = HiddenStateSINDy(hidden=LatentHiddenState(bounds={"tau": (0.2, 10.0)}), dt=DT, n_trials=4,
+                                 random_state=0, show_progress_bar=False,
                                  refine=OutputErrorRefinement(max_nfev=3)).fit(u, y)
     model.to_json(tmp_path / "new.json")
 

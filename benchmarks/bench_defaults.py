@@ -51,6 +51,7 @@ CONFIGS = {
     "SINDy linear, FD4, normalize, threshold 0.05":
         lambda dt: SINDy(dt=dt, normalize=True, optimizer=STLS(threshold=0.05), **NEW),
     "SINDy linear, FD4, refine": lambda dt: SINDy(dt=dt, refine=OutputErrorRefinement(), **NEW),
+    "SINDy auto derivative (the record's bandwidth)": lambda dt: SINDy(dt=dt, differentiation="auto"),
     "HiddenStateSINDy, 0.1 defaults (zoh, FD2, poly2, least squares)": lambda dt: HiddenStateSINDy(dt=dt, **HIDDEN_01),
     "HiddenStateSINDy() (0.3: auto library, hold, derivative and refine)":
         lambda dt: HiddenStateSINDy(dt=dt, **QUIET),

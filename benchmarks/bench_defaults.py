@@ -15,7 +15,7 @@ validation block is the last 20 % of the estimation record.
 Usage (from the repository root)::
 
     SINDYBENCH_DATA=../shared/data PYTHONPATH=. python benchmarks/bench_defaults.py [--benchmarks tanks emps ...] \\
-        [--configs "ARX()" "HiddenStateSINDy() (0.2: auto library and hold, FD4, auto refine)"]
+        [--configs "ARX()" "HiddenStateSINDy() (0.3: auto library, hold, derivative and refine)"]
 
 (``PYTHONPATH=.``: the checkout's ``sindybench``, not another installed copy.) The last column
 says what ``HiddenStateSINDy``'s ``"auto"`` parameters decided, on the validation fit and on the
@@ -51,10 +51,16 @@ CONFIGS = {
     "SINDy linear, FD4, normalize, threshold 0.05":
         lambda dt: SINDy(dt=dt, normalize=True, optimizer=STLS(threshold=0.05), **NEW),
     "SINDy linear, FD4, refine": lambda dt: SINDy(dt=dt, refine=OutputErrorRefinement(), **NEW),
+    "SINDy auto derivative (the record's bandwidth)": lambda dt: SINDy(dt=dt, differentiation="auto"),
     "HiddenStateSINDy, 0.1 defaults (zoh, FD2, poly2, least squares)": lambda dt: HiddenStateSINDy(dt=dt, **HIDDEN_01),
-    "HiddenStateSINDy() (0.2: auto library and hold, FD4, auto refine)":
+    "HiddenStateSINDy() (0.3: auto library, hold, derivative and refine)":
         lambda dt: HiddenStateSINDy(dt=dt, **QUIET),
-    "HiddenStateSINDy auto library and hold, FD4, no refinement": lambda dt: HiddenStateSINDy(dt=dt, refine=None, **QUIET),
+    "HiddenStateSINDy, 0.2 defaults (auto library and hold, FD4, auto refine)":
+        lambda dt: HiddenStateSINDy(dt=dt, differentiation=FiniteDifference(accuracy=4), **QUIET),
+    "HiddenStateSINDy auto library, hold and derivative, no refinement":
+        lambda dt: HiddenStateSINDy(dt=dt, refine=None, **QUIET),
+    "HiddenStateSINDy auto library and hold, FD4, no refinement":
+        lambda dt: HiddenStateSINDy(dt=dt, refine=None, differentiation=FiniteDifference(accuracy=4), **QUIET),
     "HiddenStateSINDy linear, FD4, poly2": lambda dt: HiddenStateSINDy(dt=dt, library=None, refine=None, **NEW, **QUIET),
     "HiddenStateSINDy linear, FD4, poly1": lambda dt: HiddenStateSINDy(
         dt=dt, library=PolynomialLibrary(degree=1), refine=None, **NEW, **QUIET),

@@ -371,3 +371,11 @@ def test_default_derivative_recovers_a_noisy_oscillator(input_kind, seed):
     coef = dict(zip(model.library_.get_feature_names_out(["y0", "y0'", "u0"]), model.coef_[0]))
     np.testing.assert_allclose([coef["y0"], coef["y0'"], coef["u0"]], [-4.0, -0.5, 2.0], rtol=0.02)
     assert model.score(u, y) > 0.999  # started from 20 samples, fewer than the window: the start's own fit
+
+
+def test_searching_the_parameters_of_the_auto_derivative_is_refused_with_the_way_out():
+    t = np.arange(200) * 0.01
+    model = HiddenStateSINDy(dt=0.01, refine=None, n_trials=2, show_progress_bar=False,
+                             search_params={"differentiation__window_length": [7, 11]})
+    with pytest.raises(ValueError, match="differentiation='auto' has no parameters: pass a method"):
+        model.fit(np.sin(t)[:, None], np.sin(0.9 * t)[:, None])

@@ -1,7 +1,7 @@
 """The derivative the data choose: a Savitzky-Golay filter whose window follows the outputs' bandwidth.
 
 One home for what :func:`~sindybench.identify.identify` and the estimators'
-option ``differentiation="auto"`` both use: the frequency below which
+``differentiation="auto"`` (``HiddenStateSINDy``'s default since 0.3) both use: the frequency below which
 99.99 % of the detrended outputs' power lies, and the odd Savitzky-Golay
 window whose -3 dB cutoff is near it (Schafer's rule for a cubic).
 """

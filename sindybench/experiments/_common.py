@@ -15,8 +15,9 @@ REFINE_NFEV, REFINE_NFEV_QUICK = 30, 5
 def hidden_defaults_01():
     """The :class:`~sindybench.HiddenStateSINDy` defaults before 0.2, which the rows written before it pin.
 
-    Since 0.2 ``input_hold`` and ``refine`` default to ``"auto"`` and ``differentiation`` to
-    ``FiniteDifference(accuracy=4)``; a row that relied on the old defaults passes these, so its scores stay.
+    Since 0.2 ``input_hold`` and ``refine`` default to ``"auto"``, and ``differentiation`` to
+    ``FiniteDifference(accuracy=4)`` (0.2) then ``"auto"`` (0.3); a row that relied on the old defaults
+    passes these, so its scores stay.
     """
     from ..differentiation import FiniteDifference
 

@@ -1,7 +1,10 @@
 """The settings :class:`~sindybench.HiddenStateSINDy` decides on its own validation block (``"auto"`` values).
 
 ``library="auto"``, ``input_hold="auto"`` and ``refine="auto"`` are the
-estimator's defaults since version 0.2 (see the user guide's "Defaults"):
+estimator's defaults since version 0.2, ``differentiation="auto"`` (the
+record's bandwidth chooses a Savitzky-Golay window once per fit, see
+:func:`~sindybench.differentiation.data_differentiation`) since 0.3 (see the
+user guide's "Defaults"):
 
 * :func:`auto_grid`: the candidate settings of a fit that searches nothing
   else, every input hold (zero-order and linear) with every degree of the

@@ -332,7 +332,11 @@ class HiddenStateSINDy(DynamicsEstimator):
         valid = self.get_params(deep=True)
         unknown = [k for k in space if k not in valid]
         if unknown:
-            raise ValueError(f"search_params names unknown parameters {unknown}; expected names from get_params().")
+            hint = (" (differentiation='auto' has no parameters: pass a method, e.g. SavitzkyGolay(), to search "
+                    "its own)" if is_auto(self.differentiation) and any(k.startswith("differentiation__")
+                                                                       for k in unknown) else "")
+            raise ValueError(f"search_params names unknown parameters {unknown}; expected names from get_params()"
+                             f"{hint}.")
         return dt, space
 
     def _n_validation(self, n_samples, record=None):

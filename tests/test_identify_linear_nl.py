@@ -9,6 +9,7 @@ from sindybench.differentiation import FiniteDifference
 from sindybench.identify._linear import make_linear
 from sindybench.identify._linear_nl import LINEAR_NL_FAMILY, make_linear_nl, propose_linear_nl
 from sindybench.identify._space import ALL_FAMILIES, FAMILIES, FAMILY_TABLE, LATENT_FAMILIES, data_settings
+from sindybench.io import load_model
 from sindybench.metrics import fit_index
 from sindybench.systems import get_system
 
@@ -62,7 +63,7 @@ def _test_fit(model, rec):
     return fit_index(rec.y_test, y_hat, skip=N_INIT)
 
 
-def test_family_finds_the_cubic_spring_of_a_six_state_chain_the_linear_base_misses():
+def test_family_finds_the_cubic_spring_of_a_six_state_chain_the_linear_base_misses(tmp_path):
     rec = _chain(1500, 2000)
     settings = _settings(order=6, rows=80)
     struct = {"family": LINEAR_NL_FAMILY, "library": "poly3 n=6 rows=80", "derivative": "finite_difference",
@@ -79,6 +80,11 @@ def test_family_finds_the_cubic_spring_of_a_six_state_chain_the_linear_base_miss
     # the cubic term is in the model, and the pruning left terms out
     assert any("y0^3" in row for row in model.equations())
     assert np.count_nonzero(model.coef_) < model.coef_.size
+    # an ordinary model: its file loads and predicts the same
+    model.to_json(tmp_path / "m.json")
+    loaded = load_model(tmp_path / "m.json")
+    np.testing.assert_allclose(loaded.predict(rec.u_test, y_init=rec.y_test[:N_INIT]),
+                               model.predict(rec.u_test, y_init=rec.y_test[:N_INIT]), rtol=1e-9, atol=1e-12)
 
 
 @pytest.mark.slow

@@ -25,6 +25,8 @@ __all__ = ["LagSINDy"]
 
 #: orders whose validation error is within this fraction of the least are equal: the fewest lags win
 _TIE = 0.01
+#: the one-step regression's targets: the increments ``y[k+1] - y[k]`` or the next outputs ``y[k+1]``
+_TARGETS = ("increment", "next")
 
 
 def check_lags(value, name):
@@ -34,6 +36,13 @@ def check_lags(value, name):
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
         raise ValueError(f"{name} must be an integer >= 1 or 'auto'; got {value!r}.")
     return int(value)
+
+
+def check_target(value, name):
+    """The regression target of the one-step fit: ``"increment"`` or ``"next"``."""
+    if not isinstance(value, str) or value not in _TARGETS:
+        raise ValueError(f"{name} must be one of {list(_TARGETS)}; got {value!r}.")
+    return value
 
 
 def check_fraction(value, name):
@@ -83,9 +92,12 @@ class LagSINDy(DynamicsEstimator):
     dt : float or None, default=None
         Sampling interval (the Euler step; 1.0 when neither ``fit`` nor the
         constructor gives one).
-    input_delay : int, default=0
+    input_delay : int >= -1, default=0
         The model is driven by ``u[k - input_delay]`` (the names of the
-        equations say so).
+        equations say so). -1 is a lead: ``y[k+1]`` depends on ``u[k+1]``,
+        the input at the sample it predicts (a sampled record of a plant
+        driven by a smooth input, whose input between the samples the next
+        sample tells; the last input is held after a record's end).
     normalize : bool, default=True
         Centre and scale the features and the increments inside the
         regression (see :class:`~sindybench.SINDy`); coefficients stay in the
@@ -97,6 +109,14 @@ class LagSINDy(DynamicsEstimator):
     refine : OutputErrorRefinement, PredictionErrorRefinement or None, default=None
         Refine the nonzero coefficients of the outputs' rows and the first
         outputs (never the delay line) by simulation (or prediction) error.
+    target : {"increment", "next"}, default="increment"
+        What the one-step regression fits: the increments ``y[k+1] - y[k]``,
+        or the next outputs ``y[k+1]`` (then one is subtracted from the
+        coefficient of ``y[k]``, which the library must hold). The model is
+        the same difference equation; a selecting optimizer
+        (:class:`~sindybench.optimizers.ForwardOLS`) chooses other terms for
+        each: with ``"next"`` the output's own last sample is its first,
+        as in the term selection of polynomial NARX models.
 
     Attributes
     ----------
@@ -142,7 +162,7 @@ class LagSINDy(DynamicsEstimator):
 
     def __init__(self, *, library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=0.01), output_lags=2,
                  input_lags=2, max_lags=4, validation_fraction=0.2, dt=None, input_delay=0, normalize=True,
-                 max_abs=1e6, output_names=None, input_names=None, refine=None):
+                 max_abs=1e6, output_names=None, input_names=None, refine=None, target="increment"):
         self.library = library
         self.optimizer = optimizer
         self.output_lags = output_lags
@@ -156,14 +176,17 @@ class LagSINDy(DynamicsEstimator):
         self.output_names = output_names
         self.input_names = input_names
         self.refine = refine
+        self.target = target
 
     _parameter_constraints = {
-        **{k: SHARED_CONSTRAINTS[k] for k in ("max_abs", "input_delay", "normalize", "optimizer", "refine")},
+        **{k: SHARED_CONSTRAINTS[k] for k in ("max_abs", "normalize", "optimizer", "refine")},
+        "input_delay": Constraint(check_integer, low=-1),
         "output_lags": Constraint(check_lags),
         "input_lags": Constraint(check_lags),
         "max_lags": Constraint(check_integer),
         "validation_fraction": Constraint(check_fraction),
         "dt": Constraint(check_positive, allow_none=True),
+        "target": Constraint(check_target),
     }
 
     # --------------------------------------------------------------------- fit
@@ -232,9 +255,14 @@ class LagSINDy(DynamicsEstimator):
         """The one-step regression of orders ``(na, nb)``: ``(library, optimizer, coef, dynamics)``."""
         library = clone(as_library(self.library))
         optimizer = clone(STLS(threshold=0.01) if self.optimizer is None else self.optimizer)
-        coef = fit_sparse(library, optimizer, *_design(Xs, ys, na, nb), what="library output Theta([x[k], u[k]])",
-                          normalize=self.normalize)
         n_outputs, n_inputs = ys[0].shape[1], Xs[0].shape[1]
+        Z, target = _design(Xs, ys, na, nb)
+        if self.target == "next":
+            target = target + Z[:, list(output_states(n_outputs, na))]
+        coef = fit_sparse(library, optimizer, Z, target, what="library output Theta([x[k], u[k]])",
+                          normalize=self.normalize)
+        if self.target == "next":
+            coef = _next_to_increment(library, coef, output_states(n_outputs, na))
         return library, optimizer, coef, self._dynamics(library, coef, n_outputs, n_inputs, na, nb, dt, out_names,
                                                         in_names)
 
@@ -441,6 +469,19 @@ def _linear_start(library, coef, Z, target):
         if cols:
             start[cols, j] = np.linalg.lstsq(theta[:, cols], target[:, j], rcond=None)[0]
     return start
+
+
+def _next_to_increment(library, coef, states):
+    """The coefficients of the next outputs made those of the increments: one less on each output's ``y[k]``."""
+    terms = [tuple(tuple(f) for f in term) for term in getattr(library, "terms_", None) or []]
+    coef = np.array(coef, dtype=float)
+    for j, state in enumerate(states):
+        own = ((state, POW, 1, 0),)
+        if own not in terms:
+            raise ValueError("target='next' needs a library with the linear term of each output's last sample "
+                             f"(y[k], variable {state}); expected a library such as PolynomialLibrary.")
+        coef[terms.index(own), j] -= 1.0
+    return coef
 
 
 def _check_length(ys, need, several):

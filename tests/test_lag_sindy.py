@@ -221,7 +221,8 @@ def test_lead_and_greedy_selection_recover_a_feedthrough_narx(rng):
     found = {name: c for name, c in zip(model.feature_names_, model.coef_[0]) if c != 0}
     assert set(found) <= set(truth) and set(truth) - set(found) <= {"1"}  # the intercept is kept beside the 5 terms
     np.testing.assert_allclose([found.get(k, 0.0) for k in truth], list(truth.values()), atol=1e-9)
-    assert model.equations(precision=2)[0].endswith("1.20 y0[k] - 0.50 y0[k-1] + 0.30 u0[k] + 0.20 u0[k+1] - 0.1 y0[k]^2")
+    assert model.equations(precision=2)[0].endswith(
+        "1.20 y0[k] - 0.50 y0[k-1] + 0.30 u0[k] + 0.20 u0[k+1] - 0.1 y0[k]^2")
     assert model.optimizer_.order_[0][0] == 1  # the output's own last sample is chosen first (target "next")
     np.testing.assert_allclose(model.predict(u, y_init=y[:5]), y, atol=1e-9)
     # without the lead the same selection cannot reach the truth

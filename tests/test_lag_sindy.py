@@ -262,3 +262,25 @@ def test_next_target_needs_the_outputs_own_term(record):
     library = TermsLibrary(terms=[[[1, 0, 1, 0]], [[2, 0, 1, 0]]])  # y0[k-1] and u0[k-1], not y0[k]
     with pytest.raises(ValueError, match="target='next' needs a library with the linear term"):
         LagSINDy(library=library, output_lags=2, input_lags=2, target="next", normalize=False).fit(u, y)
+
+
+def test_param_grid_searches_the_number_of_terms_with_the_lags(rng):
+    u = rng.uniform(-1.0, 1.0, (800, 1))
+    y = _narx_lead(u)
+    model = _greedy(output_lags="auto", input_lags=2, input_delay=-1, max_lags=3,
+                    param_grid={"n_terms": [3, 5, 8]}).fit(u, y)
+    assert (model.output_lags_, model.optimizer_.n_terms) == (2, 5)  # the truth; 8 terms fit as well: 5 come first
+    assert len(model.lag_search_) == 9 and {row["params"]["n_terms"] for row in model.lag_search_} == {3, 5, 8}
+    errors = {(r["output_lags"], r["params"]["n_terms"]): r["error"] for r in model.lag_search_}
+    assert errors[(2, 5)] < 1e-8 < errors[(2, 3)]
+
+
+@pytest.mark.parametrize("grid, match", [
+    ({"n_terms": []}, "param_grid must be a dict of non-empty lists"),
+    ([8, 16], "param_grid must be a dict of non-empty lists"),
+    ({"depth": [1]}, "depth"),
+])
+def test_bad_param_grid(rng, grid, match):
+    u = rng.uniform(-1.0, 1.0, (200, 1))
+    with pytest.raises(ValueError, match=match):
+        _greedy(output_lags="auto", param_grid=grid).fit(u, _narx_lead(u))

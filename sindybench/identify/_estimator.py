@@ -15,6 +15,7 @@ from .._validation import (check_array_like, check_bool, check_dt, check_inputs_
 from ._advice import check_magnitude
 from ._criterion import CRITERIA, choose_criterion
 from ._resume import CandidateStore, fingerprint
+from ._lag import LAG_FAMILY, equation_or_lag
 from ._linear import linear_base_index, linear_base_rule
 from ._search import describe_blocks, pareto_front, parsimonious_index, record_folds, segments, stls_threshold
 from ._space import n_terms
@@ -507,8 +508,16 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                              f"{reasons}); expected a record long and rich enough for at least one candidate, or a "
                              "larger time_budget / max_candidates / max_terms.")
         terms = [t if t is not None else 10**9 for t in table["n_terms"]]
-        best = parsimonious_index(mean, table["std_validation_error"], terms, len(folds))
-        best, rule = linear_base_rule(best, rows, mean, table["std_validation_error"], len(folds))
+        # the equations' pick (the lag models aside), then the lag model only when better by more than its SE
+        lags = np.array([r["family"] == LAG_FAMILY for r in rows])
+        equation_mean = np.where(lags, np.inf, mean)
+        best = rule = None
+        if np.any(np.isfinite(equation_mean)):
+            best = parsimonious_index(equation_mean, table["std_validation_error"], terms, len(folds))
+            best, rule = linear_base_rule(best, rows, equation_mean, table["std_validation_error"], len(folds))
+        lag = int(np.argmin(np.where(lags, mean, np.inf))) if np.any(np.isfinite(mean[lags])) else None
+        best, lag_reason = equation_or_lag(best, lag, mean, table["std_validation_error"], len(folds))
+        rule = lag_reason or rule
         front = [{"n_terms": int(terms[i]), "validation_error": float(mean[i]), "index": int(i)}
                  for i in pareto_front(list(mean), terms)]
 

@@ -6,12 +6,17 @@ from sindybench import LagSINDy
 from sindybench.identify import IdentifyCV
 
 
-def test_identify_with_the_lag_family():
-    rng = np.random.default_rng(1)
-    u = rng.uniform(-1.0, 1.0, (700, 1))
+def _narx_record():
+    """``y[k+1] = 1.2 y[k] - 0.5 y[k-1] - 0.1 y[k]^2 + 0.3 u[k-1]``, 700 samples of a uniform random input."""
+    u = np.random.default_rng(1).uniform(-1.0, 1.0, (700, 1))
     y = np.zeros((700, 1))
     for k in range(1, 699):
         y[k + 1] = 1.2 * y[k] - 0.5 * y[k - 1] - 0.1 * y[k] ** 2 + 0.3 * u[k - 1]
+    return u, y
+
+
+def test_identify_with_the_lag_family():
+    u, y = _narx_record()
     search = IdentifyCV(dt=0.1, families=["lag"], libraries=["poly2"], input_delay=0, n_refine=0,
                         show_progress_bar=False).fit(u[:600], y[:600])
     model = search.best_estimator_
@@ -41,11 +46,7 @@ def test_the_equation_wins_a_tie_with_a_lag_model():
 
 
 def test_the_lag_model_wins_when_better_by_more_than_its_standard_error():
-    rng = np.random.default_rng(1)
-    u = rng.uniform(-1.0, 1.0, (700, 1))
-    y = np.zeros((700, 1))
-    for k in range(1, 699):
-        y[k + 1] = 1.2 * y[k] - 0.5 * y[k - 1] - 0.1 * y[k] ** 2 + 0.3 * u[k - 1]
+    u, y = _narx_record()
     search = IdentifyCV(dt=0.1, families=["first_order", "lag"], libraries=["poly2"], input_delay=0, n_refine=0,
                         show_progress_bar=False).fit(u[:600], y[:600])
     assert search.best_params_["family"] == "lag"

@@ -93,7 +93,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         searched inside their ``fit`` and they are refined by simulation error.
         Off the default list: ``"order1+latent2"`` (two latent states) and
         ``"lag"`` (:class:`~sindybench.LagSINDy`, discrete time on delay
-        coordinates, its lags chosen inside its ``fit``).
+        coordinates, its orders and terms chosen inside its ``fit``; returned
+        only when it validates better than the equations' pick by more than
+        its standard error).
     libraries : sequence of str, default=("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
         Libraries of graded richness; ``"+hard"`` adds the terms the data
         proposes (skipped when it proposes none).

@@ -195,6 +195,11 @@ class ForwardOLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
         X = validate_named(self, X, reset=False, dtype=float)
         return X @ self.coef_.T
 
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.target_tags.multi_output = True
+        return tags
+
 
 def _to_dict(model):
     return {"coef": encode_array(model.coef_), "order": [list(map(int, o)) for o in model.order_],

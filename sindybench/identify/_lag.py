@@ -22,8 +22,8 @@ LAG_FAMILY = "lag"
 LAG_MAX = 3
 #: the numbers of terms searched with the orders (sparsest first: the first wins a tie; with the intercept
 #: within identify's default max_terms=15)
-LAG_TERMS = (4, 8, 14)
-_LAG_REFINEMENT = {"max_nfev": 50, "max_samples": 10000}
+LAG_TERMS = (8, 14)
+_LAG_REFINEMENT = {"max_nfev": 30, "max_samples": 5000}
 
 
 def make_lag(structure, library, dt):
@@ -38,7 +38,7 @@ def make_lag(structure, library, dt):
     >>> from sindybench.libraries import PolynomialLibrary
     >>> model = make_lag({"input_delay": 0}, PolynomialLibrary(degree=3), 0.1)
     >>> model.input_delay, model.input_lags, model.param_grid
-    (-1, 4, {'n_terms': [4, 8, 14]})
+    (-1, 4, {'n_terms': [8, 14]})
     """
     return LagSINDy(library=clone(library), optimizer=ForwardOLS(n_terms=LAG_TERMS[0], center=True),
                     normalize=False, output_lags="auto", input_lags=LAG_MAX + 1, max_lags=LAG_MAX, dt=dt,

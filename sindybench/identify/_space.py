@@ -43,7 +43,7 @@ FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent",
 #: every family a search may name: the default ones, two latent states (a chain of two lags of the input, at
 #: order 1; off the default list for its cost), and the discrete-time lag model on delay coordinates
 #: (:class:`~sindybench.LagSINDy`, its orders and terms chosen in its fit, see ``_lag``; off the default list for
-#: its cost: on Silverbox it wins, 0.26 / 0.38 mV, but the search takes 70 s of CPU against a 60 s budget)
+#: its cost: on Silverbox it wins, 0.26 / 0.39 mV, but the search takes 60 s of CPU, the whole budget, not 47)
 ALL_FAMILIES = FAMILIES + ("order1+latent2", "lag")
 #: the families with their own search and refinement inside ``fit`` (not screened on a pruning path)
 LATENT_FAMILIES = ("order1+latent", "order2+latent", "order1+latent2", LAG_FAMILY) + tuple(FAMILY_TABLE)

@@ -25,6 +25,8 @@ __all__ = ["LagSINDy"]
 
 #: orders whose validation error is within this fraction of the least are equal: the fewest lags win
 _TIE = 0.01
+#: the one-step regression's targets: the increments ``y[k+1] - y[k]`` or the next outputs ``y[k+1]``
+_TARGETS = ("increment", "next")
 
 
 def check_lags(value, name):
@@ -34,6 +36,22 @@ def check_lags(value, name):
     if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
         raise ValueError(f"{name} must be an integer >= 1 or 'auto'; got {value!r}.")
     return int(value)
+
+
+def check_target(value, name):
+    """The regression target of the one-step fit: ``"increment"`` or ``"next"``."""
+    if not isinstance(value, str) or value not in _TARGETS:
+        raise ValueError(f"{name} must be one of {list(_TARGETS)}; got {value!r}.")
+    return value
+
+
+def check_param_grid(value, name):
+    """A dict of non-empty lists of values, keyed by parameter names, or None."""
+    if value is not None and (not isinstance(value, dict) or not all(
+            isinstance(k, str) and isinstance(v, (list, tuple)) and len(v) > 0 for k, v in value.items())):
+        raise ValueError(f"{name} must be a dict of non-empty lists keyed by the optimizer's parameter names "
+                         f"(e.g. {{'n_terms': [8, 16]}}) or None; got {value!r}.")
+    return value
 
 
 def check_fraction(value, name):
@@ -83,9 +101,12 @@ class LagSINDy(DynamicsEstimator):
     dt : float or None, default=None
         Sampling interval (the Euler step; 1.0 when neither ``fit`` nor the
         constructor gives one).
-    input_delay : int, default=0
+    input_delay : int >= -1, default=0
         The model is driven by ``u[k - input_delay]`` (the names of the
-        equations say so).
+        equations say so). -1 is a lead: ``y[k+1]`` depends on ``u[k+1]``,
+        the input at the sample it predicts (a sampled record of a plant
+        driven by a smooth input, whose input between the samples the next
+        sample tells; the last input is held after a record's end).
     normalize : bool, default=True
         Centre and scale the features and the increments inside the
         regression (see :class:`~sindybench.SINDy`); coefficients stay in the
@@ -97,6 +118,21 @@ class LagSINDy(DynamicsEstimator):
     refine : OutputErrorRefinement, PredictionErrorRefinement or None, default=None
         Refine the nonzero coefficients of the outputs' rows and the first
         outputs (never the delay line) by simulation (or prediction) error.
+    param_grid : dict of list or None, default=None
+        Values of the optimizer's parameters searched with the orders (e.g.
+        ``{"n_terms": [8, 16, 24]}`` for
+        :class:`~sindybench.optimizers.ForwardOLS`): every combination is
+        fitted and scored as the ``"auto"`` lags are, and the fewest lags
+        within 1 % of the least error win, then the earliest values of the
+        grid (list them sparsest first).
+    target : {"increment", "next"}, default="increment"
+        What the one-step regression fits: the increments ``y[k+1] - y[k]``,
+        or the next outputs ``y[k+1]`` (then one is subtracted from the
+        coefficient of ``y[k]``, which the library must hold). The model is
+        the same difference equation; a selecting optimizer
+        (:class:`~sindybench.optimizers.ForwardOLS`) chooses other terms for
+        each: with ``"next"`` the output's own last sample is its first,
+        as in the term selection of polynomial NARX models.
 
     Attributes
     ----------
@@ -105,8 +141,9 @@ class LagSINDy(DynamicsEstimator):
     output_lags_, input_lags_ : int
         The orders used (chosen by the data for ``"auto"``).
     lag_search_ : list of dict or None
-        With ``"auto"`` lags, every order tried and its validation error
-        (RMSE over the output's standard deviation; inf for a divergence).
+        With ``"auto"`` lags or a ``param_grid``, every order (and
+        parameters) tried and its validation error (RMSE over the output's
+        standard deviation; inf for a divergence).
     library_, optimizer_ : fitted clones of the parameters
     terms_ : list of term tuples or None
     feature_names_ : list of str
@@ -142,7 +179,8 @@ class LagSINDy(DynamicsEstimator):
 
     def __init__(self, *, library=PolynomialLibrary(degree=2), optimizer=STLS(threshold=0.01), output_lags=2,
                  input_lags=2, max_lags=4, validation_fraction=0.2, dt=None, input_delay=0, normalize=True,
-                 max_abs=1e6, output_names=None, input_names=None, refine=None):
+                 max_abs=1e6, output_names=None, input_names=None, refine=None, param_grid=None,
+                 target="increment"):
         self.library = library
         self.optimizer = optimizer
         self.output_lags = output_lags
@@ -156,14 +194,19 @@ class LagSINDy(DynamicsEstimator):
         self.output_names = output_names
         self.input_names = input_names
         self.refine = refine
+        self.param_grid = param_grid
+        self.target = target
 
     _parameter_constraints = {
-        **{k: SHARED_CONSTRAINTS[k] for k in ("max_abs", "input_delay", "normalize", "optimizer", "refine")},
+        **{k: SHARED_CONSTRAINTS[k] for k in ("max_abs", "normalize", "optimizer", "refine")},
+        "input_delay": Constraint(check_integer, low=-1),
         "output_lags": Constraint(check_lags),
         "input_lags": Constraint(check_lags),
         "max_lags": Constraint(check_integer),
         "validation_fraction": Constraint(check_fraction),
         "dt": Constraint(check_positive, allow_none=True),
+        "target": Constraint(check_target),
+        "param_grid": Constraint(check_param_grid),
     }
 
     # --------------------------------------------------------------------- fit
@@ -193,13 +236,13 @@ class LagSINDy(DynamicsEstimator):
         out_names = check_column_names(self.output_names, n_outputs, "y", "output_names")
         in_names = check_column_names(self.input_names, n_inputs, "u", "input_names")
         check_distinct_names(out_names, in_names)
-        search = None
-        if "auto" in (self.output_lags, self.input_lags):
-            na, nb, search = self._search_lags(Xs, ys, dt, out_names, in_names)
+        search, params = None, {}
+        if "auto" in (self.output_lags, self.input_lags) or self.param_grid:
+            na, nb, params, search = self._search_lags(Xs, ys, dt, out_names, in_names)
         else:
             na, nb = self.output_lags, self.input_lags if n_inputs else 1
         _check_length(ys, max(na, nb) + 1, several)
-        library, optimizer, coef, dynamics = self._fit_lags(Xs, ys, na, nb, dt, out_names, in_names)
+        library, optimizer, coef, dynamics = self._fit_lags(Xs, ys, na, nb, dt, out_names, in_names, params)
         x0s = [lag_states(X_r, y_r, na, nb)[0] for X_r, y_r in zip(Xs, ys)]
         refinement = None
         if self.refine is not None:
@@ -228,19 +271,34 @@ class LagSINDy(DynamicsEstimator):
         return lag_dynamics(library, coef, n_outputs=n_outputs, n_inputs=n_inputs, na=na, nb=nb, dt=dt,
                             state_names=names, max_abs=self.max_abs)
 
-    def _fit_lags(self, Xs, ys, na, nb, dt, out_names, in_names):
+    def _fit_lags(self, Xs, ys, na, nb, dt, out_names, in_names, params=None):
         """The one-step regression of orders ``(na, nb)``: ``(library, optimizer, coef, dynamics)``."""
         library = clone(as_library(self.library))
         optimizer = clone(STLS(threshold=0.01) if self.optimizer is None else self.optimizer)
-        coef = fit_sparse(library, optimizer, *_design(Xs, ys, na, nb), what="library output Theta([x[k], u[k]])",
-                          normalize=self.normalize)
+        optimizer.set_params(**(params or {}))
         n_outputs, n_inputs = ys[0].shape[1], Xs[0].shape[1]
+        Z, target = _design(Xs, ys, na, nb)
+        if self.target == "next":
+            target = target + Z[:, list(output_states(n_outputs, na))]
+        coef = fit_sparse(library, optimizer, Z, target, what="library output Theta([x[k], u[k]])",
+                          normalize=self.normalize)
+        if self.target == "next":
+            coef = _next_to_increment(library, coef, output_states(n_outputs, na))
         return library, optimizer, coef, self._dynamics(library, coef, n_outputs, n_inputs, na, nb, dt, out_names,
                                                         in_names)
 
     def _search_lags(self, Xs, ys, dt, out_names, in_names):
-        """The orders of the ``"auto"`` lags with the least free-run error on each record's last part."""
+        """The orders of the ``"auto"`` lags (and the ``param_grid``'s values) with the least free-run error on each
+        record's last part: ``(na, nb, params, table)``."""
+        from sklearn.model_selection import ParameterGrid
+
         n_inputs = Xs[0].shape[1]
+        known = (STLS(threshold=0.01) if self.optimizer is None else self.optimizer).get_params()
+        unknown = sorted(set(self.param_grid or {}) - set(known))
+        if unknown:
+            raise ValueError(f"param_grid names {unknown}, not parameters of the optimizer; expected some of "
+                             f"{sorted(known)}.")
+        grid_p = list(ParameterGrid(self.param_grid)) if self.param_grid else [{}]
         grid_a = range(1, self.max_lags + 1) if self.output_lags == "auto" else [self.output_lags]
         grid_b = ([1] if not n_inputs else range(1, self.max_lags + 1) if self.input_lags == "auto"
                   else [self.input_lags])
@@ -253,29 +311,31 @@ class LagSINDy(DynamicsEstimator):
                                  f"the lags (up to {n_init}) on its last {self.validation_fraction:g}.")
         train_X = [X_r[:c] for X_r, c in zip(Xs, cuts)]
         train_y = [y_r[:c] for y_r, c in zip(ys, cuts)]
-        table = []
-        for na in grid_a:
-            for nb in grid_b:
-                try:
-                    dyn = self._fit_lags(train_X, train_y, na, nb, dt, out_names, in_names)[3]
-                    errors = []
-                    for X_r, y_r, c in zip(Xs, ys, cuts):
-                        y_hat = free_run(dyn, X_r[c:], y_r[c:c + n_init], na, nb)[:, list(dyn.output_index)]
-                        scale = np.where(np.std(y_r, axis=0) > 0, np.std(y_r, axis=0), 1.0)
-                        e = rmse(y_r[c + n_init:], y_hat[n_init:], multioutput="raw_values") / scale
-                        errors.append(float(np.mean(e)) if np.all(np.isfinite(y_hat)) else np.inf)
-                    error, status = float(np.mean(errors)), "ok"
-                except ValueError as exc:
-                    error, status = np.inf, f"failed: {exc}"
-                table.append({"output_lags": na, "input_lags": nb, "error": error, "status": status})
+        table, order = [], []
+        for na, nb, (p, params) in ((a, b, pp) for a in grid_a for b in grid_b for pp in enumerate(grid_p)):
+            try:
+                dyn = self._fit_lags(train_X, train_y, na, nb, dt, out_names, in_names, params)[3]
+                errors = []
+                for X_r, y_r, c in zip(Xs, ys, cuts):
+                    y_hat = free_run(dyn, X_r[c:], y_r[c:c + n_init], na, nb)[:, list(dyn.output_index)]
+                    scale = np.where(np.std(y_r, axis=0) > 0, np.std(y_r, axis=0), 1.0)
+                    e = rmse(y_r[c + n_init:], y_hat[n_init:], multioutput="raw_values") / scale
+                    errors.append(float(np.mean(e)) if np.all(np.isfinite(y_hat)) else np.inf)
+                error, status = float(np.mean(errors)), "ok"
+            except ValueError as exc:
+                error, status = np.inf, f"failed: {exc}"
+            table.append({"output_lags": na, "input_lags": nb, "error": error, "status": status,
+                          **({"params": params} if self.param_grid else {})})
+            order.append(p)
         least = min(row["error"] for row in table)
-        # the fewest lags within 1 % of the least error (ties are common on clean data)
-        best = min((row for row in table if row["error"] <= least * (1.0 + _TIE) + 1e-12),
-                   key=lambda row: (row["output_lags"] + row["input_lags"], row["output_lags"]))
+        # the fewest lags within 1 % of the least error (ties are common on clean data), then the grid's first values
+        k = min((k for k, row in enumerate(table) if row["error"] <= least * (1.0 + _TIE) + 1e-12),
+                key=lambda k: (table[k]["output_lags"] + table[k]["input_lags"], table[k]["output_lags"], order[k]))
+        best = table[k]
         if not np.isfinite(best["error"]):
             raise ValueError(f"every order up to max_lags={self.max_lags} diverged or failed on the validation part; "
                              "expected at least one that simulates (try a smaller library or threshold).")
-        return best["output_lags"], best["input_lags"], table
+        return best["output_lags"], best["input_lags"], grid_p[order[k]], table
 
     def _refine(self, dynamics, Xs, ys, x0s, coef, na, nb, dt, library):
         """``(coef, x0s, record)``: the outputs' nonzero increments and first outputs refined (see ``refine``).
@@ -441,6 +501,19 @@ def _linear_start(library, coef, Z, target):
         if cols:
             start[cols, j] = np.linalg.lstsq(theta[:, cols], target[:, j], rcond=None)[0]
     return start
+
+
+def _next_to_increment(library, coef, states):
+    """The coefficients of the next outputs made those of the increments: one less on each output's ``y[k]``."""
+    terms = [tuple(tuple(f) for f in term) for term in getattr(library, "terms_", None) or []]
+    coef = np.array(coef, dtype=float)
+    for j, state in enumerate(states):
+        own = ((state, POW, 1, 0),)
+        if own not in terms:
+            raise ValueError("target='next' needs a library with the linear term of each output's last sample "
+                             f"(y[k], variable {state}); expected a library such as PolynomialLibrary.")
+        coef[terms.index(own), j] -= 1.0
+    return coef
 
 
 def _check_length(ys, need, several):

@@ -80,7 +80,7 @@ def lag_states(u, y, na, nb):
 
 def _shift(k, delay):
     k = k + delay
-    return "[k]" if k == 0 else f"[k-{k}]"
+    return "[k]" if k == 0 else f"[k-{k}]" if k > 0 else f"[k+{-k}]"
 
 
 def feature_names(library, output_names, input_names, na, nb, input_delay):
@@ -99,6 +99,8 @@ def lag_names(output_names, input_names, na, nb, input_delay=0):
     --------
     >>> lag_names(["y0"], ["u0"], 2, 3, input_delay=1)
     (['y0[k]', 'y0[k-1]', 'u0[k-2]', 'u0[k-3]'], ['u0[k-1]'])
+    >>> lag_names(["y0"], ["u0"], 1, 2, input_delay=-1)
+    (['y0[k]', 'u0[k]'], ['u0[k+1]'])
     """
     states = [f"{name}{_shift(i, 0)}" for name in output_names for i in range(na)]
     states += [f"{name}{_shift(lag, input_delay)}" for name in input_names for lag in range(1, nb)]

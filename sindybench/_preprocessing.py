@@ -34,7 +34,10 @@ def delay_inputs(X, delay):
     Parameters
     ----------
     X : ndarray of shape (n_samples, n_inputs)
-    delay : int >= 0
+    delay : int
+        A negative delay is a lead: row ``k`` holds ``X[k - delay]``, the last
+        row held after the end (a lag model driven by ``u[k+1]``, see
+        :class:`~sindybench.LagSINDy`).
 
     Returns
     -------
@@ -45,9 +48,14 @@ def delay_inputs(X, delay):
     --------
     >>> delay_inputs(np.arange(5.0)[:, None], 2).ravel().tolist()
     [0.0, 0.0, 0.0, 1.0, 2.0]
+    >>> delay_inputs(np.arange(5.0)[:, None], -1).ravel().tolist()
+    [1.0, 2.0, 3.0, 4.0, 4.0]
     """
     if delay == 0 or X.shape[1] == 0 or X.shape[0] == 0:
         return X
+    if delay < 0:
+        d = min(-delay, X.shape[0])
+        return np.concatenate([X[d:], np.repeat(X[-1:], d, axis=0)])
     d = min(delay, X.shape[0])
     return np.concatenate([np.repeat(X[:1], d, axis=0), X[: X.shape[0] - d]])
 

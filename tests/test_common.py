@@ -16,6 +16,7 @@ from sklearn.utils.estimator_checks import parametrize_with_checks
 import pysindy as ps
 
 from sindybench import STLS, HiddenStateSINDy, LagSINDy, SINDy
+from sindybench.optimizers import ForwardOLS
 from sindybench.baselines import ARX, NNARX
 from sindybench.hidden import DerivativeHiddenState
 from sindybench.identify import IdentifyCV
@@ -62,6 +63,8 @@ _SINDY = {
 ESTIMATORS = [
     STLS(),
     STLS(threshold=0.05, alpha=0.1, normalize_columns=True),
+    ForwardOLS(n_terms=2),
+    ForwardOLS(n_terms=3, center=True, tol=1e-6),
     SINDy(dt=0.1, library=PolynomialLibrary(degree=1)),
     SINDy(dt=0.1, library=PolynomialLibrary(degree=1), refine=OutputErrorRefinement(max_nfev=3)),
     SINDy(dt=0.1, library=PolynomialLibrary(degree=1), refine=PredictionErrorRefinement(max_nfev=3)),
@@ -82,6 +85,8 @@ ESTIMATORS = [
     LagSINDy(dt=0.1, library=PolynomialLibrary(degree=1), output_lags=1, input_lags=1),
     LagSINDy(dt=0.1, library=PolynomialLibrary(degree=1), output_lags=1, input_lags=1,
              refine=OutputErrorRefinement(max_nfev=3)),
+    LagSINDy(dt=0.1, library=PolynomialLibrary(degree=1), optimizer=ForwardOLS(n_terms=2, center=True),
+             output_lags=1, input_lags=1, input_delay=-1, target="next"),
     ARX(),
     NNARX(hidden_layer_sizes=(8,), max_iter=200, random_state=0),
     IdentifyCV(dt=0.1, families=["first_order"], libraries=["linear"], derivatives=["finite_difference"],

@@ -7,6 +7,7 @@ from sindybench import STLS, LagSINDy, load_model
 from sindybench._lags import lag_dynamics, lag_states
 from sindybench.estimation import extended_kalman_filter, predict_k_step
 from sindybench.libraries import PolynomialLibrary
+from sindybench.optimizers import ForwardOLS
 from sindybench.refine import OutputErrorRefinement
 
 
@@ -189,3 +190,97 @@ def test_conformal_band_and_standard_errors(rng):
     assert band.lower.shape == (200, 1) and np.all(band.lower < band.upper)
     errors = standard_errors(model)
     assert "y0': u0[k-1]" in errors and 0 < errors["y0': u0[k-1]"] < 0.05  # the increment's over dt
+
+
+def _narx_lead(u):
+    """``y[k+1] = 1.2 y[k] - 0.5 y[k-1] - 0.1 y[k]^2 + 0.2 u[k+1] + 0.3 u[k]``: the next input drives it."""
+    y = np.zeros((u.shape[0], 1))
+    for k in range(1, u.shape[0] - 1):
+        y[k + 1] = 1.2 * y[k] - 0.5 * y[k - 1] - 0.1 * y[k] ** 2 + 0.2 * u[k + 1, 0] + 0.3 * u[k, 0]
+    return y
+
+
+def _greedy(**params):
+    return LagSINDy(library=PolynomialLibrary(degree=2), optimizer=ForwardOLS(n_terms=5, center=True),
+                    normalize=False, dt=0.1, target="next", **params)
+
+
+def test_next_target_fits_the_same_model_as_the_increment(record):
+    u, y = record
+    y_noisy = y + 0.01 * np.random.default_rng(1).standard_normal(y.shape)
+    increment = _exact(output_lags=2, input_lags=2).set_params(optimizer=STLS(threshold=0.0)).fit(u, y_noisy)
+    following = _exact(output_lags=2, input_lags=2, target="next").set_params(optimizer=STLS(threshold=0.0))
+    np.testing.assert_allclose(following.fit(u, y_noisy).coef_, increment.coef_, atol=1e-9)
+
+
+def test_lead_and_greedy_selection_recover_a_feedthrough_narx(rng):
+    u = rng.uniform(-1.0, 1.0, (600, 1))
+    y = _narx_lead(u)
+    model = _greedy(output_lags=2, input_lags=2, input_delay=-1).fit(u, y)
+    truth = {"1": 0.0, "y0[k]": 0.2, "y0[k-1]": -0.5, "y0[k]^2": -0.1, "u0[k]": 0.3, "u0[k+1]": 0.2}
+    found = {name: c for name, c in zip(model.feature_names_, model.coef_[0]) if c != 0}
+    assert set(found) <= set(truth) and set(truth) - set(found) <= {"1"}  # the intercept is kept beside the 5 terms
+    np.testing.assert_allclose([found.get(k, 0.0) for k in truth], list(truth.values()), atol=1e-9)
+    assert model.equations(precision=2)[0].endswith(
+        "1.20 y0[k] - 0.50 y0[k-1] + 0.30 u0[k] + 0.20 u0[k+1] - 0.1 y0[k]^2")
+    assert model.optimizer_.order_[0][0] == 1  # the output's own last sample is chosen first (target "next")
+    np.testing.assert_allclose(model.predict(u, y_init=y[:5]), y, atol=1e-9)
+    # without the lead the same selection cannot reach the truth
+    assert _greedy(output_lags=2, input_lags=2).fit(u, y).score(u, y) < 1 - 1e-6
+
+
+def test_lead_model_round_trip_filter_and_k_step(rng, tmp_path):
+    u = rng.uniform(-1.0, 1.0, (600, 1))
+    y = _narx_lead(u)
+    model = _greedy(output_lags=2, input_lags=2, input_delay=-1, refine=OutputErrorRefinement(max_nfev=5)).fit(u, y)
+    path = tmp_path / "lead.json"
+    model.to_json(path)
+    loaded = load_model(path)
+    assert loaded.equations() == model.equations() and loaded.input_delay == -1
+    assert loaded.optimizer_.order_ == model.optimizer_.order_
+    np.testing.assert_array_equal(loaded.predict(u, y_init=y[:5]), model.predict(u, y_init=y[:5]))
+    y_noisy = y + 0.001 * rng.standard_normal(y.shape)
+    Q, R = 1e-8 * np.eye(model.n_states_), 1e-6 * np.eye(1)
+    y_pred = predict_k_step(model, u, y_noisy, 5, Q=Q, R=R)
+    assert np.sqrt(np.mean((y_pred - y[5:]) ** 2)) < 0.002  # the filter sees u[k+1] as the model does
+
+
+@pytest.mark.parametrize("params, match", [
+    ({"target": "level"}, r"target must be one of \['increment', 'next'\]; got 'level'"),
+    ({"input_delay": -2}, "input_delay"),
+])
+def test_bad_target_and_lead(record, params, match):
+    u, y = record
+    with pytest.raises(ValueError, match=match):
+        LagSINDy(**params).fit(u, y)
+
+
+def test_next_target_needs_the_outputs_own_term(record):
+    from sindybench.libraries import TermsLibrary
+
+    u, y = record
+    library = TermsLibrary(terms=[[[1, 0, 1, 0]], [[2, 0, 1, 0]]])  # y0[k-1] and u0[k-1], not y0[k]
+    with pytest.raises(ValueError, match="target='next' needs a library with the linear term"):
+        LagSINDy(library=library, output_lags=2, input_lags=2, target="next", normalize=False).fit(u, y)
+
+
+def test_param_grid_searches_the_number_of_terms_with_the_lags(rng):
+    u = rng.uniform(-1.0, 1.0, (800, 1))
+    y = _narx_lead(u)
+    model = _greedy(output_lags="auto", input_lags=2, input_delay=-1, max_lags=3,
+                    param_grid={"n_terms": [3, 5, 8]}).fit(u, y)
+    assert (model.output_lags_, model.optimizer_.n_terms) == (2, 5)  # the truth; 8 terms fit as well: 5 come first
+    assert len(model.lag_search_) == 9 and {row["params"]["n_terms"] for row in model.lag_search_} == {3, 5, 8}
+    errors = {(r["output_lags"], r["params"]["n_terms"]): r["error"] for r in model.lag_search_}
+    assert errors[(2, 5)] < 1e-8 < errors[(2, 3)]
+
+
+@pytest.mark.parametrize("grid, match", [
+    ({"n_terms": []}, "param_grid must be a dict of non-empty lists"),
+    ([8, 16], "param_grid must be a dict of non-empty lists"),
+    ({"depth": [1]}, "depth"),
+])
+def test_bad_param_grid(rng, grid, match):
+    u = rng.uniform(-1.0, 1.0, (200, 1))
+    with pytest.raises(ValueError, match=match):
+        _greedy(output_lags="auto", param_grid=grid).fit(u, _narx_lead(u))

@@ -102,7 +102,8 @@ class ModelStep(NamedTuple):
         The one place where :mod:`sindybench.estimation` applies a model's
         delay (the estimator's :meth:`~sindybench.SINDy.delayed_inputs` does
         the same); row ``k`` holds ``X[k - input_delay]``, the first row held
-        before the start.
+        before the start (a delay of -1, a lag model's lead, holds the last
+        row after the end).
 
         Examples
         --------
@@ -162,7 +163,7 @@ class ModelStep(NamedTuple):
             method=check_option(self.method, "method", ("rk4", "euler")),
             input_hold=check_option(self.input_hold, "input_hold", ("zoh", "linear")),
             max_abs=check_positive(self.max_abs, "max_abs", allow_inf=True), x0=x0, state_scale=scale,
-            input_delay=check_integer(self.input_delay, "input_delay", low=0))
+            input_delay=check_integer(self.input_delay, "input_delay", low=-1))
 
     def step_model(self, *, with_inputs=False):
         """The :class:`~sindybench.dynamics.StepModel` of the public one-step map (no coefficient directions).

@@ -5,7 +5,7 @@ Every factory has the signature ``make(random_state, quick, dt, n_val)`` of
 that describing a benchmark never pulls in all of the library.
 """
 
-__all__ = ["IDENTIFIED", "arx_model", "arx_space", "hidden_defaults_01", "identified", "nnarx_model", "nnarx_space",
+__all__ = ["IDENTIFIED", "IDENTIFIED_EQUATIONS", "arx_model", "arx_space", "hidden_defaults_01", "identified", "nnarx_model", "nnarx_space",
            "refinement", "sindy_model", "stls_space"]
 
 #: simulation-error refinement budget (simulations per round) of a default and a quick run
@@ -167,27 +167,41 @@ def nnarx_space(max_na=5, max_nb=5, sizes=((8,), (16,), (32,), (16, 16)), alpha=
     return space
 
 
-def identified(n_init):
+def identified(n_init, *, equations_only=False):
     """The row "identified automatically": :class:`~sindybench.identify.IdentifyCV` given the record and ``dt`` only.
 
     Nothing of the benchmark's physics goes in (no family, library, bounds or
     strategy): only the number of first samples a test lets a model use to
     start (``n_init``, the protocol's), so that its validation blocks start
-    the way the tests do. With ``--quick``: finite differences only.
+    the way the tests do. With ``--quick``: finite differences only. With
+    ``equations_only``, the row ``"identified_equations"``: the same search
+    without the discrete-time lag family, for a benchmark whose identified row
+    is a lag model (the equation stays beside it).
     """
     from ._spec import ModelSpec
 
     def make(*, random_state, quick, dt, n_val, n_samples):
         from ..identify import IdentifyCV
+        from ..identify._space import FAMILIES
 
-        quick_settings = {"derivatives": ["finite_difference"]} if quick else {}
-        return IdentifyCV(dt=dt, n_init=n_init, random_state=random_state, show_progress_bar=False, **quick_settings)
+        settings = {"derivatives": ["finite_difference"]} if quick else {}
+        if equations_only:
+            settings["families"] = [f for f in FAMILIES if f != "lag"]
+        return IdentifyCV(dt=dt, n_init=n_init, random_state=random_state, show_progress_bar=False, **settings)
 
+    if equations_only:
+        return ModelSpec(IDENTIFIED_EQUATIONS, "identified automatically, equations only", make,
+                         description="sindybench.identify as in the row 'identified automatically', its "
+                                     "continuous-time families only (no discrete-time lag model)")
     return ModelSpec(IDENTIFIED, "identified automatically", make,
                      description="sindybench.identify on the estimation record's inputs, outputs and sample time: "
-                                 "family, library, sparsity, derivative and input hold chosen by simulation on "
-                                 "validation blocks of the estimation record (parsimony rule)")
+                                 "family (continuous-time equations, a linear state-space base, or a discrete-time "
+                                 "lag model), library, sparsity, derivative and input hold chosen by simulation on "
+                                 "validation blocks of the estimation record (parsimony rule; an equation wins a "
+                                 "tie with a lag model within one standard error)")
 
 
 #: key of the "identified automatically" row of every benchmark
 IDENTIFIED = "identified"
+#: key of the row "identified automatically, equations only" (beside a benchmark's lag-model identified row)
+IDENTIFIED_EQUATIONS = "identified_equations"

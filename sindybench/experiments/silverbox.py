@@ -152,5 +152,6 @@ BENCHMARK = Benchmark(
                   description="linear ARX plus an MLP on its residual, both on the lags, trained one step ahead on "
                               "the first 8000 training samples, simulated free run"),
         identified(50),
+        identified(50, equations_only=True),
     ),
 )

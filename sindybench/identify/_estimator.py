@@ -15,6 +15,7 @@ from .._validation import (check_array_like, check_bool, check_dt, check_inputs_
 from ._advice import check_magnitude
 from ._criterion import CRITERIA, choose_criterion
 from ._resume import CandidateStore, fingerprint
+from ._lag import LAG_FAMILY, equation_or_lag
 from ._linear import linear_base_index, linear_base_rule
 from ._search import describe_blocks, pareto_front, parsimonious_index, record_folds, segments, stls_threshold
 from ._space import n_terms
@@ -80,19 +81,26 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     ----------
     dt : float or None, default=None
         Sampling interval (required, here or in ``fit``).
-    families : sequence of str, default=("first_order", "order2", "order3", "order1+latent", "order2+latent")
+    families : sequence of str, default=FAMILIES
+        ``("first_order", "order2", "order3", "order1+latent", "order2+latent", "linear_ss", "lag")``.
         Model families: first-order SINDy ``y' = f(y, u)``; derivative
         coordinates of order 2 and 3 (``HiddenStateSINDy(DerivativeHiddenState(n))``);
         one latent state ``z`` (:class:`~sindybench.hidden.LatentHiddenState`,
         one output only): at order 1 driven by the input, with the libraries
         ``linear`` and ``linear+hard`` (square roots of ``y`` and ``z``, the
-        output's saturation indicator), and at order 2 driven by the velocity,
+        output's saturation indicator, hinges of ``z`` at levels the fit
+        decides), and at order 2 driven by the velocity,
         with the library ``linear+abs`` (linear terms, ``v|z|``, ``|v|z``,
-        ``|v||z|``). The latent families skip the screening: the lag start is
-        searched inside their ``fit`` and they are refined by simulation error.
-        Off the default list: ``"order1+latent2"`` (two latent states) and
-        ``"lag"`` (:class:`~sindybench.LagSINDy`, discrete time on delay
-        coordinates, its lags chosen inside its ``fit``).
+        ``|v||z|``); ``"linear_ss"``, the linear base (a linear state-space
+        model whose order the data decide, which every nonlinear pick must beat
+        by more than its standard error); ``"lag"``
+        (:class:`~sindybench.LagSINDy`, discrete time on delay coordinates, its
+        orders and terms chosen inside its ``fit``; returned only when it
+        validates better than the equations' pick by more than its standard
+        error). The latent, linear and lag families skip the screening: their
+        own search runs inside their ``fit``. Off the default list:
+        ``"order1+latent2"`` (two latent states) and ``"linear_ss+nl"`` (the
+        linear base's states plus the outputs' polynomial and proposed terms).
     libraries : sequence of str, default=("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
         Libraries of graded richness; ``"+hard"`` adds the terms the data
         proposes (skipped when it proposes none).
@@ -508,9 +516,18 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                              "larger time_budget / max_candidates / max_terms.")
         terms = [t if t is not None else 10**9 for t in table["n_terms"]]
 
+        lags = np.array([r["family"] == LAG_FAMILY for r in rows])
+
         def choose(mean):
-            best = parsimonious_index(mean, table["std_validation_error"], terms, len(folds))
-            return linear_base_rule(best, rows, mean, table["std_validation_error"], len(folds))
+            # the equations' pick (the lag models aside), then the lag model only when better by more than its SE
+            equation_mean = np.where(lags, np.inf, mean)
+            best = rule = None
+            if np.any(np.isfinite(equation_mean)):
+                best = parsimonious_index(equation_mean, table["std_validation_error"], terms, len(folds))
+                best, rule = linear_base_rule(best, rows, equation_mean, table["std_validation_error"], len(folds))
+            lag = int(np.argmin(np.where(lags, mean, np.inf))) if np.any(np.isfinite(mean[lags])) else None
+            best, lag_reason = equation_or_lag(best, lag, mean, table["std_validation_error"], len(folds))
+            return best, lag_reason or rule
 
         def refit(i):
             chosen = {k: rows[i][k] for k in STRUCTURE + ("threshold", "refine")}

@@ -15,7 +15,6 @@ import logging
 import numpy as np
 from sklearn.base import clone
 
-from .._lag_sindy import LagSINDy
 from .._sindy import SINDy
 from ..differentiation import FiniteDifference, SavitzkyGolay, Spectral, bandwidth, savgol_window
 from ..hidden import DerivativeHiddenState, HiddenStateSINDy, LatentHiddenState
@@ -24,6 +23,7 @@ from ..optimizers import STLS
 from ..refine import OutputErrorRefinement
 from ..search import LogUniform
 from ._advice import advice, detect_input_hold
+from ._lag import LAG_FAMILY, make_lag
 from ._latent_hard import LATENT_HINGE, latent_hinge_library, offset_range
 from ._linear import LINEAR_FAMILY, linear_order, make_linear, propose_linear
 from ._linear_nl import LINEAR_NL_FAMILY, make_linear_nl, propose_linear_nl
@@ -40,20 +40,18 @@ logger = logging.getLogger(__name__)
 FAMILY_TABLE = {LINEAR_FAMILY: (propose_linear, make_linear), LINEAR_NL_FAMILY: (propose_linear_nl, make_linear_nl)}
 #: model families, in the order they are tried: plain first-order SINDy, derivative coordinates of order 2 and 3,
 #: one latent state (one output only) at order 1 (driven by the input) and 2 (driven by the velocity), and the
-#: linear base (a linear state-space model whose order the data decide)
-FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent", LINEAR_FAMILY)
+#: linear base (a linear state-space model whose order the data decide), and the discrete-time lag model on delay
+#: coordinates (returned only when it validates better than the equations' pick by more than its standard error)
+FAMILIES = ("first_order", "order2", "order3", "order1+latent", "order2+latent", LINEAR_FAMILY, LAG_FAMILY)
 #: every family a search may name: the default ones, two latent states (a chain of two lags of the input, at
-#: order 1; off the default list for its cost), and the discrete-time lag model on delay coordinates
-#: (:class:`~sindybench.LagSINDy`, its lags chosen in its fit; off the default list until the parsimony rule
-#: prefers an equation to it on a tie), and the linear base's states plus the outputs' polynomial and the proposed
-#: hard terms (:mod:`~sindybench.identify._linear_nl`; off the default list for its cost)
-ALL_FAMILIES = FAMILIES + ("order1+latent2", "lag", LINEAR_NL_FAMILY)
+#: order 1; off the default list for its cost), and the linear base's
+#: states plus the outputs' polynomial and the proposed hard terms (:mod:`~sindybench.identify._linear_nl`; off the
+#: default list for its cost and its many-state starts)
+ALL_FAMILIES = FAMILIES + ("order1+latent2", LINEAR_NL_FAMILY)
 #: the families with their own search and refinement inside ``fit`` (not screened on a pruning path)
-LATENT_FAMILIES = ("order1+latent", "order2+latent", "order1+latent2") + tuple(FAMILY_TABLE)
+LATENT_FAMILIES = ("order1+latent", "order2+latent", "order1+latent2", LAG_FAMILY) + tuple(FAMILY_TABLE)
 _ORDER = {"first_order": 1, "order2": 2, "order3": 3, "order1+latent": 1, "order2+latent": 2, "order1+latent2": 1,
           "lag": 1}
-#: the lag family's largest order (outputs and inputs), chosen in its fit by the free run of its last fifth
-_LAG_MAX = 3
 #: the order-2 latent family's library: linear, plus the absolute products of the velocity and the latent state
 LATENT_LIBRARY = "linear+abs"
 # the latent family's own search (the lag's time constant, in samples) and refinement
@@ -231,10 +229,12 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
                 out.append(({"family": family, "library": "linear", "derivative": "finite_difference",
                              "input_hold": hold, "input_delay": delay}, PolynomialLibrary(degree=1)))
             continue
-        if family == "lag":  # no derivative, the input held by construction: one structure per library
-            out += [({"family": family, "library": lib_name, "derivative": "none", "input_hold": "zoh",
-                      "input_delay": delay}, PolynomialLibrary(degree=_DEGREE[lib_name]))
-                    for lib_name in libraries if lib_name in _DEGREE]
+        if family == LAG_FAMILY:  # no derivative, the input held by construction: the richest polynomial library
+            degrees = [lib_name for lib_name in libraries if lib_name in _DEGREE]  # its terms selected in the fit
+            if degrees:
+                lib_name = max(degrees, key=_DEGREE.get)
+                out.append(({"family": family, "library": lib_name, "derivative": "none", "input_hold": "zoh",
+                             "input_delay": delay}, PolynomialLibrary(degree=_DEGREE[lib_name])))
             continue
         if family == "order1+latent":
             if n_outputs == 1 and n_inputs >= 1:  # states (y, z), driven by u0; refined, so one derivative
@@ -273,7 +273,7 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
     """The estimator of :func:`make_estimator`.
 
     ``first_order`` is :class:`~sindybench.SINDy`; ``lag`` is :class:`~sindybench.LagSINDy`
-    (its lags chosen in its fit, up to 3); ``order2`` and ``order3``
+    (:func:`~sindybench.identify._lag.make_lag`: its orders and terms chosen in its fit); ``order2`` and ``order3``
     are :class:`~sindybench.HiddenStateSINDy` with
     :class:`~sindybench.hidden.DerivativeHiddenState`; ``order1+latent`` and
     ``order2+latent`` are :class:`~sindybench.hidden.LatentHiddenState`
@@ -288,10 +288,8 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
     ``random_state`` seeds the latent families' search of their start.
     """
     optimizer = STLS(threshold=float(threshold), alpha=1e-9, normalize_columns=True)
-    if structure["family"] == "lag":
-        return LagSINDy(library=clone(library), optimizer=optimizer, normalize=False, output_lags="auto",
-                        input_lags="auto", max_lags=_LAG_MAX, dt=dt, input_delay=structure["input_delay"],
-                        refine=refine)
+    if structure["family"] == LAG_FAMILY:  # its orders and terms searched, and refined, in its fit
+        return make_lag(structure, library, dt)
     d_name = structure["derivative"]
     differentiation = _differentiation(d_name, settings["derivatives"].get(d_name, {}))
     hold, delay = structure["input_hold"], structure["input_delay"]

@@ -36,11 +36,19 @@ saved.
 **STLS.** :func:`stls` is the numerical core and :class:`STLS` the thin regressor on
 top of it; :class:`GramCache` keeps the one QR factorization that all of
 STLS's work runs on (see :mod:`sindybench.optimizers._stls`).
+
+**ForwardOLS.** :func:`forward_ols` and :class:`ForwardOLS`: greedy forward selection of a
+given number of terms by orthogonal least squares (the error-reduction ratio of NARX term
+selection; see :mod:`sindybench.optimizers._forward`), for libraries of collinear terms
+such as the delay coordinates of :class:`~sindybench.LagSINDy`.
 """
 
+from ._forward import ForwardOLS, forward_ols
 from ._stls import STLS, GramCache, clear_stls_cache, stls
 
 # STLS, stls and GramCache are exported from the top-level package (sindybench.STLS), importable here too
 __all__ = [
+    "ForwardOLS",
     "clear_stls_cache",
+    "forward_ols",
 ]

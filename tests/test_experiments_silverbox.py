@@ -45,7 +45,7 @@ def test_rows_and_their_settings(silverbox):
     bench, data = silverbox
     keys = [m.key for m in bench.models]
     assert keys == ["sindy_poly", "sindy_second_order", "sindy_second_order_refined", "sindy_duffing",
-                    "sindy_duffing_refined", "arx", "nnarx", "identified"]
+                    "sindy_duffing_refined", "arx", "nnarx", "identified", "identified_equations"]
     for key in ("sindy_poly", "sindy_second_order", "sindy_duffing"):
         est = bench.model(key).make(random_state=0, quick=True, dt=data.dt, n_val=100, n_samples=1000)
         assert (est.input_hold, est.n_substeps, est.differentiation.cutoff) == ("linear", 2, 200.0)

@@ -370,8 +370,8 @@ def score(system, method, rec, *, horizon=None, commit=""):
     row = base | {"cpu_s": cpu, "n_terms": n_terms, "chosen": chosen} | extra
     if extra.get("equations") is not None:
         row["truth_found"] = truth_found(system.name, extra["equations"])
-    if horizon is None and method == "identify":
-        horizon = k_step_horizon(system, rec, row)
+    if horizon is None:  # identify's horizon, or (identify not run or failed) the tags'
+        horizon = k_step_horizon(system, rec, row if method == "identify" else None)
     if horizon is not None:
         row["k_step_horizon"] = int(horizon)
         try:

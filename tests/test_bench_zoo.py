@@ -108,3 +108,19 @@ def test_script_runs_the_cheap_methods_on_one_system_and_merges(bench, tmp_path)
 
 def test_the_hidden_hard_systems_of_issue_35_are_marked(bench):
     assert set(bench.ISSUE_35) == {"hidden_tank_overflow", "hidden_saturation", "friction_hidden_velocity", "impacts"}
+
+
+@pytest.mark.filterwarnings("ignore")
+def test_a_closed_loop_system_is_scored_by_k_step_without_identify(bench, monkeypatch):
+    from sindybench.systems import get_system
+
+    def hold(rec):  # a model that holds the last measured sample
+        return (lambda u, y0: np.vstack([y0, np.repeat(y0[-1:], len(u) - len(y0), axis=0)])), 0, "hold"
+
+    monkeypatch.setitem(bench.METHODS, "hold", hold)
+    system = get_system("integrator_p_control")
+    row = bench.score(system, "hold", system.record(0, n_samples=600, n_test=300))
+    assert row["k_step_horizon"] >= 5 and row["k_step_fit"] > row["fit_index"]
+    assert bench.scored_fit(row) == row["k_step_fit"]
+    open_loop = get_system("first_order")
+    assert "k_step_horizon" not in bench.score(open_loop, "hold", open_loop.record(0, n_samples=300, n_test=200))

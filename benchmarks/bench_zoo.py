@@ -273,7 +273,8 @@ def _term(text):
 
 
 def equation_terms(lines):
-    """``({lhs: set of terms}, input delay in samples)`` of ``equations()`` lines (rows ``(fixed: ...)`` skipped).
+    """``({lhs: set of terms}, input delay in samples)`` of ``equations()`` lines (rows ``(fixed: ...)`` and the
+    chain rows of derivative coordinates skipped).
 
     >>> rows, delay = equation_terms(["y0'' = -4.000 y0 - 0.800 y0' + 1e-03 y0 u0", "input delay: 3 samples; u ..."])
     >>> sorted(rows["y0''"]), delay
@@ -295,7 +296,9 @@ def equation_terms(lines):
                 current = ""
             current += ch
         terms.append(current)
-        rows[lhs] = {t for t in (_term(t) for t in terms) if t and t != "0"}
+        found = {t for t in (_term(t) for t in terms) if t and t != "0"}
+        if found != {lhs}:  # a chain row of derivative coordinates (y0' = 1.000 y0') says nothing
+            rows[lhs] = found
     return rows, delay
 
 

@@ -33,6 +33,8 @@ def test_equation_terms_drop_coefficients_and_the_constant_and_sort_factors(benc
 
 @pytest.mark.parametrize("system, lines, expected", [
     ("second_order", ["y0'' = 0.001 - 4.02 y0 - 0.79 y0' + 3.98 u0"], "yes"),
+    ("second_order", ["y0' = 1.000 y0'", "y0'' = -4.02 y0 - 0.79 y0' + 3.98 u0"], "yes"),  # the chain row skipped
+    ("first_order", ["y0' = 1.000 y0'", "y0'' = -4.8 y0 - 10.2 y0' + 20.4 u0 - 15.5 sign(y0')"], "no"),
     ("second_order", ["y0'' = -4.02 y0 - 0.79 y0' + 3.98 u0 + 0.01 y0^2"], "no"),  # one term too many
     ("first_order", ["y0' = -0.5 y0 + 0.3 z0 + 0.5 u0", "z0' = -2 z0 + 1.000 u0"], "no"),  # a latent state
     ("dead_time", ["y0' = -1.0 y0 + 1.0 u0", "input delay: 10 samples; u stands for u(t - 10 dt)"], "yes"),

@@ -10,7 +10,9 @@ def _rst_text(text):
 def write_zoo_systems(path):
     """The zoo's registry as a docs section per system, in registry order."""
     from sindybench.systems import zoo_systems
+    from sindybench.systems._zoo_hidden import SYSTEMS as HIDDEN_HARD  # issue 35's set
 
+    issue_35 = {s.name for s in HIDDEN_HARD}
     lines = [".. This file is written by docs/_zoo.py from sindybench.systems.ZOO; do not edit by hand.", ""]
     for system in zoo_systems():
         title = f"``{system.name}``"
@@ -18,6 +20,9 @@ def write_zoo_systems(path):
         lines += [f"   {eq}" for eq in system.equations] + [""]
         noise = f"{100 * system.noise:g} % {system.noise_colour}"
         reference = "reference (closed loop)" if system.closed_loop else "input"
+        if system.name in issue_35:
+            lines += ["- one of the hidden hard systems of issue 35 (a hard nonlinearity on a state that is not "
+                      "measured)"]
         lines += [
             f"- tags: {', '.join(f'``{t}``' for t in system.tags)}",
             f"- {reference}: {_rst_text(system.excitation.describe())}",

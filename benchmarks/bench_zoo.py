@@ -542,7 +542,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--systems", help="comma-separated names (default: every system; 'none': only --merge)")
     parser.add_argument("--quick", action="store_true", help=f"the quick subset: {', '.join(QUICK)}")
-    parser.add_argument("--methods", default=",".join(DEFAULT_METHODS), help="comma-separated, from " + ", ".join(METHODS))
+    parser.add_argument("--methods", default=",".join(DEFAULT_METHODS),
+                        help="comma-separated, from " + ", ".join(METHODS))
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", default=None, help="rst table to write (e.g. docs/zoo_table.rst)")
     parser.add_argument("--json", default=None, help="also write the rows as JSON (after every system)")

@@ -5,8 +5,8 @@ Every factory has the signature ``make(random_state, quick, dt, n_val)`` of
 that describing a benchmark never pulls in all of the library.
 """
 
-__all__ = ["IDENTIFIED", "IDENTIFIED_EQUATIONS", "arx_model", "arx_space", "hidden_defaults_01", "identified", "nnarx_model", "nnarx_space",
-           "refinement", "sindy_model", "stls_space"]
+__all__ = ["IDENTIFIED", "IDENTIFIED_EQUATIONS", "arx_model", "arx_space", "hidden_defaults_01", "identified",
+           "nnarx_model", "nnarx_space", "refinement", "sindy_model", "stls_space"]
 
 #: simulation-error refinement budget (simulations per round) of a default and a quick run
 REFINE_NFEV, REFINE_NFEV_QUICK = 30, 5

@@ -603,5 +603,6 @@ def test_the_delayed_filter_tracks_as_well_as_the_models_own_simulation(delayed_
 
 
 def test_model_step_refuses_a_bad_input_delay():
-    with pytest.raises(ValueError, match=r"input_delay must be an integer >= 0; got -1"):
-        ModelStep.from_rhs(DUFFING, DT, n_inputs=1, input_delay=-1)
+    # -1 is a lag model's lead (y[k+1] driven by u[k+1]); anything below it is refused
+    with pytest.raises(ValueError, match=r"input_delay must be an integer >= -1; got -2"):
+        ModelStep.from_rhs(DUFFING, DT, n_inputs=1, input_delay=-2)

@@ -36,13 +36,14 @@ from sindybench.experiments import get_benchmark  # noqa: E402
 from sindybench.experiments._common import IDENTIFIED  # noqa: E402
 from sindybench.experiments._runner import _n_init, _training_record, evaluate, load_data, test_sets  # noqa: E402
 
-# the issue's first goals (seed 0): test set -> (metric, target, "<=" or ">=")
+# the issues' goals (seed 0): test set -> (metric, target, "<=" or ">=")
 TARGETS = {
     "cascaded-tanks": {"test": ("rmse", 0.33, "<=")},
     "bouc-wen": {"multisine": ("rmse", 1e-5, "<=")},
-    "emps": {"test": ("rmse", 7.87, "<=")},
+    "emps": {"test": ("rmse", 6.5, "<=")},  # ahead of SysIdentPy's 6.67 mm (issue 35)
     "pick-and-place-nss": {"test": ("fit_index", 86.2, ">=")},
-    "silverbox": {"multisine": ("rmse", 1.0, "<="), "arrow_full": ("rmse", 1.2, "<=")},
+    # fastcan's tuned NARX (issue 34)
+    "silverbox": {"multisine": ("rmse", 0.248, "<="), "arrow_full": ("rmse", 0.469, "<=")},
 }
 BUDGET_S = {"silverbox": 60.0}
 

@@ -182,11 +182,12 @@ def identified(n_init, *, equations_only=False):
 
     def make(*, random_state, quick, dt, n_val, n_samples):
         from ..identify import IdentifyCV
+        from ..identify._lag import LAG_FAMILY
         from ..identify._space import FAMILIES
 
         settings = {"derivatives": ["finite_difference"]} if quick else {}
         if equations_only:
-            settings["families"] = [f for f in FAMILIES if f != "lag"]
+            settings["families"] = [f for f in FAMILIES if f != LAG_FAMILY]
         return IdentifyCV(dt=dt, n_init=n_init, random_state=random_state, show_progress_bar=False, **settings)
 
     if equations_only:

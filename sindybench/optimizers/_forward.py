@@ -22,10 +22,10 @@ polynomial NARX) it gives far fewer terms for the same one-step fit.
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
-from sklearn.utils.validation import check_is_fitted
 
 from .._validation import check_bool, check_integer, check_signal, validate_named
 from ..io import SaveLoadMixin, check_params, encode_array, register_model
+from ._predict import LinearPredictMixin
 
 __all__ = ["ForwardOLS", "forward_ols"]
 
@@ -125,7 +125,7 @@ def forward_ols(theta, target, *, n_terms, tol=0.0, center=False):
     return (coef[:, 0] if target_1d else coef), order
 
 
-class ForwardOLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
+class ForwardOLS(LinearPredictMixin, SaveLoadMixin, RegressorMixin, BaseEstimator):
     """Greedy forward selection of terms by orthogonal least squares (see :func:`forward_ols`).
 
     Parameters
@@ -188,17 +188,6 @@ class ForwardOLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
         self.ind_ = self.coef_ != 0
         self.intercept_ = 0.0
         return self
-
-    def predict(self, X):
-        """Return ``X @ coef_.T``."""
-        check_is_fitted(self)
-        X = validate_named(self, X, reset=False, dtype=float)
-        return X @ self.coef_.T
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.target_tags.multi_output = True
-        return tags
 
 
 def _to_dict(model):

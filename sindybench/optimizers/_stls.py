@@ -42,10 +42,10 @@ from functools import lru_cache
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.exceptions import ConvergenceWarning
-from sklearn.utils.validation import check_is_fitted
 
 from .._validation import check_bool, check_integer, check_positive, check_signal, validate_named
 from ..io import SaveLoadMixin, check_params, encode_array, register_model
+from ._predict import LinearPredictMixin
 
 __all__ = ["GramCache", "STLS", "clear_stls_cache", "stls"]
 
@@ -449,7 +449,7 @@ def stls(theta, target, *, threshold, alpha=0.0, max_iter=20, normalize_columns=
     return (coef[:, 0] if target_1d else coef), n_iter
 
 
-class STLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
+class STLS(LinearPredictMixin, SaveLoadMixin, RegressorMixin, BaseEstimator):
     """Sequentially thresholded least squares regressor (``pysindy.STLSQ`` semantics).
 
     A scikit-learn regressor around :func:`stls`, usable as the ``optimizer``
@@ -539,26 +539,6 @@ class STLS(SaveLoadMixin, RegressorMixin, BaseEstimator):
         self.ind_ = self.coef_ != 0
         self.intercept_ = 0.0
         return self
-
-    def predict(self, X):
-        """Return ``X @ coef_.T``.
-
-        Parameters
-        ----------
-        X : array-like of shape (n_samples, n_features)
-
-        Returns
-        -------
-        ndarray of shape (n_samples,) or (n_samples, n_targets)
-        """
-        check_is_fitted(self)
-        X = validate_named(self, X, reset=False, dtype=float)
-        return X @ self.coef_.T
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        tags.target_tags.multi_output = True
-        return tags
 
 
 def _stls_to_dict(model):

@@ -141,6 +141,15 @@ class Excitation:
         return (off + p.get("std", 1.0) * (w - w.mean()) / w.std()).reshape(-1, 1)
 
 
+def _rk4_step(rhs, x, u, h):
+    """One classical Runge-Kutta step of ``x' = rhs(x, u)`` of length ``h``, the input held."""
+    k1 = rhs(x, u)
+    k2 = rhs(x + 0.5 * h * k1, u)
+    k3 = rhs(x + 0.5 * h * k2, u)
+    k4 = rhs(x + h * k3, u)
+    return x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+
+
 def integrate(rhs, x0, u, dt, *, n_substeps=1, project=None):
     """Fixed-step RK4 of ``x' = rhs(x, u)`` with the input held over each sample.
 
@@ -175,11 +184,7 @@ def integrate(rhs, x0, u, dt, *, n_substeps=1, project=None):
         out[i] = x
         ui = u[i]
         for _ in range(n_substeps):
-            k1 = rhs(x, ui)
-            k2 = rhs(x + 0.5 * h * k1, ui)
-            k3 = rhs(x + 0.5 * h * k2, ui)
-            k4 = rhs(x + h * k3, ui)
-            x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            x = _rk4_step(rhs, x, ui, h)
             if project is not None:
                 x = project(x)
     return out
@@ -204,11 +209,7 @@ def integrate_loop(rhs, x0, r, noise, dt, *, measure, control, n_substeps=1):
         ui = np.atleast_1d(np.asarray(control(r[i], measure(x) + noise[i], x), dtype=float))
         inputs.append(ui)
         for _ in range(n_substeps):
-            k1 = rhs(x, ui)
-            k2 = rhs(x + 0.5 * h * k1, ui)
-            k3 = rhs(x + 0.5 * h * k2, ui)
-            k4 = rhs(x + h * k3, ui)
-            x = x + (h / 6.0) * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+            x = _rk4_step(rhs, x, ui, h)
     return np.asarray(inputs), states
 
 

@@ -298,3 +298,26 @@ def test_van_der_pol_start_that_diverges_is_refined_by_prediction_error(rng):
             refine=OutputErrorRefinement(prune=0.05, max_nfev=30), initial_state="fit").fit(u, y)
     assert model.refinement_["criterion"]["name"] == "prediction error"
     assert model.refinement_["cost"] < model.refinement_["initial_cost"]
+
+
+def test_n_refined_keeps_the_best_refined_candidate_at_every_seed(rng):
+    u, y, dt, _ = _motor(rng)
+    n = len(y)
+    fits = [_model(dt, n, "lag").set_params(sampler="grid", n_refined=3, random_state=seed).fit(u, y)
+            for seed in (0, 1)]
+    record = fits[0].refined_results_
+    assert len(record) == 3 and all(e["error"] is None for e in record)
+    best = min(record, key=lambda e: e["refined_score"])
+    assert fits[0].best_params_ == best["values"]
+    assert np.array_equal(fits[0].coef_, fits[1].coef_)  # a grid: the same model at every seed
+    assert _rmse(fits[0], u, y) < 0.05
+    plain = _model(dt, n, "lag").set_params(sampler="grid").fit(u, y)
+    assert plain.refined_results_ == []
+
+
+def test_n_refined_must_be_a_positive_integer(rng):
+    u, y, dt, _ = _motor(rng, n=200)
+    with pytest.raises(ValueError, match="n_refined"):
+        _model(dt, 200, "lag").set_params(n_refined=0).fit(u, y)
+    with pytest.raises(ValueError, match="sampler"):
+        _model(dt, 200, "lag").set_params(sampler="random").fit(u, y)

@@ -18,6 +18,7 @@ from sindybench.search import (
     as_dimension,
     check_search_space,
     create_study,
+    grid_points,
     minimize,
     sample_params,
 )
@@ -271,3 +272,36 @@ def test_minimize_refuses_budgets_it_cannot_spend(kwargs, match):
     with pytest.raises(ValueError, match=match):
         minimize(lambda v: calls.append(v) or 0.0, {"a": Uniform(0.0, 1.0)}, **kwargs)
     assert calls == []
+
+
+# --- grid_points and sampler="grid": the same points at every seed ----------------------------------
+
+
+def test_grid_points_spread_each_scale_evenly_and_enumerate_choices():
+    space = {"tau": LogUniform(1.0, 100.0), "hold": Categorical(["zoh", "linear"]), "k": IntRange(1, 9)}
+    points = grid_points(space, 18)
+    assert len(points) == 18  # 3 cells per real or integer axis, times 2 choices
+    taus = sorted({p["tau"] for p in points})
+    assert np.allclose(np.diff(np.log(taus)), np.log(100.0) / 3)  # equal cells on the log scale
+    assert sorted({p["hold"] for p in points}) == ["linear", "zoh"]
+    assert sorted({p["k"] for p in points}) == [2, 5, 8]
+    assert grid_points(space, 18) == points
+
+
+def test_grid_points_are_cut_at_n_and_refuse_an_empty_grid():
+    assert len(grid_points({"c": Categorical(list("abcde"))}, 3)) == 3
+    assert len(grid_points({"a": Uniform(0.0, 1.0)}, 1)) == 1
+    with pytest.raises(ValueError, match="n must be at least 1"):
+        grid_points({"a": Uniform(0.0, 1.0)}, 0)
+
+
+def test_minimize_on_a_grid_does_not_depend_on_the_seed():
+    def objective(v):
+        return (np.log(v["a"]) - 1.0) ** 2
+
+    runs = [minimize(objective, {"a": LogUniform(0.1, 100.0)}, n_trials=12, n_local=4, random_state=seed,
+                     sampler="grid") for seed in (0, 1, 7)]
+    assert all(r[1] == runs[0][1] for r in runs)
+    assert abs(np.log(runs[0][0]["a"]) - 1.0) < 0.2
+    with pytest.raises(ValueError, match="sampler must be 'tpe' or 'grid'"):
+        minimize(objective, {"a": LogUniform(0.1, 100.0)}, n_trials=3, sampler="random")

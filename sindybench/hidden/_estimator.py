@@ -27,6 +27,7 @@ from ._derivative import Derivative
 from ._objective import VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
 from ._latent_starts import fit_starts
+from ._multistart import refine_best
 from ._refinement import refined_values, refinement_problem
 
 __all__ = ["HiddenStateSINDy"]
@@ -118,6 +119,17 @@ class HiddenStateSINDy(DynamicsEstimator):
         Useful when good candidates lie in narrow valleys.
     random_state : int, RandomState or None, default=None
         Seed of the TPE sampler.
+    sampler : {"tpe", "grid"}, default="tpe"
+        How the inner search draws its ``n_trials - local_trials`` candidates:
+        Optuna's TPE, or ``"grid"``: an even grid over the searched ranges
+        (:func:`~sindybench.search.grid_points`; log-spaced on a log scale),
+        the same at every seed.
+    n_refined : int, default=1
+        How many of the inner search's best distinct candidates are refined
+        by simulation error (``refine``) on the training part and scored again
+        on the validation block; the best of them after the refinement is
+        kept (``refined_results_`` records each). 1: the search's best is kept
+        as it is, then refined.
     search_params : dict, optional
         Further parameters of this estimator to search jointly, by nested
         name: ``{"optimizer__threshold": LogUniform(1e-3, 1.0),
@@ -192,6 +204,11 @@ class HiddenStateSINDy(DynamicsEstimator):
     search_results_ : list of (dict, float)
         Every trial's values and validation score (normalized RMSE); without
         a search, every candidate of the ``"auto"`` parameters.
+    refined_results_ : list of dict
+        With ``n_refined > 1``: each candidate refined after the search, its
+        values, ``score`` (before) and ``refined_score`` (after the
+        refinement), CPU ``seconds`` and ``error``; empty otherwise (and in a
+        loaded model file).
     input_hold_ : str
         The input hold the model simulates with (what ``input_hold="auto"``
         decided, else ``input_hold``).
@@ -263,6 +280,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         n_trials=50,
         local_trials=0,
         random_state=None,
+        sampler="tpe",
+        n_refined=1,
         search_params=None,
         refit=True,
         show_progress_bar=True,
@@ -286,6 +305,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         self.n_trials = n_trials
         self.local_trials = local_trials
         self.random_state = random_state
+        self.sampler = sampler
+        self.n_refined = n_refined
         self.search_params = search_params
         self.refit = refit
         self.show_progress_bar = show_progress_bar
@@ -303,6 +324,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         **DynamicsEstimator._parameter_constraints,
         "hidden": Constraint(_check_strategy_param),
         "n_trials": Constraint(check_integer),
+        "sampler": Constraint(check_option, options=("tpe", "grid")),
+        "n_refined": Constraint(check_integer, low=1),
         "validation": Constraint(check_option, options=VALIDATIONS),
         "refit": Constraint(check_bool),
         "show_progress_bar": Constraint(check_bool),
@@ -405,7 +428,7 @@ class HiddenStateSINDy(DynamicsEstimator):
             space["input_hold"] = Categorical(list(HOLDS))  # "auto": the inner search decides the hold too
         grid = auto_grid(self, hidden, X[0].shape[1], searched=bool(space))
         n = [y_r.shape[0] for y_r in y]
-        best_params, search_results = {}, []
+        best_params, search_results, refined_results = {}, [], []
         n_rows = n
         # the outputs' derivatives do not depend on a trial unless the differentiation is searched
         derivative = None
@@ -419,7 +442,7 @@ class HiddenStateSINDy(DynamicsEstimator):
             with np.errstate(all="ignore"):
                 best_params, search_results = minimize(
                     objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=SEARCH_PENALTY,
-                    n_local=self.local_trials, show_progress_bar=self.show_progress_bar,
+                    n_local=self.local_trials, show_progress_bar=self.show_progress_bar, sampler=self.sampler,
                 )
             if min(s for _, s in search_results) >= SEARCH_PENALTY:
                 first = "" if objective.first_error is None else f" The first failure: {objective.first_error}"
@@ -427,6 +450,9 @@ class HiddenStateSINDy(DynamicsEstimator):
                     f"all {self.n_trials} candidates of the inner search diverged or failed on the validation "
                     f"block; expected bounds of the searched parameters that contain a stable model.{first}"
                 )
+            if self.n_refined > 1:  # the best few refined on the training part, the best after refinement kept
+                best_params, refined_results = refine_best(self, hidden, search_results, X, y, dt, n_fit, derivative,
+                                                           self.n_refined)
             n_rows = n if self.refit else n_fit
         elif grid:
             best_params, search_results, n_rows = decide(self, grid, hidden, X, y, dt, derivative)
@@ -452,6 +478,7 @@ class HiddenStateSINDy(DynamicsEstimator):
                                     for X_r, x0_r in zip(X, x0_refined)])
 
         self.best_params_, self.search_results_ = best_params, search_results
+        self.refined_results_ = refined_results
         self.input_hold_ = cand.dynamics.input_hold
         self.hidden_ = hidden
         self.params_ = dict(cand.params)

@@ -282,6 +282,7 @@ def hidden_sindy_from_dict(model, fitted):
     if not isinstance(results, list):
         raise ValueError(f"fitted.search_results: expected a list of (values, score); got {type(results).__name__}.")
     model.search_results_ = results
+    model.refined_results_ = []  # not saved: the record of a fit's refined candidates
     s = _structure_from_dict(fitted.fields("structure"), hidden, model.params_, n_outputs, n_inputs)
     _check_derived_structure(s, hidden, model.params_, n_outputs, n_inputs)
     model.structure_ = s

@@ -175,8 +175,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
     max_candidates : int or None, default=None
         Most candidates evaluated. None = no limit.
     random_state : int or None, default=None
-        Seed of the latent families' search of their start (None = 0: the
-        search is reproducible); the other families are deterministic.
+        Passed to the families' estimators (None = 0). The default families
+        do not draw: the latent families search their start on an even grid
+        of time constants, so the identified model is the same at every seed.
     storage : None, str, path-like or optuna storage, default=None
         Where the evaluated candidates are kept, so that a search that
         stops (a budget, an interrupt, a crash) resumes: the forms

@@ -57,6 +57,9 @@ LATENT_LIBRARY = "linear+abs"
 # the latent family's own search (the lag's time constant, in samples) and refinement
 _LATENT_TRIALS, _LATENT_TRIALS_1, _LATENT_TAU = 12, 20, (1.0, 1000.0)
 _LATENT_REFINEMENT = {"max_nfev": 30, "max_samples": 5000}
+#: how the latent families search their start: an even grid of time constants (log-spaced, the same at every seed),
+#: the two best starts refined side by side on the training part and the best after refinement kept
+_LATENT_SEARCH = {"sampler": "grid", "n_refined": 2}
 _MAX_ABS = 1e6  # the estimators' default divergence bound
 #: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
 LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
@@ -280,12 +283,14 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
     (order 1 driven by the input, the latent state and the output held
     non-negative when the output is positive and the output below its
     saturation level; order 2 driven by the velocity), the lag start searched
-    inside ``fit`` (20 and 12 trials, time constant 1 to 1000 samples) and
-    refined by simulation error. ``refine`` (an
+    inside ``fit`` on an even grid of time constants (20 and 12 of them, log-spaced
+    from 1 to 1000 samples; the same at every seed), the two best starts refined
+    by simulation error side by side and the best after refinement kept
+    (``n_refined=2``). ``refine`` (an
     :class:`~sindybench.refine.OutputErrorRefinement`) refines the fit by its
     simulation error, and a refined hidden-state model starts new data by
     least squares on its first samples (``initial_state="fit"``).
-    ``random_state`` seeds the latent families' search of their start.
+    ``random_state`` is passed to the hidden-state estimators (their grids do not use it).
     """
     optimizer = STLS(threshold=float(threshold), alpha=1e-9, normalize_columns=True)
     if structure["family"] == LAG_FAMILY:  # its orders and terms searched, and refined, in its fit
@@ -316,7 +321,7 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
                                 validation_size=0.15,
                                 validation="full", n_trials=_LATENT_TRIALS_1, random_state=random_state,
                                 refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
-                                show_progress_bar=False)
+                                show_progress_bar=False, **_LATENT_SEARCH)
     if structure["family"] == "order2+latent":  # its own search of the lag start, then refined by simulation
         tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
         return HiddenStateSINDy(hidden=LatentHiddenState(order=2, driver="velocity", bounds={"tau": tau}),
@@ -324,7 +329,7 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
                                 input_hold=hold, input_delay=delay, validation_size=0.15, n_trials=_LATENT_TRIALS,
                                 random_state=random_state,
                                 refine=OutputErrorRefinement(**_LATENT_REFINEMENT), initial_state="fit",
-                                show_progress_bar=False)
+                                show_progress_bar=False, **_LATENT_SEARCH)
     return HiddenStateSINDy(hidden=DerivativeHiddenState(order=order), library=clone(library), optimizer=optimizer,
                             differentiation=differentiation, dt=dt, input_hold=hold, input_delay=delay,
                             refine=refine,

@@ -8,9 +8,10 @@ and the hidden-state strategies' ``bounds``. The older spellings ``(low, high)``
 ``(low, high, log)`` and lists of choices are read by :func:`as_dimension`.
 One driver runs the searches: :func:`create_study` makes every study with its TPE
 sampler, :func:`sample_params` turns a space into a trial's values, and
-:func:`minimize` is the inner search (TPE, then bounded Nelder-Mead).
+:func:`minimize` is the inner search (TPE or :func:`grid_points`, then bounded Nelder-Mead).
 """
 
+from ._grid import grid_points
 from ._minimize import SEARCH_PENALTY, minimize
 from ._space import (
     Categorical,
@@ -39,6 +40,7 @@ __all__ = [
     "as_dimension",
     "check_search_space",
     "create_study",
+    "grid_points",
     "make_sampler",
     "minimize",
     "sample_params",

@@ -17,6 +17,7 @@ from sklearn.utils import check_random_state
 
 from .._progress import progress_bar
 from .._validation import check_integer, check_positive
+from ._grid import grid_points
 from ._space import LogUniform, Uniform, check_search_space, sample_params
 from ._study import create_study
 
@@ -105,10 +106,12 @@ def _refine(evaluate, space, history, *, n_evals, n_starts, step):
 
 
 def minimize(objective, space, *, n_trials, random_state=None, penalty=SEARCH_PENALTY, n_local=0, n_starts=3, step=0.05,
-             show_progress_bar=False):
-    """Minimize ``objective(values)`` over ``space`` with Optuna's TPE sampler, then refine locally.
+             show_progress_bar=False, sampler="tpe"):
+    """Minimize ``objective(values)`` over ``space`` with Optuna's TPE sampler (or a grid), then refine locally.
 
-    The first ``n_trials - n_local`` evaluations are TPE trials; the last
+    The first ``n_trials - n_local`` evaluations are TPE trials (with
+    ``sampler="grid"``: the points of :func:`~sindybench.search.grid_points`,
+    the same at every seed); the last
     ``n_local`` refine the ``n_starts`` best distinct trials by bounded
     Nelder-Mead on the real dimensions (in the unit cube: Uniform on its
     linear scale, LogUniform on a log scale, Normal and LogNormal on their
@@ -140,6 +143,8 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=SEARCH_PE
     show_progress_bar : bool, default=False
         A transient ``tqdm.auto`` bar with the best score so far, in a
         notebook or a terminal only (see :mod:`sindybench._progress`).
+    sampler : {"tpe", "grid"}, default="tpe"
+        ``"grid"``: a deterministic grid instead of TPE trials; ``random_state`` is then unused.
 
     Returns
     -------
@@ -159,11 +164,16 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=SEARCH_PE
     ...                          n_trials=30, n_local=15, n_starts=1, random_state=0)
     >>> abs(best["a"] - 0.3) < 1e-3, len(history) <= 30
     (True, True)
+    >>> best, history = minimize(lambda v: (v["a"] - 0.32) ** 2, {"a": (0.0, 1.0)}, n_trials=10, sampler="grid")
+    >>> round(best["a"], 2), len(history)
+    (0.35, 10)
     """
     n_trials = check_integer(n_trials, "n_trials", low=1)
     n_local = check_integer(n_local, "n_local", low=0, high=n_trials - 1)
     n_starts = check_integer(n_starts, "n_starts", low=1)
     step = check_positive(step, "step")
+    if sampler not in ("tpe", "grid"):
+        raise ValueError(f"sampler must be 'tpe' or 'grid'; got {sampler!r}.")
     space = check_search_space(space, name="space", convert=True)
     if callable(space):
         raise ValueError("space must be a dict name -> dimension; a callable(trial) space cannot be refined locally.")
@@ -187,8 +197,12 @@ def minimize(objective, space, *, n_trials, random_state=None, penalty=SEARCH_PE
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", category=optuna.exceptions.ExperimentalWarning)
-            study = create_study(seed, per_trial=False, n_startup_trials=max(10, n_tpe // 3))
-            study.optimize(lambda trial: evaluate(sample_params(space, trial)), n_trials=n_tpe)
+            if sampler == "grid":
+                for values in grid_points(space, n_tpe):
+                    evaluate(values)
+            else:
+                study = create_study(seed, per_trial=False, n_startup_trials=max(10, n_tpe // 3))
+                study.optimize(lambda trial: evaluate(sample_params(space, trial)), n_trials=n_tpe)
         if n_local:
             _refine(evaluate, space, list(history), n_evals=n_local, n_starts=n_starts, step=step)
     finally:

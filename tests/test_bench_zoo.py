@@ -1,27 +1,17 @@
 """benchmarks/bench_zoo.py: the truth check, the k-step score, the summary under the table, a quick run."""
 
-import importlib
 import json
-import os
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 
-BENCHMARKS = Path(__file__).resolve().parents[1] / "benchmarks"
+from _benchmarks import benchmark_script
 
 
 @pytest.fixture(scope="module")
 def bench():
-    saved = dict(os.environ)  # the script pins threads through the environment at import
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        yield importlib.import_module("bench_zoo")
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-        os.environ.clear()
-        os.environ.update(saved)
+    with benchmark_script("bench_zoo") as module:
+        yield module
 
 
 def test_equation_terms_drop_coefficients_and_the_constant_and_sort_factors(bench):

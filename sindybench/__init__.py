@@ -1,5 +1,9 @@
 """sindybench: SINDy with control for systems with hidden states and hard nonlinearities."""
 
+from . import _numba_cache
+
+_numba_cache.stamp_kernels_with_op_table()  # before any kernel is compiled: a cache of another op table is stale
+
 from . import baselines, differentiation, uncertainty
 from ._divergence import DivergenceWarning
 from ._lag_sindy import LagSINDy

@@ -31,6 +31,19 @@ def test_advice_finds_the_unstable_pole(rng):
     assert any("open-loop unstable" in w for w in report.warnings)
 
 
+@pytest.mark.parametrize("part", [slice(None), slice(0, 2550)])  # the whole record; identify's training part
+def test_advice_reads_the_zoos_inverted_pendulum_as_unstable(part):
+    # theta'' = 4 sin(theta) - 0.2 theta' + u under PD feedback: open-loop pole +1.9 rad/s; the ARX poles give +1.36
+    from sindybench.systems import get_system
+
+    rec = get_system("inverted_pendulum_pd").record(0)
+    report = advice(rec.u[part], rec.y[part], dt=rec.dt)
+    assert report.closed_loop and report.unstable == [0]
+    rate = np.log(np.max(np.abs(report.poles[0]))) / rec.dt
+    assert 1.0 < rate < 2.5
+    assert choose_criterion("auto", report, block_length=450)[0] == "k_step"
+
+
 def test_k_step_error_scores_restarts_not_the_drift(rng):
     u, y, dt = _unstable_under_feedback(rng)
     truth = SINDy(optimizer=STLS(threshold=0.5), library=PolynomialLibrary(degree=1), input_hold="zoh").fit(u, y, dt=dt)  # the true structure, refit on the record

@@ -20,8 +20,8 @@ def test_two_latent_states_find_a_lag_chain():
     u = sum(np.sin(2 * np.pi * f * t + rng.uniform(0, 6)) for f in (0.05, 0.13, 0.31, 0.7, 1.1))[:, None]
     y = simulate(_chain, [0.0, 0.0, 0.0], u, dt=dt, n_substeps=4, input_hold="linear")[:, :1]
     y = y + 1e-4 * rng.standard_normal(y.shape)
-    # input_delay=0: on this smooth input the advice reads the lags as a 5-sample delay (the latent families
-    # take the advice's delay unconfirmed)
+    # input_delay=0: on this smooth input the advice read the lags as a 5-sample delay before its lag check
+    # (the latent families take the advice's delay unconfirmed); it reads 0 now (tests/test_identify_advice.py)
     search = IdentifyCV(dt=dt, families=["order1+latent", "order1+latent2"], libraries=["linear"], input_delay=0,
                         n_refine=0, show_progress_bar=False).fit(u, y)
     assert search.best_params_["family"] == "order1+latent2"

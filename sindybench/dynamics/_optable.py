@@ -41,8 +41,9 @@ the product is 0 whatever the other factors are (``inf * 0`` is not NaN).
 **Adding a built-in operation** is one entry: two functions (value, derivative; they may
 call :func:`power` and ``np``) and an :class:`Operation` with the next free code below :data:`~sindybench.dynamics.USER`,
 appended to :data:`OPERATIONS` (codes are stored in model files: never renumber one). Then
-give it a name in :mod:`sindybench.dynamics` and delete the ``__pycache__`` folders of
-``sindybench/dynamics`` (numba's cache of a kernel does not see a change in a function it calls).
+give it a name in :mod:`sindybench.dynamics`. numba's cache of a kernel does not see a change in a
+function it calls; the cached kernels are stamped with a hash of this file and of :mod:`._ops`
+(:func:`sindybench._numba_cache.stamp_kernels_with_op_table`), so they are recompiled.
 """
 
 import math

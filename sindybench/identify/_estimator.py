@@ -1,6 +1,5 @@
 """``IdentifyCV``: the structure search scored by simulation, as an estimator; ``identify``, its one-call form."""
 
-import math
 import warnings
 from functools import partial
 
@@ -8,31 +7,24 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from .._progress import progress_bar
-from .._records import check_record_lists, check_records
-from .._validation import (check_array_like, check_bool, check_dt, check_inputs_outputs, check_integer, check_option,
-                           check_positive, is_records)
-from ._advice import check_magnitude
-from ._criterion import CRITERIA, choose_criterion
+from .._validation import is_records
+from ._checks import MIN_TRAIN as _MIN_TRAIN
+from ._checks import check_data, check_params
+from ._choice import choose_candidate, scored_table
+from ._criterion import choose_criterion
 from ._resume import CandidateStore, fingerprint
-from ._lag import LAG_FAMILY, equation_or_lag
-from ._linear import linear_base_index, linear_base_rule
-from ._search import describe_blocks, pareto_front, parsimonious_index, record_folds, segments, stls_threshold
+from ._linear import linear_base_index
+from ._run_stages import run_stages
+from ._search import describe_blocks, pareto_front, record_folds, segments, stls_threshold
 from ._space import n_terms
-from ._space import ALL_FAMILIES, FAMILIES, LATENT_FAMILIES, LIBRARIES, data_settings, make_estimator, structures
-from ._stages import (STRUCTURE, Budget, confirm_hold, hold_twin, parallel_map, refit_choice, refit_failed, run_stage,
-                      score_candidate, screen_structure, store_full, store_screen, stored_full, stored_screen)
+from ._space import FAMILIES, LIBRARIES, data_settings, make_estimator, structures
+from ._stages import STRUCTURE, Budget, parallel_map, refit_choice, refit_failed
 from . import _persist  # noqa: F401  (model files keep identification_: registers its codec)
 
 __all__ = ["IdentifyCV", "identify"]
 
-_HOLDS = ("zoh", "linear")
-# fewest samples a fold may train on
-_MIN_TRAIN = 5
 # first samples that start a simulation of new data, unless n_init says
 _N_INIT = 20
-# the most a screening stage keeps, whatever the fraction
-_MAX_SURVIVORS = 16
 
 
 class IdentifyCV(RegressorMixin, BaseEstimator):
@@ -290,86 +282,9 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
 
     # ------------------------------------------------------------------ checks
     def _check_params(self, dt):
-        dt = check_dt(dt if dt is not None else self.dt, allow_none=True)
-        if dt is None:
-            raise ValueError("dt is None; pass the sampling interval dt to IdentifyCV or to fit.")
-        for name, value, options in (("families", self.families, ALL_FAMILIES),
-                                     ("libraries", self.libraries, LIBRARIES),
-                                     ("derivatives", self.derivatives, ("finite_difference", "savgol", "spectral"))):
-            if value is None and name == "derivatives":
-                continue
-            if isinstance(value, str) or not hasattr(value, "__iter__") or not list(value):
-                raise ValueError(f"{name} must be a non-empty list of names from {list(options)}; got {value!r}.")
-            for v in value:
-                check_option(v, name, options)
-        if self.input_hold is not None:
-            check_option(self.input_hold, "input_hold", _HOLDS)
-        if self.input_delay is not None:
-            check_integer(self.input_delay, "input_delay", low=0)
-        check_option(self.criterion, "criterion", CRITERIA)
-        if self.horizon is not None:
-            check_integer(self.horizon, "horizon", low=1)
-        check_integer(self.n_blocks, "n_blocks", low=2)
-        check_positive(self.block_size, "block_size")
-        if self.block_size * self.n_blocks >= 0.9:
-            raise ValueError(f"n_blocks * block_size = {self.n_blocks * self.block_size:.3g} leaves too little "
-                             "training data; expected < 0.9.")
-        check_integer(self.max_path, "max_path")
-        check_positive(self.screen_keep, "screen_keep")
-        if self.screen_keep > 1:
-            raise ValueError(f"screen_keep must be a fraction in (0, 1]; got {self.screen_keep!r}.")
-        check_integer(self.screen_window, "screen_window", low=_MIN_TRAIN)
-        check_integer(self.n_refine, "n_refine", low=0)
-        check_integer(self.max_terms, "max_terms")
-        if self.refinement is not None and not hasattr(self.refinement, "run"):
-            raise ValueError(f"refinement must be an OutputErrorRefinement or None; got "
-                             f"{type(self.refinement).__name__}.")
-        if self.time_budget is not None:
-            check_positive(self.time_budget, "time_budget")
-        if self.max_candidates is not None:
-            check_integer(self.max_candidates, "max_candidates")
-        if self.n_init is not None:
-            check_integer(self.n_init, "n_init")
-        if self.n_jobs is not None and (check_integer(self.n_jobs, "n_jobs", low=None) == 0 or self.n_jobs < -1):
-            raise ValueError(f"n_jobs must be None (one process), an integer >= 1, or -1 for one process per CPU; got "
-                             f"{self.n_jobs!r}.")
-        check_bool(self.show_progress_bar, "show_progress_bar")
-        if self.validation is not None:
-            check_option(self.validation, "validation", ("blocks", "records"))
-        if self.study_name is not None and not isinstance(self.study_name, str):
-            raise ValueError(f"study_name must be None or a str; got {self.study_name!r}.")
-        if self.storage is not None:
-            from ..model_selection import check_storage
+        return check_params(self, dt)
 
-            check_storage(self.storage)
-        return dt
-
-    @staticmethod
-    def _check_data(X, y):
-        """Lists ``(X, y)`` of 2-D arrays, one per record (one array: a list of one), checked."""
-        if y is None:
-            raise ValueError("IdentifyCV requires y to be passed, but the target y is None; expected the outputs.")
-        if is_records(y) or (isinstance(X, list) and X and hasattr(X[0], "shape") and np.ndim(X[0]) == 2):
-            check_record_lists(X, y)
-            X, y = check_records(X, y, y_kind="outputs")
-        else:
-            check_array_like(X, "X")
-            check_array_like(y, "y")
-            X, y = check_inputs_outputs(X, y)
-            X, y = [X], [y]
-        check_magnitude(np.vstack(X), np.vstack(y))
-        n = sum(y_r.shape[0] for y_r in y)
-        if n < 2 * _MIN_TRAIN:
-            raise ValueError(f"y has {n} sample(s) (n_samples = {n}); identify needs at least "
-                             f"{2 * _MIN_TRAIN} to train and validate a candidate.")
-        for j, col in enumerate(np.vstack(X).T):
-            if np.ptp(col) == 0:
-                raise ValueError(f"input column {j} is constant ({col[0]!r}); a constant input cannot be told apart "
-                                 "from an offset. Expected inputs that vary (drop the constant column).")
-        for j, col in enumerate(np.vstack(y).T):
-            if np.ptp(col) == 0:
-                raise ValueError(f"output column {j} is constant ({col[0]!r}); expected outputs that vary.")
-        return X, y
+    _check_data = staticmethod(check_data)
 
     # --------------------------------------------------------------------- fit
     def fit(self, X, y, *, dt=None):
@@ -434,101 +349,14 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
                "levels": self.max_path if self.max_candidates is None else max(
                    1, min(self.max_path, self.max_candidates // (2 * max(len(structs), 1))))}
         parallel = parallel_map(self.n_jobs)
+        refinement = self._refinement(n, horizon)
         # the store stays in this process (never sent to the workers): it reads back and records every candidate
         store = CandidateStore(self.storage, self.study_name, signature)
-        stored_screens, store_screens = partial(stored_screen, store), partial(store_screen, store)
-        stored_scores, store_scores = partial(stored_full, store), partial(store_full, store)
-        rows, libraries = [], []
-        with progress_bar(len(structs), desc="identify", show=self.show_progress_bar) as bar:
-            # stage 1: every structure's pruning path on the last block (the latent family has its own search)
-            latent = [(s, lib) for s, lib in structs if s["family"] in LATENT_FAMILIES]
-            structs = [(s, lib) for s, lib in structs if s["family"] not in LATENT_FAMILIES]
-            todo = structs[: budget.take(len(structs))]
-            screens = run_stage(screen_structure, [(s, lib, ctx) for s, lib in todo], stored_screens, store_screens,
-                                parallel)
-            for (struct, library), screened in zip(todo, screens):
-                rows.extend(screened)
-                libraries.extend([library] * len(screened))
-                bar.update()
-            if budget.left is not None:  # the path's levels count as candidates
-                budget.left = max(0, budget.left - (len(rows) - len(todo)))
-            # stage 2: the best screened candidates on every block (and the best ones with the other hold)
-            ok = [i for i, r in enumerate(rows) if np.isfinite(r["errors"][0])]
-            ok.sort(key=lambda i: rows[i]["errors"][0])
-            keep = ok[: min(_MAX_SURVIVORS, max(4, math.ceil(self.screen_keep * len(ok))))]
-            # ... and the best of every family and library, so that a sparse structure is refined and compared too
-            seen = {(rows[i]["family"], rows[i]["library"]) for i in keep}
-            for i in ok:
-                if (rows[i]["family"], rows[i]["library"]) not in seen:
-                    seen.add((rows[i]["family"], rows[i]["library"]))
-                    keep.append(i)
-            second = [(rows[i], libraries[i]) for i in keep]
-            if self.input_delay is None and settings["input_delay"] > 0:  # the advice's delay, confirmed against none
-                second += [(dict(rows[i], input_delay=0), libraries[i]) for i in keep[:2]]
-            second += [(dict(s, threshold=0.0), lib) for s, lib in latent]
-            if self.input_delay is None and settings["input_delay"] > 0:  # in the latent and linear families too
-                second += [(dict(s, threshold=0.0, input_delay=0), lib) for s, lib in latent]
-            second = second[: budget.take(len(second))]
-            bar.total += len(second)
-            results = run_stage(score_candidate, [(r, lib, ctx, None) for r, lib in second], stored_scores,
-                                store_scores, parallel)
-            for (row, library), result in zip(second, results):
-                rows.append(result)
-                libraries.append(library)
-                bar.update()
-            # stage 3: the parsimonious pick of stage 2 and the best ones, refined by simulation error
-            scored = [i for i, r in enumerate(rows) if r["stage"] == "blocks" and np.all(np.isfinite(r["errors"]))
-                      and r["max_row_terms"] <= self.max_terms and r["family"] not in LATENT_FAMILIES]
-            scored.sort(key=lambda i: np.mean(rows[i]["errors"]))
-            if scored:
-                pick = scored[parsimonious_index([np.mean(rows[i]["errors"]) for i in scored],
-                                                 [np.std(rows[i]["errors"]) for i in scored],
-                                                 [rows[i]["n_terms"] for i in scored], len(folds))]
-                front = [scored[k] for k in pareto_front([np.mean(rows[i]["errors"]) for i in scored],
-                                                         [rows[i]["n_terms"] for i in scored])]
-                order = [pick] + front + scored  # the pick, then the front sparsest first, then the best
-                scored = [i for k, i in enumerate(order) if i not in order[:k]]
-            third = [(rows[i], libraries[i]) for i in scored[: budget.take(min(self.n_refine, len(scored)))]]
-            twin = hold_twin(third) if self.input_hold is None and X_all.shape[1] > 0 else None
-            if twin is not None and budget.take(1):
-                third.insert(1, twin)
-            else:
-                twin = None
-            refinement = self._refinement(n, horizon)
-            bar.total += len(third)
-            calls = [(r, lib, ctx, refinement) for r, lib in third]
-            results = run_stage(score_candidate, calls, stored_scores, store_scores, parallel)
-            for (_, library), result in zip(third, results):
-                rows.append(result)
-                libraries.append(library)
-                bar.update()
-            if twin is not None:
-                rows[-len(third) + 1] = confirm_hold(rows[-len(third)], rows[-len(third) + 1])
-        table = _table(rows, len(folds))
-        full = np.array([r["stage"] != "screen" and (r["max_row_terms"] or 0) <= self.max_terms
-                         and not r.get("excluded") for r in rows])
-        mean = np.where(full, table["mean_validation_error"], np.inf)
-        if not np.any(np.isfinite(mean)):
-            reasons = sorted({r["status"] for r in rows if r["status"] != "ok"})[:3] or [
-                "the budget ended before any candidate was scored on every block"]
-            raise ValueError(f"identify: none of the {len(rows)} candidates with at most max_terms={self.max_terms} "
-                             f"terms per row simulated every validation block without failing (first reasons: "
-                             f"{reasons}); expected a record long and rich enough for at least one candidate, or a "
-                             "larger time_budget / max_candidates / max_terms.")
+        rows, libraries = run_stages(self, structs, settings, ctx, budget, store, parallel, refinement, X_all.shape[1],
+                                     len(folds))
+        table, mean = scored_table(rows, len(folds), self.max_terms)
         terms = [t if t is not None else 10**9 for t in table["n_terms"]]
-
-        lags = np.array([r["family"] == LAG_FAMILY for r in rows])
-
-        def choose(mean):
-            # the equations' pick (the lag models aside), then the lag model only when better by more than its SE
-            equation_mean = np.where(lags, np.inf, mean)
-            best = rule = None
-            if np.any(np.isfinite(equation_mean)):
-                best = parsimonious_index(equation_mean, table["std_validation_error"], terms, len(folds))
-                best, rule = linear_base_rule(best, rows, equation_mean, table["std_validation_error"], len(folds))
-            lag = int(np.argmin(np.where(lags, mean, np.inf))) if np.any(np.isfinite(mean[lags])) else None
-            best, lag_reason = equation_or_lag(best, lag, mean, table["std_validation_error"], len(folds))
-            return best, lag_reason or rule
+        choose = partial(choose_candidate, rows, table, len(folds))
 
         def refit(i):
             chosen = {k: rows[i][k] for k in STRUCTURE + ("threshold", "refine")}
@@ -635,23 +463,6 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
         """The chosen model's equations (see its ``equations``)."""
         check_is_fitted(self)
         return self.best_estimator_.equations(**kwargs)
-
-
-def _table(rows, n_blocks):
-    """``cv_results_``: one list per column; block errors of screened rows only in their last split."""
-    table = {k: [r[k] for r in rows] for k in STRUCTURE + ("threshold", "refine", "stage", "n_terms",
-                                                            "max_row_terms", "fit_time", "status")}
-    table["equations"] = [r.get("equations") for r in rows]  # of the last fold's fit; None for screened rows
-    errors = np.full((len(rows), n_blocks), np.nan)
-    for i, r in enumerate(rows):
-        errors[i, n_blocks - len(r["errors"]):] = r["errors"]
-    for k in range(n_blocks):
-        table[f"split{k}_validation_error"] = errors[:, k]
-    complete = ~np.isnan(errors).any(axis=1) & np.isfinite(errors).all(axis=1)
-    with np.errstate(invalid="ignore"):
-        table["mean_validation_error"] = np.where(complete, errors.mean(axis=1), np.inf)
-        table["std_validation_error"] = np.where(complete, errors.std(axis=1), np.inf)
-    return table
 
 
 def identify(X, y, *, dt, **kwargs):

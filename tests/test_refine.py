@@ -657,3 +657,29 @@ def test_estimate_initial_state_refuses_a_bad_prior(duffing, prior, match):
     u, y = duffing
     with pytest.raises(ValueError, match=match):
         estimate_initial_state(duffing_model(), u[:40], y[:40], x0=[0.0, 0.0], prior=prior)
+
+
+def test_hidden_state_sindy_prior_start_takes_the_refinement_noise_level(msd):
+    """initial_state="prior": the noise level is the refinement's RMS output error (a default without one), and on
+    twenty well-telling samples it starts where "fit" does."""
+    u, y = msd
+    model = msd_model(max_nfev=20).set_params(initial_state="prior").fit(u, y)
+    assert model._start_noise() == pytest.approx(np.sqrt(2.0 * model.refinement_["cost"]))
+    a = 200
+    starts = {mode: model.set_params(initial_state=mode).estimate_initial_state(u[a:], y[a : a + 20])
+              for mode in ("prior", "fit")}
+    np.testing.assert_allclose(starts["prior"], starts["fit"], rtol=1e-3, atol=1e-3 * np.std(y))
+    plain = msd_model().set_params(refine=None, initial_state="prior").fit(u, y)
+    assert plain._start_noise() is None
+    assert np.all(np.isfinite(plain.predict(u[a:], y_init=y[a : a + 20])))
+
+
+def test_start_prior_needs_a_moving_finite_simulation():
+    from sindybench.hidden._refinement import start_prior
+
+    dyn = Dynamics.from_terms([((0, POW, 1, 0),), ((1, POW, 1, 0),)], [[-1.0], [1.0]], dt=0.1)  # x' = -x + u
+    assert start_prior(dyn, [0.0], np.zeros((50, 1)), 0.1) == (None, None)  # at rest: the states do not move
+    grows = Dynamics.from_terms([((0, POW, 1, 0),)], [[50.0]], dt=0.1, max_abs=1e3)  # x' = 50 x diverges at once
+    assert start_prior(grows, [1.0], np.zeros((50, 0)), 0.1) == (None, None)
+    (mean, cov), solver = start_prior(dyn, [0.0], np.ones((50, 1)), None)
+    assert solver.output_scale[0] == pytest.approx(0.05 * np.std(dyn.simulate(np.ones((50, 1)), [0.0])[10:, 0]))

@@ -155,8 +155,8 @@ def candidate_initial_state(hidden, cand, X, y_init, mode="strategy", noise=None
     (:meth:`~sindybench.hidden.HiddenStrategy.initial_state`), refined as its
     :meth:`~sindybench.hidden.HiddenStrategy.initial_fit` says by
     :func:`sindybench.refine.estimate_initial_state`, then set as ``mode``
-    says (``"fit"``: the same estimator with every state free; ``"prior"``: that with a prior around the guess and
-    the outputs' relative noise level ``noise`` (None: ``PRIOR_NOISE``); ``"periodic"``:
+    says (``"fit"``: the same estimator with every state free; ``"prior"``: that with a prior of where the states of
+    ``X`` lie and the outputs' relative noise level ``noise`` (None: ``PRIOR_NOISE``); ``"periodic"``:
     the state reached after two periods of the input, see
     :func:`~sindybench.hidden._refinement.initial_state`).
     """

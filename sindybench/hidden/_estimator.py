@@ -175,14 +175,15 @@ class HiddenStateSINDy(DynamicsEstimator):
         How ``predict`` / ``simulate`` start on new data from ``y_init``:
         the strategy's estimate; that estimate refined by least squares of
         the simulation of the ``y_init`` samples (all states, hidden ones
-        included, free); the same least squares with a Gaussian prior
-        around the strategy's estimate (``"prior"``: the most probable
-        state, well posed when ``y_init`` is too short to tell every state,
-        e.g. 10 samples of a model with six states; the prior's covariance
-        is that of the states along the model's simulation of ``X`` from the
-        estimate, the outputs' noise level the refinement's RMS output
-        error, ``sqrt(2 cost)`` of ``refinement_``, over the outputs'
-        spread, or 5 % without a refinement; see
+        included, free); the same least squares with a Gaussian prior of
+        the state (``"prior"``: the most probable state, well posed when
+        ``y_init`` is too short to tell every state, e.g. 10 samples of a
+        model with six states; the prior's mean and covariance are those of
+        the states along the model's simulation of the whole ``X`` from the
+        strategy's estimate, its first fifth left out, the outputs' noise
+        level the refinement's RMS output error, ``sqrt(2 cost)`` of
+        ``refinement_``, over the outputs' spread, or 5 % without a
+        refinement; see
         :func:`~sindybench.refine.estimate_initial_state`'s ``prior``); or,
         for one period of a periodic input, the state reached after
         simulating two periods from the strategy's estimate (uses the input

@@ -191,7 +191,7 @@ def initial_state(mode, fit, dynamics, x0, X, y_init, noise=None):
     None: not refined); ``"fit"``: that, then least squares of the simulation
     of the first ``len(y_init)`` samples (all states free, exact sensitivities
     when compiled); ``"prior"``: the same least squares with a Gaussian prior
-    around the guess (:func:`start_prior`; ``noise``: the outputs' noise level
+    of where the states of ``X`` lie (:func:`start_prior`; ``noise``: the outputs' noise level
     relative to their spread), well posed when the samples are too few to
     tell every state; ``"periodic"``: ``X`` is one period of a periodic input;
     simulate two periods from the guess and start from the state reached (the

@@ -352,9 +352,9 @@ def estimate_initial_state(dynamics, u, y, *, x0, free_x0=None, solver=None, pri
         :func:`refine_simulation_error`; it never warns on its budget.
     prior : tuple (mean, covariance), optional
         A Gaussian prior of the initial state: ``mean`` of shape
-        (n_states,), ``covariance`` of shape (n_states, n_states), in units
-        where the output residuals have unit variance after their scaling
-        (``solver.output_scale``, the outputs' noise level). The least
+        (n_states,), ``covariance`` of shape (n_states, n_states), in the
+        states' units, weighed against the output residuals scaled by
+        ``solver.output_scale`` (give the outputs' noise level there). The least
         squares then gives the most probable state: ``sum ||(y_sim - y) /
         output_scale||^2 + (x0 - mean)^T covariance^-1 (x0 - mean)``
         (the free states' block of the covariance; eigenvalues below

@@ -377,7 +377,7 @@ def test_hidden_state_sindy_bad_refine_and_initial_state(duffing):
     with pytest.raises(ValueError, match="refine must be an OutputErrorRefinement, a PredictionErrorRefinement or "
                                          "None; got object"):
         HiddenStateSINDy(refine=object(), dt=DT).fit(u, y)
-    with pytest.raises(ValueError, match="initial_state must be one of .'strategy', 'fit', 'periodic'.; got 'bogus'"):
+    with pytest.raises(ValueError, match="initial_state must be one of .'strategy', 'fit', 'prior', 'periodic'.; got 'bogus'"):
         HiddenStateSINDy(initial_state="bogus", dt=DT).fit(u, y)
 
 
@@ -603,3 +603,83 @@ def test_a_refinement_on_the_first_samples_records_the_residual_test_of_those_sa
     model = SINDy(library=PolynomialLibrary(degree=1), dt=0.05,
                   refine=OutputErrorRefinement(max_samples=120)).fit(u, y + 0.01 * rng.normal(size=y.shape))
     assert model.refinement_["residual_test"]["n_samples"] == 120
+
+
+def _chain(n_states=6):
+    """``x_i' = x_{i+1} - x_i``, the last driven by ``u``; the output is the first state (a six-fold lag)."""
+    terms = [((i, POW, 1, 0),) for i in range(n_states + 1)]
+    coef = np.zeros((n_states + 1, n_states))
+    for i in range(n_states):
+        coef[i, i], coef[i + 1, i] = -1.0, 1.0
+    return Dynamics.from_terms(terms, coef, dt=0.05, output_index=(0,))
+
+
+def test_estimate_initial_state_prior_makes_a_short_window_well_posed(rng):
+    """Ten noisy samples of one output cannot tell six states: the free least squares chases the noise, the prior
+    (the states' spread along the record, the noise level) keeps the free run close to the truth."""
+    dyn = _chain()
+    u = np.repeat(rng.uniform(-1.0, 1.0, 80), 50)[:, None]
+    x = dyn.simulate(u, np.zeros(6))
+    start, n = 2000, 10
+    noise = 0.01 * np.std(x[:, 0])
+    y = x[start : start + n, :1] + noise * rng.standard_normal((n, 1))
+    ahead = u[start : start + 400]
+    truth = x[start : start + 400, 0]
+
+    def error(x0):
+        return np.sqrt(np.mean((dyn.simulate(ahead, x0)[:, 0] - truth) ** 2)) / np.std(x[:, 0])
+
+    guess = np.r_[y[0], np.zeros(5)]
+    free = estimate_initial_state(dyn, ahead[:n], y, x0=guess)
+    prior = (np.mean(x, axis=0), np.cov(x, rowvar=False))
+    held = estimate_initial_state(dyn, ahead[:n], y, x0=guess, solver=LeastSquares(output_scale=noise), prior=prior)
+    assert error(held) < 0.5 and error(free) > 10 * error(held)  # free: over 100 output spreads off
+    assert error(held) < error(prior[0])  # the samples still tell what they can
+
+
+def test_estimate_initial_state_prior_yields_to_informative_samples(duffing):
+    """Forty exact samples of a two-state model: a wrong prior mean does not bias the state."""
+    u, y = duffing
+    x0 = estimate_initial_state(duffing_model(), u[:40], y[:40], x0=[0.0, 0.0],
+                                solver=LeastSquares(output_scale=1e-6), prior=([0.5, 0.5], np.eye(2)))
+    np.testing.assert_allclose(x0, TRUE_X0, atol=1e-6)
+
+
+@pytest.mark.parametrize(("prior", "match"), [
+    ((np.zeros(2),), "pair"),
+    ((np.zeros(3), np.eye(2)), "mean of shape"),
+    ((np.zeros(2), np.eye(3)), "covariance of shape"),
+    ((np.zeros(2), [[1.0, 0.5], [0.0, 1.0]]), "symmetric"),
+    ((np.zeros(2), np.full((2, 2), np.nan)), "finite"),
+    ((np.zeros(2), np.zeros((2, 2))), "no positive eigenvalue"),
+])
+def test_estimate_initial_state_refuses_a_bad_prior(duffing, prior, match):
+    u, y = duffing
+    with pytest.raises(ValueError, match=match):
+        estimate_initial_state(duffing_model(), u[:40], y[:40], x0=[0.0, 0.0], prior=prior)
+
+
+def test_hidden_state_sindy_prior_start_takes_the_refinement_noise_level(msd):
+    """initial_state="prior": the noise level is the refinement's RMS output error (a default without one), and on
+    twenty well-telling samples it starts where "fit" does."""
+    u, y = msd
+    model = msd_model(max_nfev=20).set_params(initial_state="prior").fit(u, y)
+    assert model._start_noise() == pytest.approx(np.sqrt(2.0 * model.refinement_["cost"]))
+    a = 200
+    starts = {mode: model.set_params(initial_state=mode).estimate_initial_state(u[a:], y[a : a + 20])
+              for mode in ("prior", "fit")}
+    np.testing.assert_allclose(starts["prior"], starts["fit"], rtol=1e-3, atol=1e-3 * np.std(y))
+    plain = msd_model().set_params(refine=None, initial_state="prior").fit(u, y)
+    assert plain._start_noise() is None
+    assert np.all(np.isfinite(plain.predict(u[a:], y_init=y[a : a + 20])))
+
+
+def test_start_prior_needs_a_moving_finite_simulation():
+    from sindybench.hidden._refinement import start_prior
+
+    dyn = Dynamics.from_terms([((0, POW, 1, 0),), ((1, POW, 1, 0),)], [[-1.0], [1.0]], dt=0.1)  # x' = -x + u
+    assert start_prior(dyn, [0.0], np.zeros((50, 1)), 0.1) == (None, None)  # at rest: the states do not move
+    grows = Dynamics.from_terms([((0, POW, 1, 0),)], [[50.0]], dt=0.1, max_abs=1e3)  # x' = 50 x diverges at once
+    assert start_prior(grows, [1.0], np.zeros((50, 0)), 0.1) == (None, None)
+    (mean, cov), solver = start_prior(dyn, [0.0], np.ones((50, 1)), None)
+    assert solver.output_scale[0] == pytest.approx(0.05 * np.std(dyn.simulate(np.ones((50, 1)), [0.0])[10:, 0]))

@@ -147,7 +147,7 @@ class _RecordFilters:
         return np.vstack(out)
 
 
-def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):
+def candidate_initial_state(hidden, cand, X, y_init, mode="strategy", noise=None):
     """Initial state of a simulation of ``X`` from its first outputs ``y_init``.
 
     The one place where a simulation of new data is started, in the search
@@ -155,7 +155,8 @@ def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):
     (:meth:`~sindybench.hidden.HiddenStrategy.initial_state`), refined as its
     :meth:`~sindybench.hidden.HiddenStrategy.initial_fit` says by
     :func:`sindybench.refine.estimate_initial_state`, then set as ``mode``
-    says (``"fit"``: the same estimator with every state free; ``"periodic"``:
+    says (``"fit"``: the same estimator with every state free; ``"prior"``: that with a prior of where the states of
+    ``X`` lie and the outputs' relative noise level ``noise`` (None: ``PRIOR_NOISE``); ``"periodic"``:
     the state reached after two periods of the input, see
     :func:`~sindybench.hidden._refinement.initial_state`).
     """
@@ -169,4 +170,4 @@ def candidate_initial_state(hidden, cand, X, y_init, mode="strategy"):
     if x0.shape[0] != dyn.n_states or not np.all(np.isfinite(x0)):
         raise ValueError(f"the strategy's initial state {x0!r} is not {dyn.n_states} finite numbers.")
     fit = hidden.initial_fit(cand.params, n_outputs=y_init.shape[1], n_inputs=X.shape[1])
-    return initial_state(mode, fit, dyn, x0, X, y_init[:n])
+    return initial_state(mode, fit, dyn, x0, X, y_init[:n], noise)

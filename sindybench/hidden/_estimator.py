@@ -35,7 +35,7 @@ __all__ = ["HiddenStateSINDy"]
 logger = logging.getLogger(__name__)
 
 _HIDDEN_PREFIX = "hidden__"
-_INITIAL_STATES = ("strategy", "fit", "periodic")
+_INITIAL_STATES = ("strategy", "fit", "prior", "periodic")
 
 
 def _check_strategy_param(value, name):
@@ -183,13 +183,23 @@ class HiddenStateSINDy(DynamicsEstimator):
         refined: a refinement costs tens of simulations with sensitivities,
         about as much as the whole inner search of a short record, and it
         polishes a basin rather than moving to another one.
-    initial_state : {"strategy", "fit", "periodic"}, default="strategy"
+    initial_state : {"strategy", "fit", "prior", "periodic"}, default="strategy"
         How ``predict`` / ``simulate`` start on new data from ``y_init``:
         the strategy's estimate; that estimate refined by least squares of
         the simulation of the ``y_init`` samples (all states, hidden ones
-        included, free); or, for one period of a periodic input, the state
-        reached after simulating two periods from the strategy's estimate
-        (uses the input alone).
+        included, free); the same least squares with a Gaussian prior of
+        the state (``"prior"``: the most probable state, well posed when
+        ``y_init`` is too short to tell every state, e.g. 10 samples of a
+        model with six states; the prior's mean and covariance are those of
+        the states along the model's simulation of the whole ``X`` from the
+        strategy's estimate, its first fifth left out, the outputs' noise
+        level the refinement's RMS output error, ``sqrt(2 cost)`` of
+        ``refinement_``, over the outputs' spread, or 5 % without a
+        refinement; see
+        :func:`~sindybench.refine.estimate_initial_state`'s ``prior``); or,
+        for one period of a periodic input, the state reached after
+        simulating two periods from the strategy's estimate (uses the input
+        alone).
 
     Attributes
     ----------
@@ -600,7 +610,17 @@ class HiddenStateSINDy(DynamicsEstimator):
     # ------------------------------------------------------------- simulation
     def _initial_state(self, X, y_init):
         check_option(self.initial_state, "initial_state", _INITIAL_STATES)
-        return candidate_initial_state(self.hidden_, self._candidate_, X, y_init, self.initial_state)
+        return candidate_initial_state(self.hidden_, self._candidate_, X, y_init, self.initial_state,
+                                       self._start_noise())
+
+    def _start_noise(self):
+        """The outputs' noise level of ``initial_state="prior"``: the refinement's RMS output error over the
+        outputs' spread (``sqrt(2 cost)``), None (the default level) without a refinement."""
+        cost = (self.refinement_ or {}).get("cost")
+        if self.initial_state != "prior" or cost is None or (self.refinement_ or {}).get("status", -1) < 0 \
+                or not np.isfinite(cost):
+            return None
+        return float(np.sqrt(2.0 * cost))
 
     def _equation_notes(self):
         gauge = getattr(self.hidden_, "gauge", None)  # strategies with latent states say how their scale is fixed

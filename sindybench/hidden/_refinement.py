@@ -22,12 +22,15 @@ from ..refine import CoefficientMap, FreeParameters, LeastSquares, Physical, est
 from ..simulate import SimulationError
 from ._base import InitialFit
 
-__all__ = ["initial_state", "refine_guess", "refined_values", "refinement_problem"]
+__all__ = ["initial_state", "refine_guess", "refined_values", "refinement_problem", "start_prior"]
 
 logger = logging.getLogger(__name__)
 
 _FIT_TOL = 1e-12  # tolerances of a strategy's initial-state fit: a short window, converged to the optimum
 _FIT_NFEV = 100  # its budget of simulations per free state
+#: the outputs' noise level of initial_state="prior" (relative to their spread) when the model has no refinement
+PRIOR_NOISE = 0.05
+_PRIOR_NOISE_FLOOR = 1e-6  # ... and its floor (a refinement that fits exact data to rounding)
 
 
 class _FixedBlock:
@@ -144,14 +147,53 @@ def _check_fit(fit, n_states):
     return free.astype(np.int64)
 
 
-def initial_state(mode, fit, dynamics, x0, X, y_init):
+def start_prior(dynamics, x0, X, noise):
+    """``(prior, solver)`` of ``initial_state="prior"``: where the states of this record lie, and the noise level.
+
+    The model's own simulation of the inputs ``X`` from the guess ``x0``,
+    without its first fifth (the guess's transient), says where the states
+    of this record lie: the prior's mean and covariance are those of its
+    states (the distribution a state of the record is drawn from before
+    its outputs are seen). The outputs' noise level is ``noise``
+    (relative; None: :data:`PRIOR_NOISE`) times their spread there.
+    ``(None, None)`` (no prior: the plain least squares) when fewer than two
+    samples of it are finite or its states do not move.
+
+    Examples
+    --------
+    >>> from sindybench.dynamics import Dynamics
+    >>> from sindybench.libraries import POW
+    >>> dyn = Dynamics.from_terms([((0, POW, 1, 0),), ((1, POW, 1, 0),)], [[-1.0], [1.0]], dt=0.1)  # x' = -x + u
+    >>> u = np.sin(0.5 * 0.1 * np.arange(2000))[:, None]
+    >>> (mean, cov), solver = start_prior(dyn, [5.0], u, 0.1)  # a guess far off: its transient is left out
+    >>> np.round(mean, 2).tolist(), np.round(np.sqrt(cov), 2).tolist(), np.round(solver.output_scale, 3).tolist()
+    ([0.0], [[0.64]], [0.064])
+    """
+    with np.errstate(all="ignore"):
+        x = dynamics.simulate(X, x0, on_divergence="nan")
+    x = x[x.shape[0] // 5 :]
+    x = x[np.all(np.isfinite(x), axis=1)]
+    if x.shape[0] < 2:
+        return None, None
+    cov = np.atleast_2d(np.cov(x, rowvar=False))
+    if not np.any(np.diag(cov) > 0):
+        return None, None
+    spread = np.std(x[:, list(dynamics.output_index)], axis=0)
+    scale = max(float(PRIOR_NOISE if noise is None else noise), _PRIOR_NOISE_FLOOR) * np.where(spread > 0, spread, 1.0)
+    return (np.mean(x, axis=0), cov), LeastSquares(max_nfev=50, output_scale=scale)
+
+
+def initial_state(mode, fit, dynamics, x0, X, y_init, noise=None):
     """The initial state of a simulation of ``X`` from a strategy's guess ``x0`` and the first outputs ``y_init``.
 
     ``mode``: ``"strategy"``: the guess refined as the strategy's
     :class:`~sindybench.hidden.InitialFit` ``fit`` says (:func:`refine_guess`;
     None: not refined); ``"fit"``: that, then least squares of the simulation
     of the first ``len(y_init)`` samples (all states free, exact sensitivities
-    when compiled); ``"periodic"``: ``X`` is one period of a periodic input;
+    when compiled); ``"prior"``: the same least squares with a Gaussian prior
+    of where the states of ``X`` lie (:func:`start_prior`; ``noise``: the outputs' noise level
+    relative to their spread), well posed when the samples are too few to
+    tell every state; ``"periodic"``: ``X`` is one period of a periodic input;
     simulate two periods from the guess and start from the state reached (the
     periodic steady state), without using ``y_init``. When the model's simulation from the guess diverges within
     ``y_init`` (the least squares cannot start), the guess stands: the simulation that follows diverges too (NaN
@@ -159,12 +201,13 @@ def initial_state(mode, fit, dynamics, x0, X, y_init):
     """
     if fit is not None and mode != "periodic":
         x0 = refine_guess(fit, dynamics, x0, X, y_init)
-    if mode == "fit":
+    if mode in ("fit", "prior"):
         n = min(len(y_init), len(X))
         if n < 2:
             return x0
+        prior, solver = start_prior(dynamics, x0, X, noise) if mode == "prior" else (None, None)
         try:
-            return estimate_initial_state(dynamics, X[:n], y_init[:n], x0=x0)
+            return estimate_initial_state(dynamics, X[:n], y_init[:n], x0=x0, solver=solver, prior=prior)
         except SimulationError as exc:  # the model diverges within y_init: its simulation diverges as predict says
             logger.debug("initial state: the least squares cannot start, the guess is kept (%s)", exc)
             return x0

@@ -11,7 +11,9 @@ a :class:`~sindybench.HiddenStateSINDy` whose
 :class:`~sindybench.hidden.LatentHiddenState` holds the ``n - n_outputs``
 states beyond the outputs, started from the subspace model of that order and
 depth (converted to continuous time by the matrix logarithm), linear library,
-refined by simulation error; so ``predict``, ``equations``, the refinements,
+refined by simulation error, started on new data by least squares of its first
+samples with a prior where its states lie (``initial_state="prior"``: ten
+samples cannot tell six states apart); so ``predict``, ``equations``, the refinements,
 the filter, ``to_json`` and the bands work on it. Order 1 (one output) is a
 first-order :class:`~sindybench.SINDy` with a linear library, refined.
 """
@@ -33,6 +35,9 @@ MAX_ORDER, BLOCK_ROWS = 10, (10, 20, 40, 80)
 _TOLERANCE = 0.02  # the smallest order within this relative RMSE of the best
 _VALIDATION = 0.2
 _REFINEMENT = {"max_nfev": 30, "max_samples": 5000}
+#: how the linear base (and the families on its states) start new data: least squares of the first samples with a
+#: prior where the model's states lie (``HiddenStateSINDy(initial_state="prior")``): well posed with many states
+START = "prior"
 
 
 def linear_order(X, y, *, max_order=MAX_ORDER, block_rows=BLOCK_ROWS, validation=_VALIDATION):
@@ -133,7 +138,7 @@ def make_linear(structure, library, dt, differentiation, settings, *, random_sta
                                block_rows=rows)
     return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,
                             differentiation=differentiation, dt=dt, input_hold=hold, input_delay=delay,
-                            random_state=random_state, refine=refine, initial_state="fit", show_progress_bar=False)
+                            random_state=random_state, refine=refine, initial_state=START, show_progress_bar=False)
 
 
 def linear_base_index(rows, mean):

@@ -35,7 +35,7 @@ from ..hidden import HiddenStateSINDy, LatentHiddenState
 from ..libraries import FrictionLibrary, IndicatorLibrary, PolynomialLibrary, SqrtLibrary
 from ..optimizers import STLS
 from ..refine import OutputErrorRefinement
-from ._linear import _parse
+from ._linear import START, _parse
 
 __all__ = ["LINEAR_NL_FAMILY", "make_linear_nl", "propose_linear_nl"]
 
@@ -128,5 +128,5 @@ def make_linear_nl(structure, library, dt, differentiation, settings, *, random_
                             optimizer=STLS(threshold=0.0, alpha=1e-9, normalize_columns=True),
                             differentiation=differentiation, dt=dt, input_hold=structure["input_hold"],
                             input_delay=structure["input_delay"], random_state=random_state,
-                            refine=OutputErrorRefinement(prune=_PRUNE, **_REFINEMENT), initial_state="fit",
+                            refine=OutputErrorRefinement(prune=_PRUNE, **_REFINEMENT), initial_state=START,
                             show_progress_bar=False)

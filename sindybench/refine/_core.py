@@ -144,6 +144,12 @@ def refine_simulation_error(dynamics, u, y, *, x0, free=None, shooting=None, pru
     >>> res.parameters[2:]
     (('x0', 0, 0), ('x0', 0, 1))
     """
+    return _refine(dynamics, u, y, x0=x0, free=free, shooting=shooting, prune=prune, solver=solver)
+
+
+def _refine(dynamics, u, y, *, x0, free, shooting, prune, solver, prior=None):
+    """:func:`refine_simulation_error`; with ``prior`` ``(centre, root)``, the rows ``root @ (x0 - centre)`` of
+    the free initial states are added to the residuals (one record, single shooting)."""
     view = ParametrizedDynamics(_check_dynamics(dynamics), free)
     shooting = Shooting() if shooting is None else check_settings(shooting, Shooting, "shooting", "n_segments=5")
     solver = LeastSquares() if solver is None else check_settings(solver, LeastSquares, "solver", "max_nfev=50")
@@ -160,7 +166,9 @@ def refine_simulation_error(dynamics, u, y, *, x0, free=None, shooting=None, pru
     shooting = Shooting(n_segments, shooting.continuity_weight)
 
     def build(view, x0s, carry):
-        return _build(view, x0s, us, ys, shooting, box[0], box[1])
+        problem, xs = _build(view, x0s, us, ys, shooting, box[0], box[1])
+        problem.prior = prior
+        return problem, xs
 
     return solve(build, view, x0s, us, ys, bounds=box, prune=prune, solver=solver._replace(output_scale=output_scale))
 
@@ -316,7 +324,7 @@ def _check_records(u, y, x0, n_states):
     return us, ys, [x0s[r].copy() for r in range(n)]
 
 
-def estimate_initial_state(dynamics, u, y, *, x0, free_x0=None, solver=None):
+def estimate_initial_state(dynamics, u, y, *, x0, free_x0=None, solver=None, prior=None):
     """Initial state that best simulates the first output samples ``y`` (only ``x0`` free).
 
     The same least squares as :func:`refine_simulation_error` with the
@@ -342,6 +350,19 @@ def estimate_initial_state(dynamics, u, y, *, x0, free_x0=None, solver=None):
         Default ``LeastSquares(max_nfev=50)``; its ``x0_bounds`` (e.g.
         ``(0.0, None)`` for a level) and ``output_scale`` as in
         :func:`refine_simulation_error`; it never warns on its budget.
+    prior : tuple (mean, covariance), optional
+        A Gaussian prior of the initial state: ``mean`` of shape
+        (n_states,), ``covariance`` of shape (n_states, n_states), in the
+        states' units, weighed against the output residuals scaled by
+        ``solver.output_scale`` (give the outputs' noise level there). The least
+        squares then gives the most probable state: ``sum ||(y_sim - y) /
+        output_scale||^2 + (x0 - mean)^T covariance^-1 (x0 - mean)``
+        (the free states' block of the covariance; eigenvalues below
+        ``1e-12`` times the largest are raised to it). A start window too
+        short to observe every state (few samples, many states) is then
+        well posed: what the samples do not tell stays near ``mean``. For a
+        linear model this is the RTS smoother's first state with no process
+        noise (:func:`~sindybench.estimation.smooth_initial_state`).
 
     Returns
     -------
@@ -375,9 +396,48 @@ def estimate_initial_state(dynamics, u, y, *, x0, free_x0=None, solver=None):
     ...                             solver=LeastSquares(x0_bounds=([None, 0.0], [None, 0.2])))
     >>> np.round(x0, 6).tolist()
     [0.9, 0.2]
+
+    Two samples with noise of 0.01 on the second: the free least squares
+    puts the noise into the velocity (0.3 for 0.1); a prior of spread 0.1
+    around rest (noise level 0.01, ``output_scale``) keeps it near what is known:
+
+    >>> y2 = dyn.simulate(np.zeros((2, 0)), [1.0, 0.1])[:, :1] + [[0.0], [0.01]]
+    >>> np.round(estimate_initial_state(dyn, np.zeros((2, 0)), y2, x0=[1.0, 0.0]), 3).tolist()
+    [1.0, 0.3]
+    >>> x0 = estimate_initial_state(dyn, np.zeros((2, 0)), y2, x0=[1.0, 0.0], solver=LeastSquares(output_scale=0.01),
+    ...                             prior=([1.0, 0.0], np.diag([0.01, 0.01])))
+    >>> np.round(x0, 3).tolist()
+    [1.007, 0.034]
     """
     solver = LeastSquares(max_nfev=50) if solver is None else check_settings(solver, LeastSquares, "solver",
                                                                              "max_nfev=50")
     free = FreeParameters(coef=np.zeros(np.shape(dynamics.coef), dtype=bool), x0=free_x0)
-    res = refine_simulation_error(dynamics, u, y, x0=x0, free=free, solver=solver._replace(warn_budget=False))
+    if prior is not None:
+        n_states = _check_dynamics(dynamics).n_states
+        free_idx = np.arange(n_states) if free_x0 is None else np.asarray(free_x0, dtype=np.int64).reshape(-1)
+        prior = _prior_rows(prior, n_states, free_idx)
+    res = _refine(dynamics, u, y, x0=x0, free=free, shooting=None, prune=0.0,
+                  solver=solver._replace(warn_budget=False), prior=prior)
     return res.x0
+
+
+def _prior_rows(prior, n_states, free):
+    """``(centre, root)`` of a prior ``(mean, covariance)`` on the ``free`` states: ``root.T @ root`` inverts the
+    covariance's free block (eigenvalues floored at 1e-12 times the largest)."""
+    try:
+        mean, cov = prior
+        mean = np.asarray(mean, dtype=float).reshape(-1)
+        cov = np.asarray(cov, dtype=float)
+    except (TypeError, ValueError):
+        raise ValueError(f"prior must be a pair (mean, covariance) of real arrays; got {shown(prior)}.") from None
+    if mean.shape != (n_states,) or cov.shape != (n_states, n_states):
+        raise ValueError(f"prior has a mean of shape {mean.shape} and a covariance of shape {cov.shape}; expected "
+                         f"({n_states},) and ({n_states}, {n_states}) (one entry per state).")
+    if not (np.all(np.isfinite(mean)) and np.all(np.isfinite(cov))) or not np.allclose(cov, cov.T):
+        raise ValueError("prior: expected a finite mean and a finite, symmetric covariance.")
+    w, v = np.linalg.eigh(cov[np.ix_(free, free)])
+    if w.size and w[-1] <= 0:
+        raise ValueError(f"prior: the covariance of the free states has no positive eigenvalue (largest {w[-1]:.3g}); "
+                         "expected a positive semi-definite covariance with some spread.")
+    w = np.maximum(w, 1e-12 * (w[-1] if w.size else 1.0))
+    return mean[free], (v / np.sqrt(w)).T

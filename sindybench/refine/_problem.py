@@ -47,6 +47,7 @@ class _Problem:
         # multiple shooting: the later segments' free initial states and the continuity weights (see _build)
         self.x_segments, self.weight = [], np.ones(self.n_states)
         self.compiled = view.compiled
+        self.prior = None  # (centre, root): the rows root @ (free x0 - centre) appended to the residuals (one record)
         self._rhs_key = self._rhs = None
         self._open_loop_key = self._open_loop = None
 
@@ -167,7 +168,7 @@ class _Problem:
             out = np.concatenate([((x[:, self.oidx] - y) / scale).ravel()
                                   for x, y, scale in zip(self.open_loop(p), self.ys, self.y_scales)])
             out = out / np.sqrt(self.n_res)
-            return np.where(np.isfinite(out), out, _DIVERGED / np.sqrt(self.n_res))
+            return self._with_prior(p, np.where(np.isfinite(out), out, _DIVERGED / np.sqrt(self.n_res)))
         rhs = self.rhs(p)
         starts = self.starts(p)
         res, cont = [], []
@@ -209,7 +210,20 @@ class _Problem:
                 J_cont[crow, cols] = S_end * self.weight[:, None]
                 nxt = n0 + self.free_x0.size + s * n
                 J_cont[crow, nxt : nxt + n] -= np.diag(self.weight)
-        return np.vstack([J_out, J_cont]) / np.sqrt(self.n_res)
+        J = np.vstack([J_out, J_cont]) / np.sqrt(self.n_res)
+        if self.prior is None:
+            return J
+        rows = np.zeros((self.prior[1].shape[0], q))
+        rows[:, n0 : n0 + self.free_x0.size] = self.prior[1] / np.sqrt(self.n_res)
+        return np.vstack([J, rows])
+
+    def _with_prior(self, p, out):
+        """The residuals ``out`` and, with a prior, its rows (per ``sqrt(n_res)``, as the output residuals)."""
+        if self.prior is None:
+            return out
+        centre, root = self.prior
+        x0 = p[self.n_model : self.n_model + self.free_x0.size]
+        return np.r_[out, root @ (x0 - centre) / np.sqrt(self.n_res)]
 
     def _records_jacobian(self, p):
         """The output rows of every record, stacked; a record's rows see its own initial state only."""

@@ -159,6 +159,30 @@ def test_refinement_row_refines_the_fitted_model():
     assert "s with the search of `sindy_poly`)" in results_markdown({**results, "wall_time_s": 1.0})
 
 
+def _identify_row(key, families):
+    def make(*, random_state, quick, dt, n_val, n_samples):
+        from sindybench.identify import IdentifyCV
+
+        return IdentifyCV(dt=dt, families=families, libraries=["linear"], derivatives=["finite_difference"],
+                          n_refine=1, max_path=3, n_init=2, random_state=random_state, show_progress_bar=False)
+
+    return ModelSpec(key, key, make)
+
+
+def test_a_benchmarks_identify_rows_share_their_candidates():
+    # as Silverbox's "identified" and "identified_equations": the second row's search reads back the candidates
+    # the first computed, and scores what it scores alone
+    rows = (_identify_row("with_lag", ["first_order", "lag"]), _identify_row("equations", ["first_order"]))
+    bench = dataclasses.replace(_synthetic(), models=rows)
+    both, fitted, _ = run_benchmark(bench, quick=True, seed=0)
+    alone, fitted_alone, _ = run_benchmark(bench, quick=True, seed=0, models=["equations"])
+    assert fitted["with_lag"].n_resumed_ == 0 and fitted_alone["equations"].n_resumed_ == 0
+    assert fitted["equations"].n_resumed_ > 0
+    shared, own = both["models"][1], alone["models"][0]
+    assert shared["key"] == own["key"] == "equations" and shared["status"] == own["status"] == "ok"
+    assert shared["scores"] == own["scores"] and shared["equations"] == own["equations"]
+
+
 def test_refinement_row_without_its_model_fails_cleanly():
     toy = _synthetic(fail_load=False)
     rows = (ModelSpec("ghost_refined", "refined ghost", refinement(), refines="ghost"),)

@@ -62,6 +62,8 @@ def test_a_parallel_run_writes_the_files_of_a_serial_run(tmp_path, caplog):
     report = (tmp_path / "parallel" / "report.md").read_text()
     assert report.index("Toy first-order system") < report.index("Slow toy")
     assert "the longest first: toy-slow, toy" in caplog.text and "done 2/2" in caplog.text
+    # the common numba kernels first, once for both workers (here loaded: the cache is warm)
+    assert caplog.text.index("common numba kernels compiled or loaded first") < caplog.text.index("the longest first")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["parallel", "serial"]  # no staging folder left
 
 

@@ -135,3 +135,27 @@ def test_worker_processes_resume_too(record, uninterrupted, tmp_path, monkeypatc
     full = IdentifyCV(storage=storage, n_jobs=2, **SEARCH).fit(*record)
     assert first.n_resumed_ == 0 and full.n_resumed_ > 0
     _same_table(full.cv_results_, uninterrupted.cv_results_)
+
+
+def test_searches_inside_shared_candidates_reuse_each_others_candidates_bit_for_bit(record, uninterrupted):
+    # the equations-only search after the one with the lag family (run all's two identify rows): it computes only
+    # the candidates the first did not, and returns what a search of its own returns
+    from sindybench.identify._resume import CandidateStore, shared_candidates
+
+    with_lag = dict(SEARCH, families=SEARCH["families"] + ["lag"])
+    with shared_candidates():
+        first = IdentifyCV(**with_lag).fit(*record)
+        equations = IdentifyCV(**SEARCH).fit(*record)
+    assert "lag" in first.cv_results_["family"]
+    assert equations.n_resumed_ > 0 and "lag" not in equations.cv_results_["family"]
+    _same_table(equations.cv_results_, uninterrupted.cv_results_)
+    assert equations.best_params_ == uninterrupted.best_params_
+    np.testing.assert_array_equal(equations.best_estimator_.coef_, uninterrupted.best_estimator_.coef_)
+    np.testing.assert_array_equal(equations.predict(record[0][:300], y_init=record[1][:5]),
+                                  uninterrupted.predict(record[0][:300], y_init=record[1][:5]))
+    # outside a block a search reads nothing back, and the block's candidates are gone when it ends
+    assert uninterrupted.n_resumed_ == 0
+    with shared_candidates():
+        store = CandidateStore(None, None, {"data": "x"})
+        assert store.get("k") is None and store.put("k", {"errors": [1.0]}) is None and store.get("k") is not None
+    assert CandidateStore(None, None, {"data": "x"}).get("k") is None

@@ -8,9 +8,11 @@ and each worker writes its benchmark's files into the run's staging folder. The 
 come back in the benchmarks' own order, so ``report.md`` and every file are the same as
 those of a run of one benchmark after the other (the times they report aside).
 
-Each worker compiles the numba kernels it needs, and saves them in numba's on-disk cache,
-which both workers share: they save under one file lock of the run
-(:func:`sindybench._numba_cache.lock_numba_cache`, which says why).
+The common numba kernels are compiled first, side by side in the workers (:func:`warm_up`), so
+that two benchmarks starting together do not both compile them; each worker then compiles the
+other kernels it needs, and saves them in numba's on-disk cache, which both workers share:
+they save under one file lock of the run (:func:`sindybench._numba_cache.lock_numba_cache`,
+which says why).
 """
 
 import logging
@@ -29,7 +31,7 @@ from ._report import write_results
 from ._runner import run_benchmark, test_sets
 from ._warnings import collect_warnings
 
-__all__ = ["longest_first", "run_and_write", "run_in_workers", "run_serially", "worker_count"]
+__all__ = ["longest_first", "run_and_write", "run_in_workers", "run_serially", "warm_up", "worker_count"]
 
 logger = logging.getLogger(__name__)
 
@@ -144,6 +146,25 @@ def _parent_setup(lock_file):
     return lock_file, root.getEffectiveLevel(), bool(root.handlers), verbosity
 
 
+def warm_up(n_workers):
+    """Compile the common numba kernels (:func:`sindybench.warm.warm`) in ``n_workers`` processes side by side.
+
+    On a fresh cache, benchmarks that start together would each compile the
+    kernels they share (the simulation and its sensitivities, the
+    prediction-error predictor, the Kalman filter: about 40 s of CPU, the same
+    in every worker that reaches a kernel before another has saved it), so
+    :func:`run_in_workers` compiles them once first; on a warm cache this loads
+    them (a fraction of a second). The machine code is the same either way: no
+    result changes.
+    """
+    from ..warm import warm
+
+    start = time.perf_counter()
+    seconds = warm(n_jobs=n_workers)
+    logger.info("the common numba kernels compiled or loaded first: %.0f s, %.0f s of CPU",
+                time.perf_counter() - start, sum(seconds.values()))
+
+
 def run_in_workers(benchmarks, data, staging, n_workers, *, costs, settings):
     """Run ``benchmarks`` in ``n_workers`` processes, the longest (by ``costs``) first.
 
@@ -162,6 +183,7 @@ def run_in_workers(benchmarks, data, staging, n_workers, *, costs, settings):
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="sindybench-run-") as tmp:
         setup = _parent_setup(Path(tmp) / "numba-cache.lock")
+        warm_up(n_workers)
         logger.info("%d benchmarks in %d worker processes, the longest first: %s", len(benchmarks), n_workers,
                     ", ".join(benchmarks[i].name for i in order))
         tasks = (delayed(_in_worker)(i, benchmarks[i], data[benchmarks[i].name], Path(staging) / benchmarks[i].name,

@@ -18,6 +18,7 @@ from sklearn.exceptions import ConvergenceWarning
 
 from .._version import __version__
 from .._json import jsonable
+from ..identify._resume import shared_candidates
 from ._best import free_run_scores, k_step_scores, report_best_model, test_record
 from ._published import published
 
@@ -243,6 +244,9 @@ def _equations(estimator):
     return [str(e) for e in (eqs if isinstance(eqs, (list, tuple)) else [eqs])]
 
 
+# the identify rows of one benchmark share their candidates: the equations-only row computes only those the
+# identified row did not (the same results, bit for bit)
+@shared_candidates()
 def run_benchmark(benchmark, *, data=None, trials=None, seed=0, quick=False, storage=None, n_jobs=1,
                   data_home=None, download_if_missing=True, show_progress_bar=False, models=None):
     """Train every model of a benchmark and evaluate it on every test set.

@@ -100,7 +100,7 @@ def _prune_space(quick, n_init):
 
 BENCHMARK = Benchmark(
     name="bouc-wen",
-    cost=30,  # seconds of one core, seed 0, fresh numba cache (orders a parallel run)
+    cost=86,  # CPU seconds of run all (seed 0, fresh clone, after its warm-up); orders a parallel run
     title="Bouc-Wen oscillator",
     load=_load,
     output_label="displacement y [m]",

@@ -178,7 +178,7 @@ def _latent(*, random_state, quick, dt, n_val, n_samples):
 
 BENCHMARK = Benchmark(
     name="cascaded-tanks",
-    cost=12,  # seconds of one core, seed 0, fresh numba cache (orders a parallel run)
+    cost=23,  # CPU seconds of run all (seed 0, fresh clone, after its warm-up); orders a parallel run
     title="Cascaded tanks",
     load=_load,
     output_label="lower tank level y [V]",

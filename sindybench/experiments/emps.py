@@ -114,7 +114,7 @@ def _second_order_with(library, threshold=0.0):
 
 BENCHMARK = Benchmark(
     name="emps",
-    cost=39,  # seconds of one core, seed 0, fresh numba cache (orders a parallel run)
+    cost=50,  # CPU seconds of run all (seed 0, fresh clone, after its warm-up); orders a parallel run
     title="Electro-Mechanical Positioning System (EMPS)",
     load=_load,
     output_label="cart position qm [mm]",

@@ -61,7 +61,7 @@ _second_order = _second_order_with(_poly)
 
 BENCHMARK = Benchmark(
     name="pick-and-place",
-    cost=73,  # seconds of one core, seed 0, fresh numba cache (orders a parallel run)
+    cost=34,  # CPU seconds of run all (seed 0, fresh clone, after its warm-up); orders a parallel run
     title="Pick-and-place machine",
     load=_load,
     output_label="head position y (standardised)",

@@ -53,7 +53,7 @@ def _load(*, data_home=None, download_if_missing=True):
 
 BENCHMARK = Benchmark(
     name="pick-and-place-nss",
-    cost=19,  # seconds of one core, seed 0, fresh numba cache (orders a parallel run)
+    cost=37,  # CPU seconds of run all (seed 0, fresh clone, after its warm-up); orders a parallel run
     title="Pick-and-place machine, neural state-space protocol",
     load=_load,
     output_label="head position y (scaled)",

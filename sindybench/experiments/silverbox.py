@@ -114,7 +114,7 @@ def _normalized_stls_space(quick, n_init):
 
 BENCHMARK = Benchmark(
     name="silverbox",
-    cost=38,  # seconds of one core, seed 0, fresh numba cache (orders a parallel run)
+    cost=80,  # CPU seconds of run all (seed 0, fresh clone, after its warm-up); orders a parallel run
     title="Silverbox (electronic Duffing oscillator)",
     load=_load,
     output_label="output V2 [mV]",

@@ -11,8 +11,18 @@ instead of fitting them again. The storage is opened the way
 (:func:`~sindybench.model_selection._storage.make_storage`: SQLite and other
 databases, or a journal file whose torn last record is mended), and the study
 is made by :func:`~sindybench.search.create_study`.
+
+Without a storage, the searches of one process can share their candidates inside
+:func:`shared_candidates`: a second search of the same data and settings (another
+``families`` list, say) takes the candidates it has in common with the first as the
+first computed them (the same Python objects' copies, so bit for bit the same), and
+computes only the others. ``run all`` runs each benchmark inside it, so that the row
+"identified automatically, equations only" costs only what the row "identified
+automatically" did not already compute.
 """
 
+import contextlib
+import copy
 import hashlib
 import json
 import logging
@@ -24,7 +34,7 @@ import optuna
 from ..model_selection._storage import describe_storage, make_storage
 from ..search import create_study
 
-__all__ = ["CandidateStore", "fingerprint"]
+__all__ = ["CandidateStore", "fingerprint", "shared_candidates"]
 
 logger = logging.getLogger(__name__)
 
@@ -32,6 +42,38 @@ logger = logging.getLogger(__name__)
 STUDY_ATTR = "identify_call"
 #: the default study name with a storage
 DEFAULT_STUDY = "identify"
+#: the candidates of the searches inside :func:`shared_candidates` (signature -> key -> row), else None
+_SHARED = None
+
+
+@contextlib.contextmanager
+def shared_candidates():
+    """Let the searches without a storage inside this block share their candidates (see the module text).
+
+    A search reads back a candidate only when its signature (the data's
+    fingerprint and the settings that change a candidate's result, as a storage
+    checks them) and its key are those of a candidate computed before in the
+    block; nested blocks share the outer one's candidates. On leaving the
+    outermost block they are dropped.
+
+    Examples
+    --------
+    >>> with shared_candidates():
+    ...     first = CandidateStore(None, None, {"data": "abc"})
+    ...     first.put("k", {"errors": [0.5]})
+    ...     CandidateStore(None, None, {"data": "abc"}).get("k"), CandidateStore(None, None, {"data": "xyz"}).get("k")
+    ({'errors': [0.5]}, None)
+    >>> CandidateStore(None, None, {"data": "abc"}).get("k") is None
+    True
+    """
+    global _SHARED
+    outer = _SHARED
+    if outer is None:
+        _SHARED = {}
+    try:
+        yield
+    finally:
+        _SHARED = outer
 
 
 def fingerprint(X, y, dt):
@@ -84,7 +126,10 @@ class CandidateStore:
     def __init__(self, storage, study_name, signature):
         self.study, self.n_read = None, 0
         self._done = {}
+        self._shared = None  # the rows computed by this process's searches of the same signature (shared_candidates)
         if storage is None:
+            if _SHARED is not None:
+                self._shared = _SHARED.setdefault(json.dumps(signature, sort_keys=True, default=str), {})
             return
         name = DEFAULT_STUDY if study_name is None else study_name
         study = create_study(0, storage=make_storage(storage), study_name=name, load_if_exists=True)
@@ -123,6 +168,9 @@ class CandidateStore:
     def get(self, key):
         """The stored row of ``key`` (the candidate's settings, ``errors``, ``n_terms``, ``max_row_terms``,
         ``fit_time``, ``status``, and the screen's ``path_length``), or None."""
+        if self._shared is not None:
+            row = self._shared.get(key)
+            return None if row is None else copy.deepcopy(row)
         attrs = self._done.get(key)
         if attrs is None:
             return None
@@ -132,6 +180,9 @@ class CandidateStore:
 
     def put(self, key, row, **extra):
         """Record ``row`` (a candidate's settings and result) as one finished trial named ``key``."""
+        if self._shared is not None:  # a copy, as computed (the search may change its rows later)
+            self._shared.setdefault(key, copy.deepcopy(dict(row, **extra)))
+            return
         if self.study is None or key in self._done:
             return
         attrs = {k: row[k] for k in ("family", "library", "derivative", "input_hold", "input_delay", "threshold",

@@ -149,13 +149,17 @@ def test_auto_keeps_the_best_start_by_validation(rng):
     model = _model(dt, len(u), "auto").fit(u, y)
     names = [s["start"] for s in model.starts_]
     assert names == ["input lag", "output lag", "subspace"]
-    scores = [s["score"] for s in model.starts_]
-    n_val = len(u) // 4
-    kept = float(np.sqrt(np.mean((model.predict(u, y_init=y[:5])[-n_val:] - y[-n_val:]) ** 2)))
-    assert kept == pytest.approx(min(scores), rel=1e-9)
-    assert kept <= scores[0]  # never worse than today's single start (the input lag) on validation
+    scores = {s["start"]: s["score"] for s in model.starts_}
+    record = model.refined_results_
+    assert [e["start"] for e in record] == ["input lag", "output lag", "subspace"]  # n_refined=1: one of each
+    assert all(e["error"] is None and np.isfinite(e["refined_score"]) for e in record)
+    kept = min(record, key=lambda e: e["refined_score"])
+    assert scores[kept["start"]] == min(scores.values()) == kept["refined_score"]
+    assert model.best_params_ == kept["values"]
     assert model.get_params()["hidden__start"] == "auto"  # the parameter stays; the fitted strategy is the start's
-    assert model.hidden_.start in ("lag", "subspace")
+    assert model.hidden_.start == ("subspace" if kept["start"] == "subspace" else "lag")
+    assert model.hidden_.driver == ("output" if kept["start"] == "output lag" else "input")
+    assert _rmse(model, u, y) < 0.05  # noise 0.005, output std ~ 0.5
     with pytest.raises(ValueError, match="start='auto' fits one record"):
         _model(dt, len(u), "auto").fit([u, u], [y, y])
 
@@ -182,18 +186,16 @@ def test_a_start_whose_model_diverges_is_a_failed_start(rng, monkeypatch):
     """A start whose fitted model raises SimulationError (as the initial-state fit of a diverging model did) is
     recorded as failed with its reason; the other starts go on (was: the error ended the fit, and identify)."""
     u, y, dt, _ = _motor(rng, n=300)
-    predict = HiddenStateSINDy.predict
 
-    def diverging(self, X, **kwargs):
-        if self.hidden.start == "subspace":
-            raise SimulationError("cannot refine: the starting model's simulation diverges on the record", step=3)
-        return predict(self, X, **kwargs)
+    def diverging(*args, **kwargs):
+        raise SimulationError("cannot refine: the starting model's simulation diverges on the record", step=3)
 
-    monkeypatch.setattr(HiddenStateSINDy, "predict", diverging)
+    monkeypatch.setattr("sindybench.hidden._latent.subspace_start", diverging)
     model = _model(dt, len(u), "auto", n_trials=2, refine=OutputErrorRefinement(max_nfev=3)).fit(u, y)
     errors = {s["start"]: s["error"] for s in model.starts_}
     assert errors["subspace"] == "SimulationError: cannot refine: the starting model's simulation diverges on the record"
     assert errors["input lag"] is None and model.hidden_.start == "lag"
+    assert [e["start"] for e in model.refined_results_] == ["input lag", "output lag"]  # nothing of the subspace
 
 
 def test_a_diverging_start_is_refined_by_prediction_error(rng, monkeypatch):

@@ -238,8 +238,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         ``refine``.
     starts_ : list of dict
         With ``LatentHiddenState(start="auto")`` only: each kind of start's
-        name, its best validation score after refinement on the training
-        part, CPU seconds (search and refinement) and error (the best one is
+        name, its best validation score (normalized RMSE of the validation
+        block) after refinement on the training part, CPU seconds (search and refinement) and error (the best one is
         kept; ``refined_results_`` lists every refined candidate).
     scaling_ : dict or None
         With ``normalize``: ``{"mean": ..., "scale": ...}`` of the training

@@ -116,7 +116,9 @@ def search_starts(estimator, starts, est_space, X, y, dt, n_fit, derivative):
     estimator's inner search (its own space; a start with nothing to search,
     such as the subspace model, is scored at its one setting, or at each
     entry of its ``"auto"`` grid); the first start's ``n_refined`` best
-    distinct candidates and every other start's best one are refined side by
+    distinct candidates and every other start's best one (a start whose
+    every candidate diverges: its best still, as the refinement may rescue
+    it; one whose every fit fails: none) are refined side by
     side on the training part (:func:`refine_best`) and scored on the
     validation block only, and the best is kept: the caller refits only it.
     The starts record lists each start's name, best refined validation score
@@ -135,11 +137,15 @@ def search_starts(estimator, starts, est_space, X, y, dt, n_fit, derivative):
             with np.errstate(all="ignore"):
                 results = [(values, objective(values)) for values in
                            auto_grid(estimator, strategy, X[0].shape[1], searched=False) or [{}]]
-        best = distinct_best(results, estimator.n_refined if i == 0 else 1)
+        # a start whose every candidate diverges before the refinement still has its best refined (the refinement
+        # falls back to prediction error when the start cannot be simulated)
+        best = distinct_best(results, estimator.n_refined if i == 0 else 1) or [min(results, key=lambda r: r[1])]
         results_of[name] = results
+        if objective.first_error is not None and best[0][1] >= SEARCH_PENALTY:  # none simulates, a fit raised: its error
+            best = []
         pool += [(name, strategy, values, score) for values, score in best]
         summary.append({"start": name, "score": np.inf, "seconds": time.process_time() - t0,
-                        "error": None if best else (objective.first_error or "every candidate failed")})
+                        "error": None if best else objective.first_error})
     if not pool:
         raise ValueError("every start of the latent states failed: " +
                          "; ".join(f"{e['start']}: {e['error']}" for e in summary))

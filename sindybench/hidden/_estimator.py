@@ -26,8 +26,7 @@ from ._candidate import Candidate, candidate_initial_state, fit_candidate, struc
 from ._derivative import Derivative
 from ._objective import VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
-from ._latent_starts import fit_starts
-from ._multistart import refine_best
+from ._multistart import refine_best, search_starts
 from ._refinement import refined_values, refinement_problem
 
 __all__ = ["HiddenStateSINDy"]
@@ -129,7 +128,8 @@ class HiddenStateSINDy(DynamicsEstimator):
         by simulation error (``refine``) on the training part and scored again
         on the validation block; the best of them after the refinement is
         kept (``refined_results_`` records each). 1: the search's best is kept
-        as it is, then refined.
+        as it is, then refined. With ``LatentHiddenState(start="auto")`` the
+        pool also holds the best candidate of each other kind of start.
     search_params : dict, optional
         Further parameters of this estimator to search jointly, by nested
         name: ``{"optimizer__threshold": LogUniform(1e-3, 1.0),
@@ -215,8 +215,9 @@ class HiddenStateSINDy(DynamicsEstimator):
         Every trial's values and validation score (normalized RMSE); without
         a search, every candidate of the ``"auto"`` parameters.
     refined_results_ : list of dict
-        With ``n_refined > 1``: each candidate refined after the search, its
-        values, ``score`` (before) and ``refined_score`` (after the
+        With ``n_refined > 1`` or ``start="auto"``: each candidate refined
+        after the search, its ``start`` (the kind of start with
+        ``start="auto"``, else None), values, ``score`` (before) and ``refined_score`` (after the
         refinement), CPU ``seconds`` and ``error``; empty otherwise (and in a
         loaded model file).
     input_hold_ : str
@@ -246,8 +247,10 @@ class HiddenStateSINDy(DynamicsEstimator):
         status, refined physical parameters, pruned terms); None without
         ``refine``.
     starts_ : list of dict
-        With ``LatentHiddenState(start="auto")`` only: each start's name,
-        validation score, CPU seconds and error (the best one is kept).
+        With ``LatentHiddenState(start="auto")`` only: each kind of start's
+        name, its best validation score (normalized RMSE of the validation
+        block) after refinement on the training part, CPU seconds (search and refinement) and error (the best one is
+        kept; ``refined_results_`` lists every refined candidate).
     scaling_ : dict or None
         With ``normalize``: ``{"mean": ..., "scale": ...}`` of the training
         states and inputs ``[x, u]``; None without.
@@ -417,11 +420,10 @@ class HiddenStateSINDy(DynamicsEstimator):
         self
         """
         X, y, y_1d, several = self._check_fit_records(X, y, y_kind="outputs")
-        if getattr(self.hidden, "start", None) == "auto":  # several starts, the best kept
-            if several:
-                raise ValueError("start='auto' fits one record; got several. Fit each start (start='lag', "
-                                 "'subspace') and compare them, or pass one record.")
-            return fit_starts(self, X[0], y[0][:, 0] if y_1d else y[0], dt)
+        auto_start = getattr(self.hidden, "start", None) == "auto"  # several kinds of start in one refined pool
+        if auto_start and several:
+            raise ValueError("start='auto' fits one record; got several. Fit each start (start='lag', "
+                             "'subspace') and compare them, or pass one record.")
         dt, est_space = self._check_params(dt)
         X = [self.delayed_inputs(X_r) for X_r in X]
         self._check_refine_records(len(y))
@@ -432,10 +434,10 @@ class HiddenStateSINDy(DynamicsEstimator):
         for i, (X_r, y_r) in enumerate(zip(X, y)):
             with in_record(i, several):
                 hidden._validate_data(X_r, y_r)
-        space = {_HIDDEN_PREFIX + k: dim for k, dim in hidden.search_space().items()}
-        space.update(est_space)
-        if space and is_auto(self.input_hold) and X[0].shape[1]:
-            space["input_hold"] = Categorical(list(HOLDS))  # "auto": the inner search decides the hold too
+        starts = hidden.starts() if auto_start else None
+        if starts:
+            hidden = starts[0][1]
+        space = self._search_space(hidden, est_space, X[0].shape[1])
         grid = auto_grid(self, hidden, X[0].shape[1], searched=bool(space))
         n = [y_r.shape[0] for y_r in y]
         best_params, search_results, refined_results = {}, [], []
@@ -445,15 +447,15 @@ class HiddenStateSINDy(DynamicsEstimator):
         if not any(k.split("__")[0] == "differentiation" for k in space):
             derivative = Derivative(self._differentiation_of(self.differentiation), dt)
             derivative.pin(y)
-        if space:
+        starts_record = None
+        if starts:  # every kind of start searched, its best refined side by side on the training part, one kept
             n_fit = [n_r - self._n_validation(n_r, record=i if several else None) for i, n_r in enumerate(n)]
-            objective = SearchObjective(lambda values: self._candidate(hidden, values, X, y, dt, n_fit, derivative),
-                                        hidden, X, y, n_fit, self.validation)
-            with np.errstate(all="ignore"):
-                best_params, search_results = minimize(
-                    objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=SEARCH_PENALTY,
-                    n_local=self.local_trials, show_progress_bar=self.show_progress_bar, sampler=self.sampler,
-                )
+            hidden, best_params, search_results, refined_results, starts_record = search_starts(
+                self, starts, est_space, X, y, dt, n_fit, derivative)
+            n_rows = n if self.refit else n_fit
+        elif space:
+            n_fit = [n_r - self._n_validation(n_r, record=i if several else None) for i, n_r in enumerate(n)]
+            best_params, search_results, objective = self._inner_search(hidden, space, X, y, dt, n_fit, derivative)
             if min(s for _, s in search_results) >= SEARCH_PENALTY:
                 first = "" if objective.first_error is None else f" The first failure: {objective.first_error}"
                 raise ValueError(
@@ -461,8 +463,8 @@ class HiddenStateSINDy(DynamicsEstimator):
                     f"block; expected bounds of the searched parameters that contain a stable model.{first}"
                 )
             if self.n_refined > 1:  # the best few refined on the training part, the best after refinement kept
-                best_params, refined_results = refine_best(self, hidden, search_results, X, y, dt, n_fit, derivative,
-                                                           self.n_refined)
+                _, best_params, refined_results = refine_best(self, hidden, search_results, X, y, dt, n_fit,
+                                                              derivative, self.n_refined)
             n_rows = n if self.refit else n_fit
         elif grid:
             best_params, search_results, n_rows = decide(self, grid, hidden, X, y, dt, derivative)
@@ -489,6 +491,10 @@ class HiddenStateSINDy(DynamicsEstimator):
 
         self.best_params_, self.search_results_ = best_params, search_results
         self.refined_results_ = refined_results
+        if starts_record is not None:
+            self.starts_ = starts_record
+        else:
+            self.__dict__.pop("starts_", None)
         self.input_hold_ = cand.dynamics.input_hold
         self.hidden_ = hidden
         self.params_ = dict(cand.params)
@@ -506,6 +512,25 @@ class HiddenStateSINDy(DynamicsEstimator):
         if hasattr(hidden, "check_fit") and not several:
             hidden.check_fit(self, X[0], y[0], dt)
         return self
+
+    def _search_space(self, hidden, est_space, n_inputs):
+        """The inner search's space: the strategy's parameters (prefixed), the estimator's, the hold if "auto"."""
+        space = {_HIDDEN_PREFIX + k: dim for k, dim in hidden.search_space().items()}
+        space.update(est_space)
+        if space and is_auto(self.input_hold) and n_inputs:
+            space["input_hold"] = Categorical(list(HOLDS))  # "auto": the inner search decides the hold too
+        return space
+
+    def _inner_search(self, hidden, space, X, y, dt, n_fit, derivative):
+        """``(best values, [(values, score), ...], objective)`` of the inner search of ``hidden`` over ``space``."""
+        objective = SearchObjective(lambda values: self._candidate(hidden, values, X, y, dt, n_fit, derivative),
+                                    hidden, X, y, n_fit, self.validation)
+        with np.errstate(all="ignore"):
+            best_params, search_results = minimize(
+                objective, space, n_trials=self.n_trials, random_state=self.random_state, penalty=SEARCH_PENALTY,
+                n_local=self.local_trials, show_progress_bar=self.show_progress_bar, sampler=self.sampler,
+            )
+        return best_params, search_results, objective
 
     def _components(self, est_values):
         est = clone(self).set_params(**est_values) if est_values else self

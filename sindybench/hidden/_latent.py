@@ -117,11 +117,13 @@ class LatentHiddenState(HiddenStrategy):
         state-space model of order ``n_outputs * order + n_latent`` fitted by
         subspace identification (MOESP, no search), in the coordinates
         orthogonal to the measured ones, scaled to the gauge. ``"auto"``:
-        :class:`~sindybench.HiddenStateSINDy` fits every start of
-        :meth:`starts` (the input lag, the output lag, the subspace model),
-        each with its own search and refinement, and keeps the one with the
-        smallest simulation error on the validation block
-        (``model.starts_`` records each).
+        :class:`~sindybench.HiddenStateSINDy` searches every start of
+        :meth:`starts` (the driver's lag, the output lag, the subspace
+        model), each with its own inner search, refines the driver lag's
+        ``n_refined`` best candidates and each other start's best side by
+        side on the training part, scores each on the validation block only,
+        and refits the best one (``model.starts_`` records each start,
+        ``model.refined_results_`` each refined candidate).
     block_rows : int, optional
         Block rows of the subspace start's Hankel matrices (``start="subspace"``):
         about the samples of the slowest dynamics to resolve; None =

@@ -3,21 +3,14 @@
 * :func:`subspace_start`: the latent trajectory of a linear state-space model
   fitted by subspace identification (:func:`~sindybench.hidden._subspace.moesp`),
   scaled to the strategy's gauge;
-* :func:`fit_starts`: ``start="auto"``: one fit per start, each scored on the
-  validation block, the best kept;
 * :func:`support_warnings`: what says ``n_latent`` is more than the data support.
 """
 
-import time
-import warnings
-
 import numpy as np
-from sklearn.base import clone
 
-from ..simulate import SimulationError
 from ._subspace import singular_values, subspace_states
 
-__all__ = ["fit_starts", "subspace_start", "support_warnings"]
+__all__ = ["subspace_start", "support_warnings"]
 
 _TINY = 1e-9  # a driver coefficient below this (relative) cannot carry the scale gauge
 _FLOOR = 1e-3  # a singular value below this fraction of the largest: a state the data do not support
@@ -50,59 +43,6 @@ def subspace_start(strategy, u, y, dt, drivers):
             raise ValueError(f"the subspace start's z{j} has no driver term to fix its scale; use start='lag'.")
         scale[j] = 1.0 / c
     return z * scale, z_dot * scale
-
-
-def fit_starts(estimator, X, y, dt):
-    """``start="auto"``: ``estimator`` fitted from each start of its strategy, the best by validation kept.
-
-    Each start is fitted as a whole (its own inner search and refinement) by
-    a clone of ``estimator``; its score is the RMS error of the fitted
-    model's free run over the validation block (the last
-    ``validation_size`` samples of the record, simulated from the record's
-    start). ``estimator`` takes the best clone's fitted state, with
-    ``starts_``: the record of every start (name, score, seconds, error).
-    Returns ``estimator``.
-    """
-    best, record = _best_start(estimator, X, y, dt)
-    best.hidden_.check_fit(best, best.delayed_inputs(X), y if y.ndim == 2 else y[:, None], best.dt_)
-    estimator.__dict__.update({k: v for k, v in vars(best).items() if k.endswith("_") or k.startswith("_")})
-    estimator.starts_ = record
-    return estimator
-
-
-def _best_start(estimator, X, y, dt):
-    """``(best fitted clone, record)`` of :func:`fit_starts`."""
-    hidden = estimator.hidden
-    best, record = None, []
-    n = len(y)
-    n_val = estimator._n_validation(n)
-    for name, strategy in hidden.starts():
-        t0 = time.process_time()
-        est = clone(estimator).set_params(hidden=strategy)
-        entry = {"start": name, "score": np.inf, "error": None}
-        try:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                est.fit(X, y, dt=dt)
-                pred = est.predict(X, y_init=y[: max(1, estimator_init(est))])
-            err = np.asarray(pred, dtype=float).reshape(n, -1)[n - n_val:] - np.asarray(y).reshape(n, -1)[n - n_val:]
-            score = float(np.sqrt(np.mean(err ** 2)))
-            entry["score"] = score if np.isfinite(score) else np.inf
-        except (ValueError, FloatingPointError, np.linalg.LinAlgError, SimulationError) as exc:  # a failed start
-            entry["error"] = f"{type(exc).__name__}: {exc}"
-        entry["seconds"] = time.process_time() - t0
-        record.append(entry)
-        if entry["error"] is None and (best is None or entry["score"] < best[0]):
-            best = (entry["score"], est)
-    if best is None:
-        raise ValueError("every start of the latent states failed: " +
-                         "; ".join(f"{e['start']}: {e['error']}" for e in record))
-    return best[1], record
-
-
-def estimator_init(est):
-    """Samples of ``y_init`` the fitted estimator's ``predict`` uses (at least 1)."""
-    return int(getattr(est, "n_init", None) or 5)
 
 
 def support_warnings(strategy, model, u, y, dt):

@@ -26,7 +26,7 @@ from ._candidate import Candidate, candidate_initial_state, fit_candidate, struc
 from ._derivative import Derivative
 from ._objective import VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
-from ._multistart import refine_best, search_starts
+from ._multistart import refine_best, refit_failed, search_starts
 from ._refinement import refined_values, refinement_problem
 
 __all__ = ["HiddenStateSINDy"]
@@ -441,7 +441,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         grid = auto_grid(self, hidden, X[0].shape[1], searched=bool(space))
         n = [y_r.shape[0] for y_r in y]
         best_params, search_results, refined_results = {}, [], []
-        n_rows = n
+        n_rows, kept = n, None  # kept: the winner of several refined candidates (refined on the training part)
         # the outputs' derivatives do not depend on a trial unless the differentiation is searched
         derivative = None
         if not any(k.split("__")[0] == "differentiation" for k in space):
@@ -450,7 +450,7 @@ class HiddenStateSINDy(DynamicsEstimator):
         starts_record = None
         if starts:  # every kind of start searched, its best refined side by side on the training part, one kept
             n_fit = [n_r - self._n_validation(n_r, record=i if several else None) for i, n_r in enumerate(n)]
-            hidden, best_params, search_results, refined_results, starts_record = search_starts(
+            hidden, best_params, search_results, refined_results, starts_record, kept = search_starts(
                 self, starts, est_space, X, y, dt, n_fit, derivative)
             n_rows = n if self.refit else n_fit
         elif space:
@@ -463,8 +463,8 @@ class HiddenStateSINDy(DynamicsEstimator):
                     f"block; expected bounds of the searched parameters that contain a stable model.{first}"
                 )
             if self.n_refined > 1:  # the best few refined on the training part, the best after refinement kept
-                _, best_params, refined_results = refine_best(self, hidden, search_results, X, y, dt, n_fit,
-                                                              derivative, self.n_refined)
+                _, best_params, refined_results, kept = refine_best(self, hidden, search_results, X, y, dt, n_fit,
+                                                                    derivative, self.n_refined)
             n_rows = n if self.refit else n_fit
         elif grid:
             best_params, search_results, n_rows = decide(self, grid, hidden, X, y, dt, derivative)
@@ -484,6 +484,13 @@ class HiddenStateSINDy(DynamicsEstimator):
                 if not is_auto(self.refine):
                     raise
                 x0_refined, refinement = None, {"status": -1, "message": f"skipped (refine='auto'): {exc}"}
+            if x0_refined is not None and kept is not None and n_rows is n:
+                failed, new, old = refit_failed(hidden, cand, x0_refined, kept, X, y, n_fit)
+                if failed:  # the refit's start led elsewhere: the winner refined on the training part is kept
+                    cand, x0_refined, refinement = kept[0], kept[1], dict(kept[2])
+                    refinement["refit"] = (f"failed: the refit on the whole record simulates the training part "
+                                           f"with normalized RMSE {new:.4g} against {old:.4g}; the candidate "
+                                           "refined on the training part is kept")
             if x0_refined is not None:  # the refined model's own trajectories replace the reconstruction
                 x0 = x0_refined[0]
                 states = np.vstack([cand.dynamics.simulate(X_r, x0_r, on_divergence="nan")

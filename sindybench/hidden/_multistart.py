@@ -21,11 +21,13 @@ from ..simulate import SimulationError
 from ._auto import auto_grid, auto_refinement
 from ._objective import SearchObjective, validation_error
 
-__all__ = ["distinct_best", "refine_best", "search_starts"]
+__all__ = ["distinct_best", "refine_best", "refit_failed", "search_starts"]
 
 # a model refined on the training part is scored on the validation block only: "full" would score the samples it
 # was refined on too
 _VALIDATION = {"full": "continued"}
+# a refit on the whole record that simulates the training part this many times worse than the kept winner has failed
+_REFIT_RATIO = 2.0
 _FAILURES = (ValueError, FloatingPointError, np.linalg.LinAlgError, SimulationError)
 
 
@@ -61,7 +63,7 @@ def _with_first_states(cand, x0):
 
 
 def refine_best(estimator, hidden, search_results, X, y, dt, n_fit, derivative, n, extra=()):
-    """``(strategy, values, record)``: the search's ``n`` best distinct candidates refined on the training part.
+    """``(strategy, values, record, kept)``: the search's ``n`` best distinct candidates refined on the training part.
 
     Each candidate is fitted with its values on the first ``n_fit`` samples
     of each record, refined there by simulation error (the estimator's
@@ -72,8 +74,10 @@ def refine_best(estimator, hidden, search_results, X, y, dt, n_fit, derivative, 
     own strategy in the same pool. ``record`` lists, for each, its start's
     name (None for ``hidden``'s), values, score before and after the
     refinement, CPU seconds and error (a candidate whose fit or refinement
-    fails is left out); the best's strategy and values are returned. When
-    every one fails, the search's best values are returned (with ``hidden``).
+    fails is left out); the best's strategy and values are returned, and
+    ``kept``: its refined candidate, refined first states and refinement
+    record (for :func:`refit_failed`). When every one fails, the search's
+    best values are returned (with ``hidden``; ``kept`` None).
     """
     pool = [(None, hidden, values, score) for values, score in distinct_best(search_results, n)] + list(extra)
     record, best = [], None
@@ -87,9 +91,9 @@ def refine_best(estimator, hidden, search_results, X, y, dt, n_fit, derivative, 
                 cand = estimator._candidate(strategy, values, X, y, dt, n_fit, derivative)
                 head = ([X_r[:k] for X_r, k in zip(X, n_fit)], [y_r[:k] for y_r, k in zip(y, n_fit)])
                 refine = auto_refinement(estimator.refine, cand.dynamics)
-                refined, x0 = cand, None
+                refined, x0, summary = cand, None, None
                 if refine is not None:
-                    refined, x0, _ = estimator._refine(strategy, cand, *head, refine=refine)
+                    refined, x0, summary = estimator._refine(strategy, cand, *head, refine=refine)
                 if x0 is not None:
                     refined = _with_first_states(refined, x0)
                 entry["refined_score"] = float(validation_error(strategy, refined, X, y, n_fit, _VALIDATION.get(
@@ -100,17 +104,35 @@ def refine_best(estimator, hidden, search_results, X, y, dt, n_fit, derivative, 
         record.append(entry)
         if entry["error"] is None and entry["refined_score"] < SEARCH_PENALTY and (
                 best is None or entry["refined_score"] < best[0]["refined_score"]):
-            best = (entry, strategy)
+            best = (entry, strategy, (refined, x0, summary) if x0 is not None else None)
     if best is None:
         if not search_results and pool:  # nothing of hidden's own: the best unrefined of the pool
             _, strategy, values, _ = min(pool, key=lambda item: item[3])
-            return strategy, dict(values), record
-        return hidden, dict(min(search_results, key=lambda item: item[1])[0]), record
-    return best[1], dict(best[0]["values"]), record
+            return strategy, dict(values), record, None
+        return hidden, dict(min(search_results, key=lambda item: item[1])[0]), record, None
+    return best[1], dict(best[0]["values"]), record, best[2]
+
+
+def refit_failed(hidden, refit, x0, kept, X, y, n_fit, ratio=_REFIT_RATIO):
+    """Whether the refit on the whole record (``refit``, first states ``x0``) failed against ``kept``.
+
+    ``kept`` is :func:`refine_best`'s winner, refined on the first ``n_fit``
+    samples of each record. Both models have seen those samples; the refit
+    has failed when its simulation of them is more than ``ratio`` times
+    worse (normalized RMSE, or a divergence) than the winner's: its start
+    (an equation-error fit on the whole record) led the refinement to
+    another minimum. Returns ``(failed, refit error, kept error)``.
+    """
+    head = ([X_r[:k] for X_r, k in zip(X, n_fit)], [y_r[:k] for y_r, k in zip(y, n_fit)])
+    n_head = [len(X_r) for X_r in head[0]]
+    with np.errstate(all="ignore"):
+        new = float(validation_error(hidden, _with_first_states(refit, x0), *head, n_head, "full"))
+        old = float(validation_error(hidden, kept[0], *head, n_head, "full"))
+    return bool(new >= SEARCH_PENALTY or new > ratio * old), new, old
 
 
 def search_starts(estimator, starts, est_space, X, y, dt, n_fit, derivative):
-    """``(strategy, values, search_results, refined record, starts record)`` of ``start="auto"``.
+    """``(strategy, values, search_results, refined record, starts record, kept)`` of ``start="auto"``.
 
     Each start ``(name, strategy)`` of ``starts`` is searched by the
     estimator's inner search (its own space; a start with nothing to search,
@@ -149,7 +171,8 @@ def search_starts(estimator, starts, est_space, X, y, dt, n_fit, derivative):
     if not pool:
         raise ValueError("every start of the latent states failed: " +
                          "; ".join(f"{e['start']}: {e['error']}" for e in summary))
-    strategy, values, record = refine_best(estimator, starts[0][1], [], X, y, dt, n_fit, derivative, 0, extra=pool)
+    strategy, values, record, kept = refine_best(estimator, starts[0][1], [], X, y, dt, n_fit, derivative, 0,
+                                                 extra=pool)
     for entry in summary:
         mine = [e for e in record if e["start"] == entry["start"]]
         entry["seconds"] += sum(e["seconds"] for e in mine)
@@ -158,5 +181,5 @@ def search_starts(estimator, starts, est_space, X, y, dt, n_fit, derivative):
             entry["score"] = min(scores)
         elif mine and entry["error"] is None:
             entry["error"] = next((e["error"] for e in mine if e["error"]), "the refined candidates failed")
-    kept = next(name for name, s in starts if s is strategy)
-    return strategy, values, results_of[kept], record, summary
+    name = next(name for name, s in starts if s is strategy)
+    return strategy, values, results_of[name], record, summary, kept

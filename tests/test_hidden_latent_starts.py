@@ -341,8 +341,23 @@ def test_n_refined_keeps_the_best_refined_candidate_at_every_seed(rng):
     assert fits[0].best_params_ == best["values"]
     assert np.array_equal(fits[0].coef_, fits[1].coef_)  # a grid: the same model at every seed
     assert _rmse(fits[0], u, y) < 0.05
+    assert "refit" not in fits[0].refinement_  # the refit on the whole record did not fail
     plain = _model(dt, n, "lag").set_params(sampler="grid").fit(u, y)
     assert plain.refined_results_ == []
+
+
+def test_a_refit_that_fails_keeps_the_winner_refined_on_the_training_part(rng, monkeypatch):
+    import sindybench.hidden._estimator as estimator_module
+
+    u, y, dt, _ = _motor(rng)
+    refit = _model(dt, len(y), "lag").set_params(sampler="grid", n_refined=2).fit(u, y)
+    monkeypatch.setattr(estimator_module, "refit_failed", lambda *args, **kwargs: (True, 9.0, 1.0))
+    kept = _model(dt, len(y), "lag").set_params(sampler="grid", n_refined=2).fit(u, y)
+    assert kept.refinement_["refit"].startswith("failed: the refit on the whole record simulates the training "
+                                                "part with normalized RMSE 9 against 1")
+    assert kept.best_params_ == refit.best_params_ and not np.array_equal(kept.coef_, refit.coef_)
+    assert kept.states_.shape == refit.states_.shape and np.all(np.isfinite(kept.states_))
+    assert _rmse(kept, u, y) < 0.05
 
 
 def test_n_refined_must_be_a_positive_integer(rng):

@@ -14,7 +14,8 @@ the benchmark data (``SINDYBENCH_DATA``). Run::
     SINDYBENCH_DATA=../shared/data python benchmarks/bench_identify.py [benchmark ...] [--families a,b,...]
 
 With ``--seeds 0-4`` (or ``0,3,7``) it fits every benchmark's identified row once per seed
-(``random_state``: the latent families' starts) instead, and prints per seed the chosen family,
+(``random_state``; no default family draws since the latent families search a grid of starts: the table
+checks it) instead, and prints per seed the chosen family,
 the number of terms, the test scores and the CPU time, then per test set the median and the
 worst seed and whether the worst is within 25 % of the median; ``--markdown FILE`` also writes
 that table (``docs/identify_seeds.inc``, included by docs/identify.rst, is written so).

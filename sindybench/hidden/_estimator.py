@@ -26,7 +26,7 @@ from ._candidate import Candidate, candidate_initial_state, fit_candidate, struc
 from ._derivative import Derivative
 from ._objective import VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
-from ._multistart import refine_best, refit_failed, search_starts
+from ._multistart import heads, refine_best, refit_failed, search_starts
 from ._refinement import refined_values, refinement_problem
 
 __all__ = ["HiddenStateSINDy"]
@@ -477,14 +477,14 @@ class HiddenStateSINDy(DynamicsEstimator):
         refinement = None
         refine = auto_refinement(self.refine, cand.dynamics)
         if refine is not None:
-            head = ([X_r[:k] for X_r, k in zip(X, n_rows)], [y_r[:k] for y_r, k in zip(y, n_rows)])
+            head = heads(X, y, n_rows)
             try:
                 cand, x0_refined, refinement = self._refine(hidden, cand, *head, refine=refine)
             except ValueError as exc:  # "auto" refines what can be refined; a refinement asked for must run
                 if not is_auto(self.refine):
                     raise
                 x0_refined, refinement = None, {"status": -1, "message": f"skipped (refine='auto'): {exc}"}
-            if x0_refined is not None and kept is not None and n_rows is n:
+            if x0_refined is not None and kept is not None and self.refit:
                 failed, new, old = refit_failed(hidden, cand, x0_refined, kept, X, y, n_fit)
                 if failed:  # the refit's start led elsewhere: the winner refined on the training part is kept
                     cand, x0_refined, refinement = kept[0], kept[1], dict(kept[2])

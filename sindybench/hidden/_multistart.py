@@ -52,6 +52,11 @@ def distinct_best(search_results, n, penalty=SEARCH_PENALTY):
     return out
 
 
+def heads(X, y, n):
+    """``(X, y)`` cut to the first ``n[i]`` samples of each record (lists, one entry per record)."""
+    return [X_r[:k] for X_r, k in zip(X, n)], [y_r[:k] for y_r, k in zip(y, n)]
+
+
 def _with_first_states(cand, x0):
     """``cand`` whose records start from the refined first states ``x0`` (n_records, n_states)."""
     designs = []
@@ -81,6 +86,7 @@ def refine_best(estimator, hidden, search_results, X, y, dt, n_fit, derivative, 
     """
     pool = [(None, hidden, values, score) for values, score in distinct_best(search_results, n)] + list(extra)
     record, best = [], None
+    head = heads(X, y, n_fit)
     for name, strategy, values, score in pool:
         t0 = time.process_time()
         entry = {"start": name, "values": dict(values), "score": float(score), "refined_score": SEARCH_PENALTY,
@@ -89,7 +95,6 @@ def refine_best(estimator, hidden, search_results, X, y, dt, n_fit, derivative, 
             with warnings.catch_warnings(), np.errstate(all="ignore"):
                 warnings.simplefilter("ignore")
                 cand = estimator._candidate(strategy, values, X, y, dt, n_fit, derivative)
-                head = ([X_r[:k] for X_r, k in zip(X, n_fit)], [y_r[:k] for y_r, k in zip(y, n_fit)])
                 refine = auto_refinement(estimator.refine, cand.dynamics)
                 refined, x0, summary = cand, None, None
                 if refine is not None:
@@ -123,11 +128,10 @@ def refit_failed(hidden, refit, x0, kept, X, y, n_fit, ratio=_REFIT_RATIO):
     (an equation-error fit on the whole record) led the refinement to
     another minimum. Returns ``(failed, refit error, kept error)``.
     """
-    head = ([X_r[:k] for X_r, k in zip(X, n_fit)], [y_r[:k] for y_r, k in zip(y, n_fit)])
-    n_head = [len(X_r) for X_r in head[0]]
-    with np.errstate(all="ignore"):
-        new = float(validation_error(hidden, _with_first_states(refit, x0), *head, n_head, "full"))
-        old = float(validation_error(hidden, kept[0], *head, n_head, "full"))
+    head = heads(X, y, n_fit)
+    with np.errstate(all="ignore"):  # "full": the whole head scored (its n_fit unused)
+        new = float(validation_error(hidden, _with_first_states(refit, x0), *head, n_fit, "full"))
+        old = float(validation_error(hidden, kept[0], *head, n_fit, "full"))
     return bool(new >= SEARCH_PENALTY or new > ratio * old), new, old
 
 

@@ -62,6 +62,11 @@ method ``HiddenStateSINDy`` calls on a strategy, besides scikit-learn's ``get_pa
 ``refine_free(coef, terms, *, n_outputs, n_inputs)``
     which learned coefficients that refinement frees (default: the nonzero ones;
     the latent strategy keeps each row's gauge coefficient fixed).
+``coef_support(terms, *, n_outputs, n_inputs)``
+    which learned coefficients may be nonzero at all, a boolean (n_terms,
+    n_learned), or None (default: every one): the rest are set to 0 after the
+    equation-error fit and never freed by the refinement (e.g. the latent
+    strategy's cascade, whose latent rows have no output terms).
 ``physical_map(params, *, n_outputs, n_inputs)``
     how those parameters enter the fixed rows, declared once: a
     :class:`~sindybench.refine.CoefficientMap` (entries ``scale * prod / prod`` of
@@ -353,6 +358,13 @@ class HiddenStrategy(BaseEstimator):
         Declared once, so that a refinement evaluates it without calling the
         strategy back. The default: None (the refinement then calls
         :meth:`structure` at every evaluation when the fixed rows have terms).
+        """
+        return None
+
+    def coef_support(self, terms, *, n_outputs, n_inputs):
+        """Entries of the learned coefficients (n_terms, n_learned) that may be nonzero; None: every one.
+
+        ``terms`` are the library's terms (None for a Python library).
         """
         return None
 

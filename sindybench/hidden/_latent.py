@@ -128,6 +128,14 @@ class LatentHiddenState(HiddenStrategy):
         Block rows of the subspace start's Hankel matrices (``start="subspace"``):
         about the samples of the slowest dynamics to resolve; None =
         ``max(2 n_states, 10)``.
+    cascade : bool, default=False
+        A cascade: the latent rows have no term of an output (or velocity),
+        ``z' = f(z, u)`` and ``y' = g(y, z, u)`` (tanks in series, a thermal
+        lag, an actuator before the plant). Those terms are set to 0 after the
+        equation-error fit and never freed by the refinement
+        (:meth:`coef_support`); the hard terms of the library then reach the
+        latent rows through the latent state only. Needs ``driver="input"``
+        and a lag start (``start="auto"`` tries the input lag only).
 
     Notes
     -----
@@ -147,12 +155,16 @@ class LatentHiddenState(HiddenStrategy):
     z0: the coefficient of u0 in z0' is held at 1 by the refinement (scale gauge)
     >>> LatentHiddenState(order=2, driver="velocity").structure({"tau": 1.0}, n_outputs=1, n_inputs=1).state_names
     ['y0', 'v0', 'z0']
+    >>> terms = [(), ((0, POW, 1.0, 0.0),), ((1, POW, 1.0, 0.0),), ((2, POW, 1.0, 0.0),)]  # 1, y0, z0, u0
+    >>> LatentHiddenState(cascade=True).coef_support(terms, n_outputs=1, n_inputs=1)[:, 1].tolist()  # z0's row
+    [True, False, True, True]
     """
 
     _physical = ("tau", "gain", "offset")
 
     def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, offset=0.0,
-                 bounds=None, latent_bounds=None, output_bounds=None, start="lag", block_rows=None):
+                 bounds=None, latent_bounds=None, output_bounds=None, start="lag", block_rows=None,
+                 cascade=False):
         self.n_latent = n_latent
         self.order = order
         self.driver = driver
@@ -165,6 +177,7 @@ class LatentHiddenState(HiddenStrategy):
         self.output_bounds = output_bounds
         self.start = start
         self.block_rows = block_rows
+        self.cascade = cascade
 
     def _validate(self):
         if isinstance(self.n_latent, bool) or not isinstance(self.n_latent, numbers.Integral) or self.n_latent < 1:
@@ -197,6 +210,11 @@ class LatentHiddenState(HiddenStrategy):
         if self.block_rows is not None and (isinstance(self.block_rows, bool) or not isinstance(
                 self.block_rows, numbers.Integral) or self.block_rows < 2):
             raise ValueError(f"block_rows must be None or an integer >= 2; got {self.block_rows!r}.")
+        if not isinstance(self.cascade, (bool, np.bool_)):
+            raise TypeError(f"cascade must be True or False; got {self.cascade!r}.")
+        if self.cascade and (self.driver != "input" or self.start == "subspace"):
+            raise ValueError(f"cascade=True needs driver='input' and a lag start (its latent rows have no output "
+                             f"terms); got driver={self.driver!r}, start={self.start!r}.")
         self.search_space()
 
     def search_space(self):
@@ -248,6 +266,8 @@ class LatentHiddenState(HiddenStrategy):
         """
         own = clone(self).set_params(start="lag")
         out = [(f"{self.driver} lag", own)]
+        if self.cascade:  # the output lag and the subspace states mix the outputs into the latent rows
+            return out
         if self.driver != "output":
             out.append(("output lag", clone(own).set_params(driver="output")))
         out.append(("subspace", clone(own).set_params(start="subspace")))
@@ -268,8 +288,24 @@ class LatentHiddenState(HiddenStrategy):
                                          initial_state=refine.initial_state, max_samples=refine.max_samples)
 
     def canonical_mixing(self, cand, x0, n_inputs):
-        """A refined candidate in the mixing gauge (see :func:`canonical_mixing`), or None."""
-        return canonical_mixing(self, cand, x0, n_inputs)
+        """A refined candidate in the mixing gauge (see :func:`canonical_mixing`), or None (a cascade: no mixing)."""
+        return None if self.cascade else canonical_mixing(self, cand, x0, n_inputs)
+
+    def coef_support(self, terms, *, n_outputs, n_inputs):
+        """With ``cascade=True``, the entries that may be nonzero: every one but the output terms of the latent rows.
+
+        A term with a factor of an output (or a velocity) is held at 0 in
+        every latent row; None without a cascade (every entry may be nonzero).
+        """
+        if not self.cascade:
+            return None
+        if terms is None:
+            raise ValueError("LatentHiddenState(cascade=True) needs a library of built-in terms; got a Python library.")
+        n_meas = n_outputs * int(self.order)
+        support = np.ones((len(terms), n_outputs + int(self.n_latent)), dtype=bool)  # learned: (y or v), z
+        measured = [any(col < n_meas for col, *_ in term) for term in terms]
+        support[np.asarray(measured, dtype=bool), n_outputs:] = False
+        return support
 
     def check_fit(self, model, u, y, dt):
         """Warn when ``n_latent`` looks larger than the data support (see :func:`support_warnings`)."""
@@ -398,6 +434,7 @@ class LatentHiddenState(HiddenStrategy):
         if terms is None:
             raise ValueError("LatentHiddenState needs a library of built-in terms (compiled); got a Python library.")
         free = coef != 0
+        support = self.coef_support(terms, n_outputs=n_outputs, n_inputs=n_inputs)
         terms = [tuple(t) for t in terms]
         n_meas = n_outputs * int(self.order)
         latent = range(n_meas, n_meas + int(self.n_latent))
@@ -413,7 +450,7 @@ class LatentHiddenState(HiddenStrategy):
                 raise ValueError(f"the library has no linear term of column {col} (the driver of z{j}); expected it "
                                  "in the library: its coefficient fixes the latent state's scale.")
             free[terms.index(gauge), n_outputs + j] = False
-        return free
+        return free if support is None else free & support
 
     def initial_state(self, u, y_init, dt, *, derivative, params, model):
         """Outputs (and velocities) from ``y_init``; latent states at rest for them and ``u[0]``."""

@@ -64,6 +64,10 @@ _LATENT_SEARCH = {"sampler": "grid", "n_refined": 2}
 #: subspace model in the same refined pool; measured in docs/latent.rst)
 _LATENT_START = "lag"
 _MAX_ABS = 1e6  # the estimators' default divergence bound
+#: the order-1 latent family's cascade candidate: the hinge candidate's library with the latent row free of the
+#: output's terms (``LatentHiddenState(cascade=True)``: z' = f(z, u), y' = g(y, z, u)), so that the hard terms
+#: reach the latent row on the latent state only
+LATENT_CASCADE = "cascade+hard"
 #: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
 LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
 _DEGREE = {"linear": 1, "poly2": 2, "poly3": 3}
@@ -246,7 +250,8 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
             if n_outputs == 1 and n_inputs >= 1:  # states (y, z), driven by u0; refined, so one derivative
                 for lib_name, lib in (("linear", PolynomialLibrary(degree=1)),
                                       ("linear+hard", _latent_hard_terms(settings, n_inputs)),
-                                      (LATENT_HINGE, _latent_hinges(X, settings, n_inputs, libraries))):
+                                      (LATENT_HINGE, _latent_hinges(X, settings, n_inputs, libraries)),
+                                      (LATENT_CASCADE, _latent_hinges(X, settings, n_inputs, libraries))):
                     if lib is not None:
                         out.append(({"family": family, "library": lib_name, "derivative": "finite_difference",
                                      "input_hold": hold, "input_delay": delay}, lib))
@@ -310,7 +315,7 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
     order = _ORDER[structure["family"]]
     if structure["family"] in ("order1+latent", "order1+latent2"):  # lags of the input as the start, then refined
         positive, top = bool(settings["positive"]), settings["saturation"][0]
-        hinge = structure["library"] == LATENT_HINGE  # in u0's units: the hinges' levels are named in them
+        hinge = structure["library"] in (LATENT_HINGE, LATENT_CASCADE)  # in u0's units: the levels named in them
         search = hinge and not positive  # the start's offset searched (a latent state held >= 0 keeps its zero)
         tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
         hidden = LatentHiddenState(n_latent=2 if structure["family"] == "order1+latent2" else 1, order=1,
@@ -318,7 +323,8 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
                                    bounds={"tau": tau, "offset": offset_range(library)} if search else {"tau": tau},
                                    offset=None if search else 0.0, start=_LATENT_START,
                                    latent_bounds=(0.0, np.inf) if positive else None,
-                                   output_bounds=(0.0, np.inf if top is None else top) if positive else None)
+                                   output_bounds=(0.0, np.inf if top is None else top) if positive else None,
+                                   cascade=structure["library"] == LATENT_CASCADE)
         return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,
                                 differentiation=differentiation, dt=dt, input_hold=hold, input_delay=delay,
                                 validation_size=0.15,

@@ -7,6 +7,7 @@ import pytest
 
 from sindybench import STLS, HiddenStateSINDy
 from sindybench.hidden import LatentHiddenState
+from sindybench.io import load_model
 from sindybench.libraries import ConcatLibrary, PolynomialLibrary, SqrtLibrary
 from sindybench.refine import OutputErrorRefinement
 from sindybench.simulate import simulate
@@ -59,6 +60,15 @@ def test_the_latent_row_has_no_output_terms_after_fit_and_refinement(fits):
     rmse = np.sqrt(np.mean((cascade.predict(u, y_init=y[:5]) - y) ** 2))
     assert rmse < 0.05 * np.std(y)
     assert "z0' = " in "\n".join(cascade.equations()) and "y0" not in cascade.equations()[1]
+
+
+def test_a_cascade_round_trips_through_json(fits, tmp_path):
+    u, y, _, cascade = fits
+    cascade.to_json(tmp_path / "cascade.json")
+    loaded = load_model(tmp_path / "cascade.json")
+    assert loaded.hidden_.cascade is True and loaded.equations() == cascade.equations()
+    np.testing.assert_allclose(loaded.predict(u[:200], y_init=y[:5]), cascade.predict(u[:200], y_init=y[:5]),
+                               rtol=1e-9, atol=1e-12)
 
 
 def test_a_cascade_has_one_start_and_no_mixing():

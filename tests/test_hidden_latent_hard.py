@@ -132,3 +132,65 @@ def test_a_model_file_from_before_the_offset_still_loads(tmp_path):
     loaded = load_model(tmp_path / "old.json")
     assert loaded.hidden.offset == 0.0
     np.testing.assert_allclose(loaded.predict(u, y_init=y[:5]), model.predict(u, y_init=y[:5]), rtol=1e-12)
+
+
+# ---------------------------------------------------------------- warm start: levels="range"
+def _warm(levels, library=None, **kwargs):
+    lib = library if library is not None else PolynomialLibrary(degree=1) + TermsLibrary(
+        terms=hinge_terms(1, 0.0, times=[2]) + hinge_terms(1, 0.0, side="lower", times=[2]))
+    return HiddenStateSINDy(hidden=LatentHiddenState(bounds={"tau": (0.2, 10.0)}, levels=levels), library=lib,
+                            optimizer=STLS(threshold=0.0, alpha=1e-9, normalize_columns=True), dt=DT, n_trials=6,
+                            refine=OutputErrorRefinement(max_nfev=20), initial_state="fit", show_progress_bar=False,
+                            random_state=0, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def warm():
+    u, y = _record()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = _warm("range").fit(u, y)
+        plain = _warm("library", library=PolynomialLibrary(degree=1)).fit(u, y)
+    return model, plain, u, y
+
+
+def test_the_warm_start_refines_the_hinges_from_the_plain_model(warm):
+    model, plain, u, y = warm
+    record = model.refinement_["range_levels"]
+    # it starts from the plain model: the same simulation error before its refinement as the plain one after its own
+    assert record["plain_cost"] == pytest.approx(plain.refinement_["cost"], rel=1e-6)
+    assert record["kept"] and record["cost"] <= record["plain_cost"]
+    # the levels: the 80 % and 20 % quantiles of the plain model's simulated latent state
+    z = plain.states_[:, 1]
+    assert [lv[1] for lv in record["levels"]] == pytest.approx([np.quantile(z, 0.8), np.quantile(z, 0.2)])
+    # the hinges move the fit: a saturation the plain linear model cannot follow
+    rmse = [np.sqrt(np.mean((m.predict(u, y_init=y[:5]) - y) ** 2)) for m in (model, plain)]
+    assert rmse[0] < 0.5 * rmse[1]
+    # the upper hinge's fitted level, gauge-free: the input at which the latent state at rest reaches it (true 0.4)
+    names = list(model.library_.get_feature_names_out(["y0", "z0", "u0"]))
+    a, b = (model.coef_[1, names.index(name)] for name in ("z0", "u0"))
+    upper = [e for e in latent_levels(model) if e["side"] == "upper"][0]
+    assert -upper["level"] * a / b == pytest.approx(LEVEL / 2.0, rel=0.05)
+
+
+def test_a_warm_started_model_round_trips_and_prints_its_levels(warm, tmp_path):
+    model, _, u, y = warm
+    assert model.hidden_.levels == "range"
+    text = "\n".join(model.equations())
+    for _, level, _ in model.refinement_["range_levels"]["levels"]:
+        assert repr(level) in text
+    model.to_json(tmp_path / "warm.json")
+    loaded = load_model(tmp_path / "warm.json")
+    assert loaded.equations() == model.equations() and loaded.hidden.levels == "range"
+    np.testing.assert_allclose(loaded.predict(u[:200], y_init=y[:5]), model.predict(u[:200], y_init=y[:5]),
+                               rtol=1e-9, atol=1e-12)
+
+
+def test_the_warm_start_checks_its_inputs():
+    u, y = _record(200)
+    with pytest.raises(ValueError, match="levels must be one of"):
+        LatentHiddenState(levels="data")._validate()
+    with pytest.raises(ValueError, match="levels='range' needs a library whose last part is a TermsLibrary of hinge"):
+        _warm("range", library=PolynomialLibrary(degree=1)).fit(u, y)
+    with pytest.raises(ValueError, match="levels='range' fits one record; got several"):
+        _warm("range").fit([u, u], [y, y])

@@ -47,5 +47,11 @@ def test_the_latent_family_gets_one_hinge_candidate_with_hard_libraries_only():
     est = make_estimator(struct, lib, 0.0, 0.05, settings)
     assert isinstance(est, HiddenStateSINDy)
     hidden = est.hidden
-    assert (hidden.scale, hidden.offset, hidden.latent_bounds) == ("units", None, None)
-    assert sorted(hidden.search_space()) == ["offset", "tau"]
+    # warm started from the plain candidate: its gauge, start and search, the hinges placed by its latent range
+    plain, = [(s, lib) for s, lib in structures(u, y, 0.05, settings, families=["order1+latent"])
+              if s["library"] == "linear"]
+    plain_hidden = make_estimator(*plain, 0.0, 0.05, settings).hidden
+    assert hidden.levels == "range" and plain_hidden.levels == "library"
+    assert {k: v for k, v in hidden.get_params().items() if k != "levels"} == \
+        {k: v for k, v in plain_hidden.get_params().items() if k != "levels"}
+    assert sorted(hidden.search_space()) == ["tau"]

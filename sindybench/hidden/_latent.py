@@ -126,6 +126,16 @@ class LatentHiddenState(HiddenStrategy):
         Block rows of the subspace start's Hankel matrices (``start="subspace"``):
         about the samples of the slowest dynamics to resolve; None =
         ``max(2 n_states, 10)``.
+    levels : {"library", "range"}, default="library"
+        Where hinge terms of the latent states start. ``"library"``: at the
+        levels the library writes, fitted with the start. ``"range"`` (a warm
+        start, :func:`~sindybench.hidden._latent_hard.fit_range_levels`): the
+        model without the hinges (the library's last part, a
+        ``TermsLibrary`` of hinge terms, left out) is fitted and refined
+        first; the hinges are then placed at the 80 % (upper) and 20 %
+        (lower) quantiles of its simulated latent state and refined from
+        coefficients 0, kept only when the simulation error of the training
+        record does not grow. One record only.
 
     Notes
     -----
@@ -150,7 +160,7 @@ class LatentHiddenState(HiddenStrategy):
     _physical = ("tau", "gain", "offset")
 
     def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, offset=0.0,
-                 bounds=None, latent_bounds=None, output_bounds=None, start="lag", block_rows=None):
+                 bounds=None, latent_bounds=None, output_bounds=None, start="lag", block_rows=None, levels="library"):
         self.n_latent = n_latent
         self.order = order
         self.driver = driver
@@ -163,6 +173,7 @@ class LatentHiddenState(HiddenStrategy):
         self.output_bounds = output_bounds
         self.start = start
         self.block_rows = block_rows
+        self.levels = levels
 
     def _validate(self):
         if isinstance(self.n_latent, bool) or not isinstance(self.n_latent, numbers.Integral) or self.n_latent < 1:
@@ -190,6 +201,8 @@ class LatentHiddenState(HiddenStrategy):
             raise ValueError(f"scale='range' fixes the latent scale by its bounds; expected finite latent_bounds, "
                              f"got {self.latent_bounds!r}.")
         check_bounds(self.output_bounds, 1, name="output_bounds")
+        if self.levels not in _LEVELS:
+            raise ValueError(f"levels must be one of {_LEVELS}; got {self.levels!r}.")
         if self.start not in _STARTS:
             raise ValueError(f"start must be one of {_STARTS}; got {self.start!r}.")
         if self.block_rows is not None and (isinstance(self.block_rows, bool) or not isinstance(
@@ -595,6 +608,7 @@ def canonical_mixing(strategy, cand, x0, n_inputs):
 
 _DRIVERS = ("input", "velocity", "output")
 _STARTS = ("lag", "subspace", "auto")
+_LEVELS = ("library", "range")
 _SCALES = ("driver", "units", "range")
 
 

@@ -13,14 +13,34 @@ free level with the latent state's rest point held: ``z -> z + k`` moves the
 level to ``L + k`` and the constant terms absorb the rest. :func:`latent_levels`
 reads the fitted level in those coordinates (where ``z' = a z + c + ...`` has
 no constant: the level is ``L + c / a``).
+
+**Warm start** (``LatentHiddenState(levels="range")``, :func:`fit_range_levels`):
+the model without the hinges is fitted first (its own search and
+refinement: the plain latent model), the hinges' levels are then placed at
+quantiles of that model's simulated latent state (:func:`range_levels`: 80 %
+for an upper hinge, 20 % for a lower one, where the hinge is active on a
+fifth of the record and its coefficient has a nonzero sensitivity), and the
+model is refined again from the plain one with the hinges' coefficients at
+0. The refined model is kept only when its simulation error on the training
+record is not larger than the plain model's, so the hinge model never starts
+in, or ends at, a worse fit than the plain one.
 """
 
+import logging
+
 import numpy as np
+from sklearn.base import clone
 
 from ..dynamics import HINGE, POW
+from ..libraries import ConcatLibrary, TermsLibrary
 from ..libraries._base import canonical_term
 
-__all__ = ["hinge_terms", "latent_levels"]
+__all__ = ["fit_range_levels", "hinge_terms", "latent_levels", "range_levels"]
+
+logger = logging.getLogger(__name__)
+
+#: the quantiles of the simulated latent state that place an upper and a lower hinge (``levels="range"``)
+RANGE_QUANTILES = (0.8, 0.2)
 
 
 def hinge_terms(column, level, *, side="upper", times=()):
@@ -111,3 +131,131 @@ def level_lines(model):
         lines.append(f"{entry['state']}: its {entry['side']} hinge level is held at {entry['held']!r} in the "
                      f"library and its offset fitted (level gauge); the fitted level is {fitted}")
     return lines
+
+
+def range_levels(z, quantiles=RANGE_QUANTILES):
+    """The upper and lower levels of hinges of a latent state from its simulated trajectory ``z``: its quantiles.
+
+    Parameters
+    ----------
+    z : array-like of shape (n_samples,)
+        The latent state's simulation (non-finite samples are ignored).
+    quantiles : (float, float), default=(0.8, 0.2)
+        The quantiles of the upper and of the lower level, in ``[0, 1]``.
+
+    Returns
+    -------
+    (float, float)
+
+    Examples
+    --------
+    >>> range_levels(np.arange(101.0))
+    (80.0, 20.0)
+    """
+    z = np.asarray(z, dtype=float).reshape(-1)
+    z = z[np.isfinite(z)]
+    q = np.asarray(quantiles, dtype=float)
+    if q.shape != (2,) or not np.all((q >= 0) & (q <= 1)):
+        raise ValueError(f"quantiles must be two numbers in [0, 1]; got {quantiles!r}.")
+    if z.size == 0:
+        raise ValueError("z has no finite sample: no range to place a level in.")
+    return float(np.quantile(z, q[0])), float(np.quantile(z, q[1]))
+
+
+def _split_hinges(library):
+    """``(base, hinge terms)`` of a library whose last part is a ``TermsLibrary`` of hinge terms, else None."""
+    parts = list(getattr(library, "libraries", None) or ()) if isinstance(library, ConcatLibrary) else []
+    if len(parts) < 2 or not isinstance(parts[-1], TermsLibrary) or not parts[-1].terms:
+        return None
+    terms = [tuple(tuple(f) for f in t) for t in parts[-1].terms]
+    if not all(any(f[1] == HINGE for f in t) for t in terms):
+        return None
+    return (parts[0] if len(parts) == 2 else ConcatLibrary(parts[:-1])), terms
+
+
+def _moved(terms, states, latent):
+    """The hinge ``terms`` with each latent hinge's level at :func:`range_levels` of its column of ``states``."""
+    levels = {col: range_levels(states[:, col]) for col in latent}
+    return [canonical_term(tuple((c, op, levels[c][0 if b >= 0 else 1], b) if op == HINGE and c in levels
+                                 else (c, op, a, b) for c, op, a, b in term)) for term in terms]
+
+
+def fit_range_levels(estimator, X, y, dt):
+    """``LatentHiddenState(levels="range")``: the plain latent model first, then its hinges from 0 (see the module).
+
+    ``estimator`` is a :class:`~sindybench.HiddenStateSINDy` whose library's
+    last part is a :class:`~sindybench.libraries.TermsLibrary` of hinge
+    terms of the latent states (e.g. ``base + TermsLibrary(terms=hinge_terms(...))``);
+    ``X`` and ``y`` one record. A clone without that part is fitted (its
+    search and refinement), then the hinge terms, their levels at
+    :func:`range_levels` of the clone's simulated latent states and their
+    coefficients at 0, are refined beside the rest. ``estimator`` takes the
+    refined model when its refinement cost is not larger than the plain
+    model's, else the plain model (the hinges' coefficients 0);
+    ``refinement_["range_levels"]`` records the levels, both costs and which
+    was kept. Returns ``estimator``.
+    """
+    from ._auto import auto_refinement
+    from ._base import Design
+    from ._candidate import Candidate, structure_dynamics
+    from ._derivative import Derivative
+
+    hidden = estimator.hidden
+    split = _split_hinges(estimator.library)
+    if split is None:
+        raise ValueError("levels='range' needs a library whose last part is a TermsLibrary of hinge terms "
+                         f"(base + TermsLibrary(terms=hinge_terms(...))); got {estimator.library!r}.")
+    base, terms = split
+    plain = clone(estimator).set_params(library=base, hidden=clone(hidden).set_params(levels="library"))
+    plain.fit(X, y, dt=dt)
+    s = plain.structure_
+    n_meas = len(s.output_index) * int(hidden.order)
+    latent = range(n_meas, n_meas + int(hidden.n_latent))
+    Xd = plain.delayed_inputs(np.asarray(X, dtype=float).reshape(len(y), -1))
+    y2 = np.asarray(y, dtype=float).reshape(len(y), -1)
+    library = clone(estimator.library)
+    library.set_params(libraries=list(library.libraries[:-1]) + [TermsLibrary(terms=_moved(terms, plain.states_, latent))])
+    library.fit(np.c_[plain.states_[:2], Xd[:2]])
+    n_base = len(plain.library_.terms_)
+    hinges = {(int(f[0]), float(f[2]), float(f[3])) for t in library.libraries_[-1].terms_ for f in t if f[1] == HINGE}
+    record = {"levels": [list(h) for h in sorted(hinges, key=lambda h: (h[0], -h[2]))],
+              "plain_cost": None, "cost": None, "kept": False}
+    estimator.__dict__.update({k: v for k, v in vars(plain).items() if k.endswith("_") or k.startswith("_")})
+    estimator.hidden_ = clone(hidden)
+    if [tuple(t) for t in library.terms_[:n_base]] != [tuple(t) for t in plain.library_.terms_]:
+        logger.warning("levels='range': the hinge terms change the base's terms; the plain model is kept")
+        return _with_record(estimator, record)
+    coef = np.zeros((len(library.terms_), len(s.learned)))
+    coef[:n_base] = plain.coef_.T
+    simulation = plain._simulation(plain.dt_)
+    design = Design(states=plain.states_, targets=np.empty((len(y2), 0)))
+    cand = Candidate(params=dict(plain.params_), structure=s, library=library, optimizer=plain.optimizer_,
+                     differentiation=plain.differentiation_, coef=coef,
+                     derivative=Derivative(plain.differentiation_, plain.dt_), designs=(design,),
+                     dynamics=structure_dynamics(s, library, coef, simulation))
+    refine = auto_refinement(plain.refine, cand.dynamics)
+    if refine is None or plain.refinement_ is None or plain.refinement_.get("status", -1) < 0:
+        return _with_record(estimator, record)
+    n = len(y2) if plain.refit else len(y2) - plain._n_validation(len(y2))
+    try:
+        new, x0s, summary = plain._refine(plain.hidden_, cand, [Xd[:n]], [y2[:n]], refine=refine)
+    except ValueError as exc:
+        logger.warning("levels='range': the refinement with the hinges failed (%s); the plain model is kept", exc)
+        return _with_record(estimator, record)
+    record["plain_cost"], record["cost"] = float(summary["initial_cost"]), float(summary["cost"])
+    if x0s is None or summary.get("status", -1) < 0 or not summary["cost"] <= summary["initial_cost"]:
+        return _with_record(estimator, record)
+    record["kept"] = True
+    estimator.library_, estimator.coef_ = library, new.coef.T.copy()
+    estimator.params_, estimator.structure_ = dict(new.params), new.structure
+    estimator.x0_ = np.asarray(x0s[0], dtype=float)
+    estimator.states_ = new.dynamics.simulate(Xd, estimator.x0_, on_divergence="nan")
+    estimator.refinement_ = summary
+    estimator._rebuild_model()
+    return _with_record(estimator, record)
+
+
+def _with_record(estimator, record):
+    if estimator.refinement_ is not None:  # no refinement ran: nothing was tried, nothing to record
+        estimator.refinement_ = {**estimator.refinement_, "range_levels": record}
+    return estimator

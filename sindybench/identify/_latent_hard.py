@@ -1,19 +1,22 @@
 """The latent family's hard terms: hinges of the latent state, at levels the fit decides.
 
 The order-1 latent family (one output, driven by the first input) gets one
-extra candidate, ``library="linear+latent_hinge"``: the linear terms plus the
-hinges of the latent state ``z`` at an upper and a lower level, each alone
-and times the inputs (:func:`~sindybench.hidden._latent_hard.hinge_terms`).
-Its latent state starts in the first input's units
-(``LatentHiddenState(scale="units")``: ``z' = (u0 - z) / tau``, static gain
-1), so that the levels can be named from the estimation record before the
-time constant is searched: the 80 % and 20 % quantiles of ``u0``, near the
-top and bottom of the range a lag of the input spans. The refinement then moves them
-(the level gauge: the level is held in the term, the latent offset fitted;
-the start's offset is searched with the time constant first, within
-:func:`offset_range`),
-and the validation blocks decide whether the candidate is kept. One
-candidate per derivative and hold, so the cost is one latent fit more.
+extra candidate, ``library="linear+latent_hinge"``: the plain candidate's
+terms (linear, or the family's proposed hard terms) plus the hinges of the
+latent state ``z`` at an upper and a lower level, each alone and times the
+inputs (:func:`~sindybench.hidden._latent_hard.hinge_terms`). It is warm
+started from the plain candidate (``LatentHiddenState(levels="range")``,
+:func:`~sindybench.hidden._latent_hard.fit_range_levels`): the plain model is
+fitted as the plain candidate is (same gauge, search and refinement), the
+hinges' levels are placed at the 80 % and 20 % quantiles of its simulated
+latent state, and the model is refined again from the plain one with the
+hinges' coefficients at 0, kept only when the training simulation error
+does not grow. The levels the library writes (the 80 % and 20 % quantiles of
+``u0``) are placeholders that the warm start replaces; the refinement then
+moves the levels (the level gauge: the level is held in the term, the latent
+offset fitted), and the validation blocks decide whether the candidate is
+kept. One candidate per derivative and hold: the cost is one refinement more
+than the plain candidate's fit (which it repeats).
 """
 
 import numpy as np
@@ -75,6 +78,9 @@ def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
 
 def offset_range(library):
     """The search range of the start's offset (``LatentHiddenState(offset=None)``) for a hinge ``library``.
+
+    (For a start in ``u0``'s units with the library's levels; identify's
+    candidate places its levels by the warm start instead.)
 
     Half the gap between the upper and the lower level either way: the
     search slides the start's latent state against both levels (it is the

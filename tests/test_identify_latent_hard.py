@@ -55,3 +55,21 @@ def test_the_latent_family_gets_one_hinge_candidate_with_hard_libraries_only():
     assert {k: v for k, v in hidden.get_params().items() if k != "levels"} == \
         {k: v for k, v in plain_hidden.get_params().items() if k != "levels"}
     assert sorted(hidden.search_space()) == ["tau"]
+
+
+def test_an_indicator_of_the_output_proposes_one_of_the_latent_state():
+    """Where the advice proposes an indicator on the output (a pile-up: an overflow), the hinge candidate gets the
+    latent state's indicator at its upper level, alone and times the input; elsewhere it has none."""
+    u, y = _record()
+    settings = data_settings(u, y, 0.05, families=["order1+latent"])
+
+    def names(indicator):
+        s = {**settings, "indicator": [indicator]}
+        (lib,) = [lib for st, lib in structures(u, y, 0.05, s, families=["order1+latent"])
+                  if st["library"] == LATENT_HINGE]
+        return lib.fit(np.zeros((1, 3))).get_feature_names_out(["y0", "z0", "u0"]).tolist()
+
+    high = float(np.quantile(u, 0.8))
+    assert [n for n in names(-1.5) if n.startswith("[z0")] == [f"[z0>={high:g}]", f"[z0>={high:g}] u0"]
+    assert [n for n in names(-1.5) if n.startswith("[y0")]  # the output's own indicator stays in the base
+    assert not [n for n in names(None) if n.startswith("[")]

@@ -51,7 +51,7 @@ from sklearn.base import clone
 from .._limits import check_memory
 from .._validation import check_bounds
 from ..io import register_model
-from ..libraries import HINGE, POW, PolynomialLibrary
+from ..libraries import HINGE, LOGISTIC, POW, STEP, PolynomialLibrary
 from ..refine import OutputErrorRefinement, PredictionErrorRefinement
 from ..simulate import TermsRHS, simulate
 from ._latent_hard import level_lines
@@ -400,9 +400,9 @@ class LatentHiddenState(HiddenStrategy):
     def refine_free(self, coef, terms, *, n_outputs, n_inputs):
         """Entries of the learned block freed by a refinement.
 
-        The outputs' nonzero coefficients and their hinges of a latent state
-        (a hinge the start never reaches has a zero coefficient, which the
-        refinement must still move), and every term of the latent rows
+        The outputs' nonzero coefficients and their hinges and indicators of a
+        latent state (a hinge the start never reaches has a zero coefficient,
+        which the refinement must still move), and every term of the latent rows
         except, with ``scale="driver"`` or ``"units"``, each row's gauge term
         (its driver's linear term, held at its value).
         """
@@ -413,7 +413,7 @@ class LatentHiddenState(HiddenStrategy):
         n_meas = n_outputs * int(self.order)
         latent = range(n_meas, n_meas + int(self.n_latent))
         for t, term in enumerate(terms):
-            if any(op == HINGE and col in latent for col, op, _, _ in term):
+            if any(op in (HINGE, STEP, LOGISTIC) and col in latent for col, op, _, _ in term):
                 free[t, :n_outputs] = True
         for j, col in enumerate(self._drivers(n_outputs)):
             free[:, n_outputs + j] = True

@@ -4,7 +4,11 @@ The order-1 latent family (one output, driven by the first input) gets one
 extra candidate, ``library="linear+latent_hinge"``: the plain candidate's
 terms (linear, or the family's proposed hard terms) plus the hinges of the
 latent state ``z`` at an upper and a lower level, each alone and times the
-inputs (:func:`~sindybench.hidden._latent_hard.hinge_terms`). It is warm
+inputs (:func:`~sindybench.hidden._latent_hard.hinge_terms`), and where the
+output's advice proposes an indicator (a pile-up at a level: an overflow),
+the indicator ``[z >= L]`` of the latent state at the upper level, alone and
+times the inputs (smoothed by logistics narrowed over the refinements, exact
+in the model). It is warm
 started from the plain candidate (``LatentHiddenState(levels="range")``,
 :func:`~sindybench.hidden._latent_hard.fit_range_levels`): the plain model is
 fitted as the plain candidate is (same gauge, search and refinement), the
@@ -22,7 +26,7 @@ than the plain candidate's fit (which it repeats).
 import numpy as np
 
 from ..dynamics import HINGE
-from ..hidden._latent_hard import hinge_terms
+from ..hidden._latent_hard import hinge_terms, indicator_terms
 from ..libraries import PolynomialLibrary, TermsLibrary
 from ..search import Uniform
 
@@ -34,7 +38,7 @@ LATENT_HINGE = "linear+latent_hinge"
 _QUANTILES = (0.8, 0.2)
 
 
-def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
+def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True, indicator=False):
     """Linear terms (or ``base``) plus hinges of the latent state (column ``n_outputs`` of ``Z = [y, z, u]``), or None.
 
     Parameters
@@ -47,6 +51,11 @@ def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
     lower : bool, default=True
         Also the lower hinge (not for a latent state held non-negative: its
         bound is its lower level).
+    indicator : bool, default=False
+        Also the indicator ``[z >= L]`` at the upper level, alone and times
+        the inputs (an overflow of the hidden state: proposed where the
+        output's advice proposes an indicator); smoothed in the fit, exact in
+        the model (:func:`~sindybench.hidden._latent_hard.fit_range_levels`).
 
     Returns
     -------
@@ -59,6 +68,9 @@ def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
     >>> lib = latent_hinge_library(u).fit(np.zeros((1, 3)))
     >>> lib.get_feature_names_out(["y0", "z0", "u0"]).tolist()[4:]
     ['max(z0-8.0, 0)', 'max(z0-8.0, 0) u0', 'max(2.0-z0, 0)', 'max(2.0-z0, 0) u0']
+    >>> latent_hinge_library(u, lower=False, indicator=True).fit(np.zeros((1, 3))).get_feature_names_out(
+    ...     ["y0", "z0", "u0"]).tolist()[4:]
+    ['max(z0-8.0, 0)', 'max(z0-8.0, 0) u0', '[z0>=8]', '[z0>=8] u0']
     """
     X = np.asarray(X, dtype=float)
     if X.ndim != 2 or X.shape[1] == 0:
@@ -73,6 +85,8 @@ def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
     terms = hinge_terms(z, high, side="upper", times=inputs)
     if lower:
         terms += hinge_terms(z, low, side="lower", times=inputs)
+    if indicator:
+        terms += indicator_terms(z, high, times=inputs)
     return (PolynomialLibrary(degree=1) if base is None else base) + TermsLibrary(terms=terms)
 
 

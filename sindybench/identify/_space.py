@@ -182,7 +182,8 @@ def _latent_hinges(X, settings, n_inputs, libraries):
     if not any(name.endswith("+hard") for name in libraries):
         return None
     positive = bool(settings["positive"])  # the latent state held >= 0: its bound is its lower level
-    return latent_hinge_library(X, 1, base=_latent_hard_terms(settings, n_inputs), lower=not positive)
+    return latent_hinge_library(X, 1, base=_latent_hard_terms(settings, n_inputs), lower=not positive,
+                                indicator=settings["indicator"][0] is not None)  # an overflow of the hidden state
 
 
 def _library(name, family, settings, n_outputs, n_inputs):

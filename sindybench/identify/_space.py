@@ -24,7 +24,7 @@ from ..refine import OutputErrorRefinement
 from ..search import LogUniform
 from ._advice import advice, detect_input_hold
 from ._lag import LAG_FAMILY, make_lag
-from ._latent_hard import LATENT_HINGE, latent_hinge_library, offset_range
+from ._latent_hard import LATENT_HINGE, latent_hinge_library
 from ._linear import LINEAR_FAMILY, linear_order, make_linear, propose_linear
 from ._linear_nl import LINEAR_NL_FAMILY, make_linear_nl, propose_linear_nl
 
@@ -188,7 +188,8 @@ def _latent_hinges(X, settings, n_inputs, libraries):
     if not any(name.endswith("+hard") for name in libraries):
         return None
     positive = bool(settings["positive"])  # the latent state held >= 0: its bound is its lower level
-    return latent_hinge_library(X, 1, base=_latent_hard_terms(settings, n_inputs), lower=not positive)
+    return latent_hinge_library(X, 1, base=_latent_hard_terms(settings, n_inputs), lower=not positive,
+                                indicator=settings["indicator"][0] is not None)  # an overflow of the hidden state
 
 
 def _library(name, family, settings, n_outputs, n_inputs):
@@ -310,13 +311,12 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
     order = _ORDER[structure["family"]]
     if structure["family"] in ("order1+latent", "order1+latent2"):  # lags of the input as the start, then refined
         positive, top = bool(settings["positive"]), settings["saturation"][0]
-        hinge = structure["library"] == LATENT_HINGE  # in u0's units: the hinges' levels are named in them
-        search = hinge and not positive  # the start's offset searched (a latent state held >= 0 keeps its zero)
+        # the hinge candidate warm-starts from the plain one (its own fit), hinges at its latent state's quantiles
+        hinge = structure["library"] == LATENT_HINGE
         tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
         hidden = LatentHiddenState(n_latent=2 if structure["family"] == "order1+latent2" else 1, order=1,
-                                   driver="input", scale="units" if hinge else "driver",
-                                   bounds={"tau": tau, "offset": offset_range(library)} if search else {"tau": tau},
-                                   offset=None if search else 0.0, start=_LATENT_START,
+                                   driver="input", bounds={"tau": tau}, start=_LATENT_START,
+                                   levels="range" if hinge else "library",
                                    latent_bounds=(0.0, np.inf) if positive else None,
                                    output_bounds=(0.0, np.inf if top is None else top) if positive else None)
         return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,

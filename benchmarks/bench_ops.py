@@ -19,6 +19,8 @@ candidate / reference measures the table alone.
   separately compiled helper; ``tanh_inverse``: the logistic of ``b`` the inverse
   width, no division; ``div`` and ``exp``: one division, one ``exp``, alone); with
   ``--control``, a second copy of the reference (the noise floor of the ratios).
+  ``--error-model numpy`` compiles the candidate's dispatch without numba's
+  ``ZeroDivisionError`` path (``--add div --error-model numpy`` shows that path is the cost).
 
 Models (plain ones: none uses an operation beyond ``HINGE``), 20,000 samples of a
 random-phase multisine, RK4, zero-order hold:
@@ -114,10 +116,16 @@ def _helpers():
 _COPIES = []
 
 
-def kernels_with(operations, tag):
-    """``(run_state_into, run_sensitivity_into)`` compiled from the package's source with ``operations`` as the table."""
+def kernels_with(operations, tag, error_model="python"):
+    """``(run_state_into, run_sensitivity_into)`` compiled from the package's source with ``operations`` as the table.
+
+    ``error_model``: numba's, for the generated dispatch (``"numpy"``: a division by zero gives inf, no exception path).
+    """
     ops_name, kernels_name = f"_bench_ops_{tag}", f"_bench_kernels_{tag}"
     ops_source = inspect.getsource(_ops).replace("cache=True", "cache=False")
+    if error_model != "python":
+        assert "return njit(function)" in ops_source
+        ops_source = ops_source.replace("return njit(function)", f"return njit(function, error_model={error_model!r})")
     ops_mod = types.ModuleType(f"sindybench.dynamics.{ops_name}")
     ops_mod.__package__ = "sindybench.dynamics"
     saved = _optable.OPERATIONS
@@ -218,6 +226,8 @@ def main():
                         help="entries appended to the candidate table")
     parser.add_argument("--control", action="store_true",
                         help="the candidate is a second copy of the reference table (the ratios' noise floor)")
+    parser.add_argument("--error-model", default="python", choices=("python", "numpy"),
+                        help="numba's error model of the candidate's dispatch (the reference keeps the package's)")
     args = parser.parse_args()
     _helpers()
     reference = [op for op in OPERATIONS if op.code <= HINGE]
@@ -228,10 +238,10 @@ def main():
     else:
         candidate = list(OPERATIONS)
     print(f"reference table: {[op.name for op in reference]}")
-    print(f"candidate table: {[op.name for op in candidate]}")
+    print(f"candidate table: {[op.name for op in candidate]} (dispatch error model: {args.error_model})")
     start = time.process_time()
     ref = kernels_with(reference, "ref")
-    new = kernels_with(candidate, "new")
+    new = kernels_with(candidate, "new", args.error_model)
     dt = 0.05
     u = multisine(args.samples, dt)
     rows = []

@@ -16,7 +16,7 @@ STEP      ``1`` if ``a <= z <= b``, else 0   0                                  
                                                                                         ``[a<=z<=b]``
 HINGE     ``max(z - a, 0)`` (``b >= 0``),    1 above ``a`` (``b >= 0``), -1 below       ``max(z-a, 0)``,
           ``max(a - z, 0)`` (``b < 0``)      ``a`` (``b < 0``), else 0                  ``max(a-z, 0)``
-LOGISTIC  ``1 / (1 + exp(-(z - a) / b))``    ``value (1 - value) / b``                  ``logistic((z-a)/b)``
+LOGISTIC  ``1 / (1 + exp(-b (z - a)))``      ``b value (1 - value)``                    ``logistic(b*(z-a))``
 ========  =================================  =========================================  ======================
 
 ``HINGE`` is a continuous piecewise-linear factor with its kink at the level ``a``: the
@@ -24,9 +24,20 @@ amount by which ``z`` passes the level upwards (``b >= 0``) or downwards (``b < 
 saturation of ``z`` at ``a`` is ``z - max(z - a, 0)``; its text writes the level exactly
 (the shortest decimal that reads back as the same float).
 
-``LOGISTIC`` is the smoothed indicator ``[z>=a]`` of width ``b > 0`` (the step as ``b -> 0``): a
-fit that refines the level of an indicator by gradients uses it, narrowed, and writes the exact
-``STEP`` into the final model (:func:`~sindybench.hidden._latent_hard.fit_range_levels`).
+``LOGISTIC`` is the smoothed indicator ``[z>=a]`` of slope ``b > 0`` (its width ``1 / b``; the
+step as ``b -> inf``): a fit that refines the level of an indicator by gradients uses it,
+narrowed, and writes the exact ``STEP`` into the final model
+(:func:`~sindybench.hidden._latent_hard.fit_range_levels`). It is computed as
+``0.5 + 0.5 tanh(b (z - a) / 2)``, without a division.
+
+**No division in a value function.** numba compiles ``x / y`` with a ``ZeroDivisionError``
+path (its Python error model); one in ``op_value`` makes the free-run kernel
+(``_kernels.run_state_into``) 6-10x slower for every model, whether it uses that operation or
+not (``benchmarks/bench_ops.py --add div``: one ``(v - a) / b`` branch; the same branch compiled
+with ``error_model="numpy"`` costs nothing, nor does one ``exp`` alone; hinge2's ``LOGISTIC`` of
+width ``b``, which divided, made it 9-17x slower). Hence ``LOGISTIC`` takes the slope, not the
+width. The derivatives may divide (``SQRT``'s does): the sensitivity kernel carries that path
+already.
 
 ``value(v, a, b)`` and ``derivative(v, value, a, b)`` are plain functions of scalars in the
 subset of Python that numba compiles: the compiled dispatch of :mod:`._ops` (``op_value``,
@@ -233,15 +244,11 @@ def _hinge_sympy(sp, z, a, b):
 
 # ------------------------------------------------------------------------------------------- LOGISTIC
 def _logistic_value(v, a, b):
-    x = (v - a) / b
-    if x >= 0.0:
-        return 1.0 / (1.0 + math.exp(-x))
-    e = math.exp(x)  # x < 0 (or NaN: NaN stays NaN)
-    return e / (1.0 + e)
+    return 0.5 + 0.5 * math.tanh(0.5 * b * (v - a))  # no division (see the module); NaN stays NaN
 
 
 def _logistic_derivative(v, value, a, b):
-    return value * (1.0 - value) / b
+    return b * value * (1.0 - value)
 
 
 def _logistic_inner(z, a, minus):
@@ -249,7 +256,7 @@ def _logistic_inner(z, a, minus):
 
 
 def _logistic_sympy(sp, z, a, b):
-    return 1 / (1 + sp.exp(-(z - sp.Float(repr(float(a)))) / sp.Float(repr(float(b)))))
+    return 1 / (1 + sp.exp(-sp.Float(repr(float(b))) * (z - sp.Float(repr(float(a))))))
 
 
 OPERATIONS = (
@@ -285,10 +292,10 @@ OPERATIONS = (
               sympy=_hinge_sympy,
               casadi=lambda ca, v, a, b: ca.fmax(v - a if b >= 0.0 else a - v, 0.0)),
     Operation(6, "LOGISTIC", _logistic_value, _logistic_derivative,
-              text=lambda z, a, b: f"logistic(({_logistic_inner(z, a, '-')})/{_exact(b)})",
-              latex=lambda z, a, b: rf"\sigma(({_logistic_inner(z, a, ' - ')})/{_exact(b)})",
+              text=lambda z, a, b: f"logistic({_exact(b)}*({_logistic_inner(z, a, '-')}))",
+              latex=lambda z, a, b: rf"\sigma({_exact(b)} ({_logistic_inner(z, a, ' - ')}))",
               sympy=_logistic_sympy,
-              casadi=lambda ca, v, a, b: 1.0 / (1.0 + ca.exp(-(v - a) / b))),
+              casadi=lambda ca, v, a, b: 0.5 + 0.5 * ca.tanh(0.5 * b * (v - a))),
 )
 """The built-in operations, by code (``OPERATIONS[code].code == code``)."""
 

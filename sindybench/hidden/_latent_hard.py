@@ -223,7 +223,7 @@ def _stage_terms(terms, states, latent, width):
         level = float(f"{levels[c][0]:.6g}")  # six digits: the indicator's text writes its level exactly
         if width is None:
             return (c, STEP, level, np.inf)
-        return (c, LOGISTIC, level, width * (spread[c] if spread[c] > 0 else 1.0))
+        return (c, LOGISTIC, level, 1.0 / (width * (spread[c] if spread[c] > 0 else 1.0)))  # its slope
 
     return [canonical_term(tuple(place(*f) for f in term)) for term in terms]
 

@@ -18,7 +18,7 @@ SQRT      ``sqrt(clip(z, a, b))``            ``sqrt(z)``
 SIGN      ``sign(z)``                        ``sign(z)``
 STEP      ``1`` if ``a <= z <= b``, else 0   ``[z>=a]``, ``[z<=b]``, ``[a<=z<=b]``
 HINGE     ``max(z - a, 0)`` (``b >= 0``)     ``max(z-a, 0)`` (``max(a-z, 0)`` for ``b < 0``)
-LOGISTIC  ``1 / (1 + exp(-(z - a) / b))``    ``logistic((z-a)/b)`` (``[z>=a]`` smoothed, width ``b``)
+LOGISTIC  ``1 / (1 + exp(-b (z - a)))``      ``logistic(b*(z-a))`` (``[z>=a]`` smoothed, width ``1/b``)
 ========  =================================  ==========
 
 ``STEP`` marks a regime, e.g. an overflowing tank (``[x1>=10]``: the level at

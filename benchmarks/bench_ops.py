@@ -8,7 +8,8 @@ even one that never uses the new operation. This script isolates that change:
 it compiles two private copies of ``dynamics/_ops.py`` and ``dynamics/_kernels.py``
 (the package's own source, uncached) in this process, one with the reference
 table and one with the candidate table, and times both on the same models and
-inputs, interleaved (the best of ``--repeat`` calls each), so that the ratio
+inputs, interleaved (the best of ``--repeat`` calls each, in CPU time of the thread; each model runs the whole record
+without diverging, printed), so that the ratio
 candidate / reference measures the table alone.
 
 * reference: the built-in table of main before issue 35 (codes 0-5, ``POW`` to
@@ -208,14 +209,12 @@ def arguments(rhs, x0, u, dt):
     return state, sensitivity
 
 
-def best_of(kernel, make_args, repeat):
-    times = []
-    for _ in range(repeat):
-        args = make_args()
-        start = time.perf_counter()
-        kernel(*args)
-        times.append(time.perf_counter() - start)
-    return min(times), args[-1] if kernel.__name__ == "run_state_into" else args[-3]
+def timed(kernel, make_args):
+    """``(seconds, output, step)`` of one call: the simulated states and the kernel's divergence step (-1: none)."""
+    args = make_args()
+    start = time.thread_time()  # CPU time of this thread: the time slices other jobs take are not counted
+    step = kernel(*args)
+    return time.thread_time() - start, args[-1] if kernel.__name__ == "run_state_into" else args[-3], step
 
 
 def main():
@@ -250,22 +249,19 @@ def main():
         for kind, make, which in (("free run", state, 0), ("sensitivity", sensitivity, 1)):
             ref[which](*make())  # compile both before timing
             new[which](*make())
-            t_ref, t_new, out_ref, out_new = [], [], None, None
+            times, outputs, steps = ([], []), [None, None], [None, None]
             for r in range(args.repeat):  # interleaved, in turn first: the machine's load hits both alike
-                for kernel, times in ((ref[which], t_ref), (new[which], t_new))[::1 if r % 2 else -1]:
-                    t, out = best_of(kernel, make, 1)
-                    times.append(t)
-                    if kernel is ref[which]:
-                        out_ref = out
-                    else:
-                        out_new = out
-            same = np.array_equal(out_ref, out_new, equal_nan=True)
-            rows.append((name, kind, min(t_ref), min(t_new), same))
+                for i in (0, 1) if r % 2 else (1, 0):
+                    t, outputs[i], steps[i] = timed((ref, new)[i][which], make)
+                    times[i].append(t)
+            same = np.array_equal(*outputs, equal_nan=True) and steps[0] == steps[1]
+            rows.append((name, kind, min(times[0]), min(times[1]), same, steps[0] == -1))
     print(f"(compilation and runs: {time.process_time() - start:.1f} s CPU; {args.samples} samples, "
           f"best of {args.repeat})")
-    print(f"{'model':<12} {'kernel':<12} {'reference ms':>13} {'candidate ms':>13} {'ratio':>6}  same output")
-    for name, kind, a, b, same in rows:
-        print(f"{name:<12} {kind:<12} {1e3 * a:13.2f} {1e3 * b:13.2f} {b / a:6.2f}  {same}")
+    print(f"{'model':<12} {'kernel':<12} {'reference ms':>13} {'candidate ms':>13} {'ratio':>6}  same output  "
+          "whole record")
+    for name, kind, a, b, same, whole in rows:
+        print(f"{name:<12} {kind:<12} {1e3 * a:13.2f} {1e3 * b:13.2f} {b / a:6.2f}  {str(same):<11}  {whole}")
 
 
 if __name__ == "__main__":

@@ -128,7 +128,7 @@ def test_the_logistic_is_the_step_smoothed_and_never_overflows():
 
 
 def test_no_value_function_of_the_table_divides():
-    """A division in ``op_value`` (numba's ZeroDivisionError path) made the free run of every model 6-10x slower.
+    """A division in ``op_value`` (numba's ZeroDivisionError path) made the free run of every model 5-7x slower.
 
     ``benchmarks/bench_ops.py --add div`` measures it; the value functions stay free of ``/``.
     """

@@ -32,12 +32,12 @@ narrowed, and writes the exact ``STEP`` into the final model
 
 **No division in a value function.** numba compiles ``x / y`` with a ``ZeroDivisionError``
 path (its Python error model); one in ``op_value`` makes the free-run kernel
-(``_kernels.run_state_into``) 6-10x slower for every model, whether it uses that operation or
+(``_kernels.run_state_into``) 5-7x slower for every model, whether it uses that operation or
 not (``benchmarks/bench_ops.py --add div``: one ``(v - a) / b`` branch; the same branch compiled
 with ``error_model="numpy"`` costs nothing, nor does one ``exp`` alone; hinge2's ``LOGISTIC`` of
-width ``b``, which divided, made it 9-17x slower). Hence ``LOGISTIC`` takes the slope, not the
-width. The derivatives may divide (``SQRT``'s does): the sensitivity kernel carries that path
-already.
+width ``b``, which divided, made it 5.0-7.5x slower; CPU time of the kernels). Hence
+``LOGISTIC`` takes the slope, not the width. The derivatives may divide (``SQRT``'s does): the
+sensitivity kernel carries that path already.
 
 ``value(v, a, b)`` and ``derivative(v, value, a, b)`` are plain functions of scalars in the
 subset of Python that numba compiles: the compiled dispatch of :mod:`._ops` (``op_value``,

@@ -37,6 +37,14 @@ Usage::
 
 Prints, per model and kernel, the reference and candidate times (ms) and their
 ratio; a ratio of 1.00 +- 0.05 means the candidate table costs these models nothing.
+
+Measured (2 cores loaded by other jobs; ratios poly2 / latent / order2+hard, free run then
+sensitivity): ``--control`` 1.01 / 0.99 / 0.99 and 1.00 / 0.99 / 0.99; the package's table
+(``LOGISTIC`` of slope ``b``, no division) 0.92 / 1.03 / 1.00 and 1.00 / 1.01 / 1.03;
+``--add logistic`` (hinge2's entry) 4.97 / 7.52 / 6.38 and 1.05 / 1.00 / 1.06; ``--add div``
+4.80 / 7.34 / 6.04 and 0.99 / 1.05 / 1.01; ``--add div --error-model numpy`` 0.99 / 1.04 / 0.99
+and 0.99 / 1.01 / 1.02. The cause is numba's ``ZeroDivisionError`` path of a division in
+``op_value``, not the ``exp`` nor the length of the chain (see ``dynamics/_optable.py``).
 """
 
 import argparse

@@ -7,6 +7,7 @@ from numpy.testing import assert_allclose
 from sindybench.dynamics import (
     ABS_POW,
     HINGE,
+    LOGISTIC,
     POW,
     SIGN,
     SQRT,
@@ -23,7 +24,7 @@ from sindybench.refine import simulate_sensitivity
 
 FACTORS = [(0, POW, 1.0, 0.0), (0, POW, 2.0, 0.0), (0, POW, 3.0, 0.0), (0, POW, 2.5, 0.0), (0, ABS_POW, 1.0, 0.0),
            (0, ABS_POW, 1.5, 0.0), (0, SQRT, 0.1, 2.0), (0, SIGN, 0.0, 0.0), (0, STEP, 0.5, 1.5),
-           (0, HINGE, 1.0, 1.0), (0, HINGE, 1.0, -1.0)]
+           (0, HINGE, 1.0, 1.0), (0, HINGE, 1.0, -1.0), (0, LOGISTIC, 0.5, 0.3)]
 
 
 @pytest.mark.parametrize("factor", FACTORS, ids=lambda f: f"op{f[1]}a{f[2]}")
@@ -70,7 +71,8 @@ def test_the_table_holds_every_builtin_operation_once():
     from sindybench.dynamics._ops import BUILTIN_OPS
 
     assert [op.code for op in OPERATIONS] == list(range(len(OPERATIONS))) == list(BUILTIN_OPS)
-    assert [op.name for op in OPERATIONS] == ["POW", "ABS_POW", "SQRT", "SIGN", "STEP", "HINGE"]
+    assert [op.name for op in OPERATIONS] == ["POW", "ABS_POW", "SQRT", "SIGN", "STEP", "HINGE",
+                                                "LOGISTIC"]
     assert len(OPERATIONS) < USER
 
 
@@ -101,9 +103,40 @@ def test_every_operation_has_its_written_forms():
     assert (operation(HINGE).text("z", 9.937, 1.0), operation(HINGE).text("z", -0.5, -1.0)) == (
         "max(z-9.937, 0)", "max(-0.5-z, 0)")
     assert str(operation(HINGE).sympy(sympy, z, 0.5, 1.0)) == "Max(0, z - 0.5)"
+    assert operation(LOGISTIC).text("z", 9.937, 4.0) == "logistic(4.0*(z-9.937))"
+    logistic = operation(LOGISTIC).sympy(sympy, z, 0.5, 4.0)
+    assert float(logistic.subs(z, 0.5)) == 0.5 and float(logistic.subs(z, 1.0)) == pytest.approx(1 / (1 + np.exp(-2)))
     op = register_op(np.tanh)
     assert (operation(op).text("v", 0, 0), str(operation(op).sympy(sympy, z, 0, 0))) == ("tanh(v)", "tanh(z)")
     with pytest.raises(ValueError, match="unknown factor operation 7"):
         operation(7)
     with pytest.raises(ValueError, match="nor a user operation registered"):
         operation(USER + 999)
+
+
+def test_the_logistic_is_the_step_smoothed_and_never_overflows():
+    """``LOGISTIC`` tends to ``[z>=a]`` as its slope grows; far from the level it is 0 or 1 without overflow."""
+    from sindybench.dynamics._optable import OPERATIONS
+
+    value = OPERATIONS[LOGISTIC].value
+    z = np.array([-1e6, 0.3, 0.49, 0.51, 0.7, 1e6])
+    with np.errstate(all="raise"):
+        smooth = np.array([value(v, 0.5, 1e4) for v in z])
+    np.testing.assert_allclose(smooth, [0.0, 0.0, 0.0, 1.0, 1.0, 1.0], atol=1e-12)
+    assert value(0.5, 0.5, 10.0) == 0.5 and value(0.6, 0.5, 10.0) == pytest.approx(1 / (1 + np.exp(-1.0)), rel=1e-14)
+    assert np.isnan(value(float("nan"), 0.5, 10.0))
+
+
+def test_no_value_function_of_the_table_divides():
+    """A division in ``op_value`` (numba's ZeroDivisionError path) made the free run of every model 5-7x slower.
+
+    ``benchmarks/bench_ops.py --add div`` measures it; the value functions stay free of ``/``.
+    """
+    import inspect
+    import re
+
+    from sindybench.dynamics._optable import OPERATIONS
+
+    for op in OPERATIONS:
+        code = "\n".join(line.split("#")[0] for line in inspect.getsource(op.value).splitlines())
+        assert not re.search(r"/", code), f"{op.name}'s value divides: {code}"

@@ -132,3 +132,138 @@ def test_a_model_file_from_before_the_offset_still_loads(tmp_path):
     loaded = load_model(tmp_path / "old.json")
     assert loaded.hidden.offset == 0.0
     np.testing.assert_allclose(loaded.predict(u, y_init=y[:5]), model.predict(u, y_init=y[:5]), rtol=1e-12)
+
+
+# ---------------------------------------------------------------- warm start: levels="range"
+def _warm(levels, library=None, **kwargs):
+    lib = library if library is not None else PolynomialLibrary(degree=1) + TermsLibrary(
+        terms=hinge_terms(1, 0.0, times=[2]) + hinge_terms(1, 0.0, side="lower", times=[2]))
+    return HiddenStateSINDy(hidden=LatentHiddenState(bounds={"tau": (0.2, 10.0)}, levels=levels), library=lib,
+                            optimizer=STLS(threshold=0.0, alpha=1e-9, normalize_columns=True), dt=DT, n_trials=6,
+                            refine=OutputErrorRefinement(max_nfev=20), initial_state="fit", show_progress_bar=False,
+                            random_state=0, **kwargs)
+
+
+@pytest.fixture(scope="module")
+def warm():
+    u, y = _record()
+    return _warm_and_plain(u, y)
+
+
+def _warm_and_plain(u, y, library=None):
+    """The warm-started model of ``library`` and the plain model it starts from, fitted on ``(u, y)``."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = _warm("range", library=library).fit(u, y)
+        plain = _warm("library", library=PolynomialLibrary(degree=1)).fit(u, y)
+    return model, plain, u, y
+
+
+def test_the_warm_start_refines_the_hinges_from_the_plain_model(warm):
+    model, plain, u, y = warm
+    record = model.refinement_["range_levels"]
+    # it starts from the plain model: the same simulation error before its refinement as the plain one after its own
+    assert record["plain_cost"] == pytest.approx(plain.refinement_["cost"], rel=1e-6)
+    assert record["kept"] and record["cost"] <= record["plain_cost"]
+    # the levels: the 80 % and 20 % quantiles of the plain model's simulated latent state
+    z = plain.states_[:, 1]
+    assert [lv[2] for lv in record["levels"]] == pytest.approx([np.quantile(z, 0.8), np.quantile(z, 0.2)])
+    # the hinges move the fit: a saturation the plain linear model cannot follow
+    rmse = [np.sqrt(np.mean((m.predict(u, y_init=y[:5]) - y) ** 2)) for m in (model, plain)]
+    assert rmse[0] < 0.5 * rmse[1]
+    # the upper hinge's fitted level, gauge-free: the input at which the latent state at rest reaches it (true 0.4)
+    names = list(model.library_.get_feature_names_out(["y0", "z0", "u0"]))
+    a, b = (model.coef_[1, names.index(name)] for name in ("z0", "u0"))
+    upper = [e for e in latent_levels(model) if e["side"] == "upper"][0]
+    assert -upper["level"] * a / b == pytest.approx(LEVEL / 2.0, rel=0.05)
+
+
+def test_a_warm_started_model_round_trips_and_prints_its_levels(warm, tmp_path):
+    model, _, u, y = warm
+    assert model.hidden_.levels == "range"
+    text = "\n".join(model.equations())
+    for _, _, level, _ in model.refinement_["range_levels"]["levels"]:
+        assert repr(level) in text
+    model.to_json(tmp_path / "warm.json")
+    loaded = load_model(tmp_path / "warm.json")
+    assert loaded.equations() == model.equations() and loaded.hidden.levels == "range"
+    np.testing.assert_allclose(loaded.predict(u[:200], y_init=y[:5]), model.predict(u[:200], y_init=y[:5]),
+                               rtol=1e-9, atol=1e-12)
+
+
+def test_the_warm_start_checks_its_inputs():
+    u, y = _record(200)
+    with pytest.raises(ValueError, match="levels must be one of"):
+        LatentHiddenState(levels="data")._validate()
+    with pytest.raises(ValueError, match="levels='range' needs a library whose last part is a TermsLibrary of hinge"):
+        _warm("range", library=PolynomialLibrary(degree=1)).fit(u, y)
+    with pytest.raises(ValueError, match="levels='range' fits one record; got several"):
+        _warm("range").fit([u, u], [y, y])
+
+
+# ---------------------------------------------------------------- indicators of a latent state, levels="range"
+def _overflow(n=700):
+    """``x' = -x + 2 u`` feeding ``y' = -0.5 y + 0.5 x - 0.4 [x >= 0.8]``: a drop while the hidden state is high."""
+    t = np.arange(n) * DT
+    u = (0.6 * np.sin(0.7 * t) + 0.4 * np.sin(1.9 * t + 1.0) + 0.3 * np.sin(0.23 * t))[:, None]
+    x = simulate(lambda x, u: np.array([-x[0] + 2.0 * u[0], -0.5 * x[1] + 0.5 * x[0] - 0.4 * (x[0] >= LEVEL)]),
+                 np.zeros(2), u, DT, n_substeps=4)
+    return u, x[:, 1:2] + 0.002 * np.random.default_rng(0).standard_normal((n, 1))
+
+
+@pytest.fixture(scope="module")
+def indicator():
+    from sindybench.hidden._latent_hard import indicator_terms
+
+    u, y = _overflow()
+    return _warm_and_plain(u, y, PolynomialLibrary(degree=1) + TermsLibrary(terms=indicator_terms(1, 0.0)))
+
+
+def test_the_indicator_is_refined_smoothed_then_exact(indicator):
+    from sindybench.dynamics import LOGISTIC, STEP
+    from sindybench.hidden._latent_hard import WIDTHS
+
+    model, plain, u, y = indicator
+    record = model.refinement_["range_levels"]
+    assert record["plain_cost"] == pytest.approx(plain.refinement_["cost"], rel=1e-6)
+    # one refinement per width, the last one exact, each from the one before: the cost falls
+    assert len(record["costs"]) == len(WIDTHS) and record["kept"]
+    assert record["costs"][-1] <= record["costs"][0] < record["plain_cost"]
+    (placed,) = record["levels"]
+    assert placed[:2] == [1, "indicator"] and placed[2] == pytest.approx(np.quantile(plain.states_[:, 1], 0.8),
+                                                                           rel=1e-5)
+    # the final model holds the exact indicator, written with its exact level
+    ops = {f[1] for t in model.library_.terms_ for f in t}
+    assert STEP in ops and LOGISTIC not in ops
+    assert f"[z0>={placed[2]!r}]" in "\n".join(model.equations())
+    (entry,) = latent_levels(model)
+    assert (entry["kind"], entry["held"]) == ("indicator", placed[2])
+    assert "upper indicator level is held at" in model.hidden_.gauge(model)
+    # the drop found: its coefficient in y0' near the true -0.4
+    names = list(model.library_.get_feature_names_out(["y0", "z0", "u0"]))
+    assert model.coef_[0, names.index(f"[z0>={placed[2]!r}]")] == pytest.approx(-0.4, abs=0.1)
+
+
+def test_a_model_with_a_latent_indicator_round_trips_and_filters(indicator, tmp_path):
+    from sindybench.estimation import extended_kalman_filter
+
+    model, _, u, y = indicator
+    model.to_json(tmp_path / "indicator.json")
+    loaded = load_model(tmp_path / "indicator.json")
+    assert loaded.equations() == model.equations()
+    np.testing.assert_allclose(loaded.predict(u[:200], y_init=y[:5]), model.predict(u[:200], y_init=y[:5]),
+                               rtol=1e-9, atol=1e-12)
+    result = extended_kalman_filter(model, u, y, Q=1e-6, R=0.002**2)
+    assert np.sqrt(np.mean((result.states[:, 0] - y[:, 0]) ** 2)) < 0.1 * np.std(y)
+
+
+def test_indicator_terms_and_range_levels_check_their_arguments():
+    from sindybench.hidden._latent_hard import indicator_terms, range_levels
+
+    assert indicator_terms(1, 2.5, times=[2]) == [((1, 4, 2.5, np.inf),), ((1, 4, 2.5, np.inf), (2, 0, 1.0, 0.0))]
+    with pytest.raises(ValueError, match="level must be a finite number"):
+        indicator_terms(1, np.nan)
+    with pytest.raises(ValueError, match="quantiles must be two numbers in"):
+        range_levels(np.arange(5.0), (0.8, 1.2))
+    with pytest.raises(ValueError, match="z has no finite sample"):
+        range_levels([np.nan])

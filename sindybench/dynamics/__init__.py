@@ -9,7 +9,7 @@ compiled or Python right-hand side).
 """
 
 from ._model import Dynamics, assemble, check_output_index, make_rhs
-from ._ops import ABS_POW, BUILTIN_OPS, HINGE, POW, SIGN, SQRT, STEP, USER
+from ._ops import ABS_POW, BUILTIN_OPS, HINGE, LOGISTIC, POW, SIGN, SQRT, STEP, USER
 from ._simulate import Settings, SimulationError, TermsRHS, simulate, simulation_settings
 from ._step import (
     StepModel,
@@ -35,6 +35,7 @@ from ._user import OpCompileError, UserOp, register_op, user_table
 __all__ = [
     "ABS_POW",
     "HINGE",
+    "LOGISTIC",
     "Dynamics",
     "OpCompileError",
     "POW",

@@ -25,12 +25,13 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from . import _optable
-from ._optable import ABS_POW, HINGE, OPERATIONS, POW, SIGN, SQRT, STEP, power
+from ._optable import ABS_POW, HINGE, LOGISTIC, OPERATIONS, POW, SIGN, SQRT, STEP, power
 
 __all__ = [
     "ABS_POW",
     "BUILTIN_OPS",
     "HINGE",
+    "LOGISTIC",
     "POW",
     "SIGN",
     "SQRT",

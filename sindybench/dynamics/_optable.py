@@ -16,12 +16,28 @@ STEP      ``1`` if ``a <= z <= b``, else 0   0                                  
                                                                                         ``[a<=z<=b]``
 HINGE     ``max(z - a, 0)`` (``b >= 0``),    1 above ``a`` (``b >= 0``), -1 below       ``max(z-a, 0)``,
           ``max(a - z, 0)`` (``b < 0``)      ``a`` (``b < 0``), else 0                  ``max(a-z, 0)``
+LOGISTIC  ``1 / (1 + exp(-b (z - a)))``      ``b value (1 - value)``                    ``logistic(b*(z-a))``
 ========  =================================  =========================================  ======================
 
 ``HINGE`` is a continuous piecewise-linear factor with its kink at the level ``a``: the
 amount by which ``z`` passes the level upwards (``b >= 0``) or downwards (``b < 0``). A
 saturation of ``z`` at ``a`` is ``z - max(z - a, 0)``; its text writes the level exactly
 (the shortest decimal that reads back as the same float).
+
+``LOGISTIC`` is the smoothed indicator ``[z>=a]`` of slope ``b > 0`` (its width ``1 / b``; the
+step as ``b -> inf``): a fit that refines the level of an indicator by gradients uses it,
+narrowed, and writes the exact ``STEP`` into the final model
+(:func:`~sindybench.hidden._latent_hard.fit_range_levels`). It is computed as
+``0.5 + 0.5 tanh(b (z - a) / 2)``, without a division.
+
+**No division in a value function.** numba compiles ``x / y`` with a ``ZeroDivisionError``
+path (its Python error model); one in ``op_value`` makes the free-run kernel
+(``_kernels.run_state_into``) 5-7x slower for every model, whether it uses that operation or
+not (``benchmarks/bench_ops.py --add div``: one ``(v - a) / b`` branch; the same branch compiled
+with ``error_model="numpy"`` costs nothing, nor does one ``exp`` alone; hinge2's ``LOGISTIC`` of
+width ``b``, which divided, made it 5.0-7.5x slower; CPU time of the kernels). Hence
+``LOGISTIC`` takes the slope, not the width. The derivatives may divide (``SQRT``'s does): the
+sensitivity kernel carries that path already.
 
 ``value(v, a, b)`` and ``derivative(v, value, a, b)`` are plain functions of scalars in the
 subset of Python that numba compiles: the compiled dispatch of :mod:`._ops` (``op_value``,
@@ -52,7 +68,7 @@ from typing import Callable, NamedTuple
 import numpy as np
 from numba import njit
 
-__all__ = ["ABS_POW", "HINGE", "OPERATIONS", "Operation", "POW", "SIGN", "SQRT", "STEP", "builtin_operation",
+__all__ = ["ABS_POW", "HINGE", "LOGISTIC", "OPERATIONS", "Operation", "POW", "SIGN", "SQRT", "STEP", "builtin_operation",
            "power"]
 
 
@@ -226,6 +242,23 @@ def _hinge_sympy(sp, z, a, b):
     return sp.Max(z - level, 0) if b >= 0.0 else sp.Max(level - z, 0)
 
 
+# ------------------------------------------------------------------------------------------- LOGISTIC
+def _logistic_value(v, a, b):
+    return 0.5 + 0.5 * math.tanh(0.5 * b * (v - a))  # no division (see the module); NaN stays NaN
+
+
+def _logistic_derivative(v, value, a, b):
+    return b * value * (1.0 - value)
+
+
+def _logistic_inner(z, a, minus):
+    return f"{z}{minus}{_exact(a)}" if a > 0 else f"{z}+{_exact(-a)}" if a < 0 else z
+
+
+def _logistic_sympy(sp, z, a, b):
+    return 1 / (1 + sp.exp(-sp.Float(repr(float(b))) * (z - sp.Float(repr(float(a))))))
+
+
 OPERATIONS = (
     Operation(0, "POW", _pow_value, _pow_derivative,
               text=lambda z, a, b: _text_power(z, a),
@@ -258,10 +291,15 @@ OPERATIONS = (
               latex=lambda z, a, b: _hinge_text(z, a, b, " - ").replace("max(", r"\max(", 1),
               sympy=_hinge_sympy,
               casadi=lambda ca, v, a, b: ca.fmax(v - a if b >= 0.0 else a - v, 0.0)),
+    Operation(6, "LOGISTIC", _logistic_value, _logistic_derivative,
+              text=lambda z, a, b: f"logistic({_exact(b)}*({_logistic_inner(z, a, '-')}))",
+              latex=lambda z, a, b: rf"\sigma({_exact(b)} ({_logistic_inner(z, a, ' - ')}))",
+              sympy=_logistic_sympy,
+              casadi=lambda ca, v, a, b: 0.5 + 0.5 * ca.tanh(0.5 * b * (v - a))),
 )
 """The built-in operations, by code (``OPERATIONS[code].code == code``)."""
 
-POW, ABS_POW, SQRT, SIGN, STEP, HINGE = (op.code for op in OPERATIONS)
+POW, ABS_POW, SQRT, SIGN, STEP, HINGE, LOGISTIC = (op.code for op in OPERATIONS)
 
 
 def builtin_operation(code):

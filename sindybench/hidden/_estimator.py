@@ -26,6 +26,7 @@ from ._candidate import Candidate, candidate_initial_state, fit_candidate, struc
 from ._derivative import Derivative
 from ._objective import VALIDATIONS, SearchObjective
 from ._persist import hidden_sindy_from_dict, hidden_sindy_to_dict
+from ._latent_hard import fit_range_levels
 from ._multistart import heads, refine_best, refit_failed, search_starts
 from ._refinement import refined_values, refinement_problem
 
@@ -424,6 +425,10 @@ class HiddenStateSINDy(DynamicsEstimator):
         if auto_start and several:
             raise ValueError("start='auto' fits one record; got several. Fit each start (start='lag', "
                              "'subspace') and compare them, or pass one record.")
+        if getattr(self.hidden, "levels", None) == "range":  # the plain model first, then its hinges from 0
+            if several:
+                raise ValueError("levels='range' fits one record; got several. Pass one record, or levels='library'.")
+            return fit_range_levels(self, X[0], y[0][:, 0] if y_1d else y[0], dt)
         dt, est_space = self._check_params(dt)
         X = [self.delayed_inputs(X_r) for X_r in X]
         self._check_refine_records(len(y))

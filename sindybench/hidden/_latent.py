@@ -51,7 +51,7 @@ from sklearn.base import clone
 from .._limits import check_memory
 from .._validation import check_bounds
 from ..io import register_model
-from ..libraries import HINGE, POW, PolynomialLibrary
+from ..libraries import HINGE, LOGISTIC, POW, STEP, PolynomialLibrary
 from ..refine import OutputErrorRefinement, PredictionErrorRefinement
 from ..simulate import TermsRHS, simulate
 from ._latent_hard import level_lines
@@ -136,6 +136,16 @@ class LatentHiddenState(HiddenStrategy):
         (:meth:`coef_support`); the hard terms of the library then reach the
         latent rows through the latent state only. Needs ``driver="input"``
         and a lag start (``start="auto"`` tries the input lag only).
+    levels : {"library", "range"}, default="library"
+        Where hinge terms of the latent states start. ``"library"``: at the
+        levels the library writes, fitted with the start. ``"range"`` (a warm
+        start, :func:`~sindybench.hidden._latent_hard.fit_range_levels`): the
+        model without the hinges (the library's last part, a
+        ``TermsLibrary`` of hinge terms, left out) is fitted and refined
+        first; the hinges are then placed at the 80 % (upper) and 20 %
+        (lower) quantiles of its simulated latent state and refined from
+        coefficients 0, kept only when the simulation error of the training
+        record does not grow. One record only.
 
     Notes
     -----
@@ -164,7 +174,7 @@ class LatentHiddenState(HiddenStrategy):
 
     def __init__(self, *, n_latent=1, order=1, driver="input", scale="driver", tau=None, gain=None, offset=0.0,
                  bounds=None, latent_bounds=None, output_bounds=None, start="lag", block_rows=None,
-                 cascade=False):
+                 cascade=False, levels="library"):
         self.n_latent = n_latent
         self.order = order
         self.driver = driver
@@ -178,6 +188,7 @@ class LatentHiddenState(HiddenStrategy):
         self.start = start
         self.block_rows = block_rows
         self.cascade = cascade
+        self.levels = levels
 
     def _validate(self):
         if isinstance(self.n_latent, bool) or not isinstance(self.n_latent, numbers.Integral) or self.n_latent < 1:
@@ -205,6 +216,8 @@ class LatentHiddenState(HiddenStrategy):
             raise ValueError(f"scale='range' fixes the latent scale by its bounds; expected finite latent_bounds, "
                              f"got {self.latent_bounds!r}.")
         check_bounds(self.output_bounds, 1, name="output_bounds")
+        if self.levels not in _LEVELS:
+            raise ValueError(f"levels must be one of {_LEVELS}; got {self.levels!r}.")
         if self.start not in _STARTS:
             raise ValueError(f"start must be one of {_STARTS}; got {self.start!r}.")
         if self.block_rows is not None and (isinstance(self.block_rows, bool) or not isinstance(
@@ -425,9 +438,9 @@ class LatentHiddenState(HiddenStrategy):
     def refine_free(self, coef, terms, *, n_outputs, n_inputs):
         """Entries of the learned block freed by a refinement.
 
-        The outputs' nonzero coefficients and their hinges of a latent state
-        (a hinge the start never reaches has a zero coefficient, which the
-        refinement must still move), and every term of the latent rows
+        The outputs' nonzero coefficients and their hinges and indicators of a
+        latent state (a hinge the start never reaches has a zero coefficient,
+        which the refinement must still move), and every term of the latent rows
         except, with ``scale="driver"`` or ``"units"``, each row's gauge term
         (its driver's linear term, held at its value).
         """
@@ -439,7 +452,7 @@ class LatentHiddenState(HiddenStrategy):
         n_meas = n_outputs * int(self.order)
         latent = range(n_meas, n_meas + int(self.n_latent))
         for t, term in enumerate(terms):
-            if any(op == HINGE and col in latent for col, op, _, _ in term):
+            if any(op in (HINGE, STEP, LOGISTIC) and col in latent for col, op, _, _ in term):
                 free[t, :n_outputs] = True
         for j, col in enumerate(self._drivers(n_outputs)):
             free[:, n_outputs + j] = True
@@ -634,6 +647,7 @@ def canonical_mixing(strategy, cand, x0, n_inputs):
 
 _DRIVERS = ("input", "velocity", "output")
 _STARTS = ("lag", "subspace", "auto")
+_LEVELS = ("library", "range")
 _SCALES = ("driver", "units", "range")
 
 

@@ -1,25 +1,32 @@
 """The latent family's hard terms: hinges of the latent state, at levels the fit decides.
 
 The order-1 latent family (one output, driven by the first input) gets one
-extra candidate, ``library="linear+latent_hinge"``: the linear terms plus the
-hinges of the latent state ``z`` at an upper and a lower level, each alone
-and times the inputs (:func:`~sindybench.hidden._latent_hard.hinge_terms`).
-Its latent state starts in the first input's units
-(``LatentHiddenState(scale="units")``: ``z' = (u0 - z) / tau``, static gain
-1), so that the levels can be named from the estimation record before the
-time constant is searched: the 80 % and 20 % quantiles of ``u0``, near the
-top and bottom of the range a lag of the input spans. The refinement then moves them
-(the level gauge: the level is held in the term, the latent offset fitted;
-the start's offset is searched with the time constant first, within
-:func:`offset_range`),
-and the validation blocks decide whether the candidate is kept. One
-candidate per derivative and hold, so the cost is one latent fit more.
+extra candidate, ``library="linear+latent_hinge"``: the plain candidate's
+terms (linear, or the family's proposed hard terms) plus the hinges of the
+latent state ``z`` at an upper and a lower level, each alone and times the
+inputs (:func:`~sindybench.hidden._latent_hard.hinge_terms`), and where the
+output's advice proposes an indicator (a pile-up at a level: an overflow),
+the indicator ``[z >= L]`` of the latent state at the upper level, alone and
+times the inputs (smoothed by logistics narrowed over the refinements, exact
+in the model). It is warm
+started from the plain candidate (``LatentHiddenState(levels="range")``,
+:func:`~sindybench.hidden._latent_hard.fit_range_levels`): the plain model is
+fitted as the plain candidate is (same gauge, search and refinement), the
+hinges' levels are placed at the 80 % and 20 % quantiles of its simulated
+latent state, and the model is refined again from the plain one with the
+hinges' coefficients at 0, kept only when the training simulation error
+does not grow. The levels the library writes (the 80 % and 20 % quantiles of
+``u0``) are placeholders that the warm start replaces; the refinement then
+moves the levels (the level gauge: the level is held in the term, the latent
+offset fitted), and the validation blocks decide whether the candidate is
+kept. One candidate per derivative and hold: the cost is one refinement more
+than the plain candidate's fit (which it repeats).
 """
 
 import numpy as np
 
 from ..dynamics import HINGE
-from ..hidden._latent_hard import hinge_terms
+from ..hidden._latent_hard import hinge_terms, indicator_terms
 from ..libraries import PolynomialLibrary, TermsLibrary
 from ..search import Uniform
 
@@ -31,7 +38,7 @@ LATENT_HINGE = "linear+latent_hinge"
 _QUANTILES = (0.8, 0.2)
 
 
-def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
+def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True, indicator=False):
     """Linear terms (or ``base``) plus hinges of the latent state (column ``n_outputs`` of ``Z = [y, z, u]``), or None.
 
     Parameters
@@ -44,6 +51,11 @@ def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
     lower : bool, default=True
         Also the lower hinge (not for a latent state held non-negative: its
         bound is its lower level).
+    indicator : bool, default=False
+        Also the indicator ``[z >= L]`` at the upper level, alone and times
+        the inputs (an overflow of the hidden state: proposed where the
+        output's advice proposes an indicator); smoothed in the fit, exact in
+        the model (:func:`~sindybench.hidden._latent_hard.fit_range_levels`).
 
     Returns
     -------
@@ -56,6 +68,9 @@ def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
     >>> lib = latent_hinge_library(u).fit(np.zeros((1, 3)))
     >>> lib.get_feature_names_out(["y0", "z0", "u0"]).tolist()[4:]
     ['max(z0-8.0, 0)', 'max(z0-8.0, 0) u0', 'max(2.0-z0, 0)', 'max(2.0-z0, 0) u0']
+    >>> latent_hinge_library(u, lower=False, indicator=True).fit(np.zeros((1, 3))).get_feature_names_out(
+    ...     ["y0", "z0", "u0"]).tolist()[4:]
+    ['max(z0-8.0, 0)', 'max(z0-8.0, 0) u0', '[z0>=8]', '[z0>=8] u0']
     """
     X = np.asarray(X, dtype=float)
     if X.ndim != 2 or X.shape[1] == 0:
@@ -70,11 +85,16 @@ def latent_hinge_library(X, n_outputs=1, *, base=None, lower=True):
     terms = hinge_terms(z, high, side="upper", times=inputs)
     if lower:
         terms += hinge_terms(z, low, side="lower", times=inputs)
+    if indicator:
+        terms += indicator_terms(z, high, times=inputs)
     return (PolynomialLibrary(degree=1) if base is None else base) + TermsLibrary(terms=terms)
 
 
 def offset_range(library):
     """The search range of the start's offset (``LatentHiddenState(offset=None)``) for a hinge ``library``.
+
+    (For a start in ``u0``'s units with the library's levels: identify's
+    cascade candidate; its hinge candidate places its levels by the warm start.)
 
     Half the gap between the upper and the lower level either way: the
     search slides the start's latent state against both levels (it is the

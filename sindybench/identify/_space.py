@@ -187,12 +187,17 @@ def _latent_hard_terms(settings, n_inputs):
     return lib
 
 
-def _latent_hinges(X, settings, n_inputs, libraries):
-    """The order-1 latent family's hinge candidate (when a ``+hard`` library is searched), or None."""
+def _latent_hinges(X, settings, n_inputs, libraries, *, indicator=True):
+    """The order-1 latent family's hinge library (when a ``+hard`` library is searched), or None.
+
+    With ``indicator``, also the latent indicator where the output's advice proposes one (the
+    warm-started hinge candidate; the cascade's hinges start at the library's levels instead).
+    """
     if not any(name.endswith("+hard") for name in libraries):
         return None
     positive = bool(settings["positive"])  # the latent state held >= 0: its bound is its lower level
-    return latent_hinge_library(X, 1, base=_latent_hard_terms(settings, n_inputs), lower=not positive)
+    return latent_hinge_library(X, 1, base=_latent_hard_terms(settings, n_inputs), lower=not positive,
+                                indicator=indicator and settings["indicator"][0] is not None)  # a hidden overflow
 
 
 def _library(name, family, settings, n_outputs, n_inputs):
@@ -251,7 +256,7 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
                 for lib_name, lib in (("linear", PolynomialLibrary(degree=1)),
                                       ("linear+hard", _latent_hard_terms(settings, n_inputs)),
                                       (LATENT_HINGE, _latent_hinges(X, settings, n_inputs, libraries)),
-                                      (LATENT_CASCADE, _latent_hinges(X, settings, n_inputs, libraries))):
+                                      (LATENT_CASCADE, _latent_hinges(X, settings, n_inputs, libraries, indicator=False))):
                     if lib is not None:
                         out.append(({"family": family, "library": lib_name, "derivative": "finite_difference",
                                      "input_hold": hold, "input_delay": delay}, lib))
@@ -317,16 +322,20 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
     order = _ORDER[structure["family"]]
     if structure["family"] in ("order1+latent", "order1+latent2"):  # lags of the input as the start, then refined
         positive, top = bool(settings["positive"]), settings["saturation"][0]
-        hinge = structure["library"] in (LATENT_HINGE, LATENT_CASCADE)  # in u0's units: the levels named in them
-        search = hinge and not positive  # the start's offset searched (a latent state held >= 0 keeps its zero)
+        # the hinge candidate warm-starts from the plain one (its own fit), hinges at its latent state's quantiles
+        hinge = structure["library"] == LATENT_HINGE
+        # the cascade starts in u0's units, its hinges at the library's levels (named in them)
+        cascade = structure["library"] == LATENT_CASCADE
+        search = cascade and not positive  # the start's offset searched (a latent state held >= 0 keeps its zero)
         tau = LogUniform(_LATENT_TAU[0] * dt, _LATENT_TAU[1] * dt)
         hidden = LatentHiddenState(n_latent=2 if structure["family"] == "order1+latent2" else 1, order=1,
-                                   driver="input", scale="units" if hinge else "driver",
+                                   driver="input", scale="units" if cascade else "driver",
                                    bounds={"tau": tau, "offset": offset_range(library)} if search else {"tau": tau},
                                    offset=None if search else 0.0, start=_LATENT_START,
+                                   levels="range" if hinge else "library",
                                    latent_bounds=(0.0, np.inf) if positive else None,
                                    output_bounds=(0.0, np.inf if top is None else top) if positive else None,
-                                   cascade=structure["library"] == LATENT_CASCADE)
+                                   cascade=cascade)
         return HiddenStateSINDy(hidden=hidden, library=clone(library), optimizer=optimizer,
                                 differentiation=differentiation, dt=dt, input_hold=hold, input_delay=delay,
                                 validation_size=0.15,

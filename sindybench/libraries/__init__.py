@@ -14,6 +14,7 @@ from ._spec import fitted_library_from_dict, fitted_library_to_dict, library_fro
 from ._terms import (
     ABS_POW,
     HINGE,
+    LOGISTIC,
     POW,
     SIGN,
     SQRT,

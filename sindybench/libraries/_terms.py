@@ -18,6 +18,7 @@ SQRT      ``sqrt(clip(z, a, b))``            ``sqrt(z)``
 SIGN      ``sign(z)``                        ``sign(z)``
 STEP      ``1`` if ``a <= z <= b``, else 0   ``[z>=a]``, ``[z<=b]``, ``[a<=z<=b]``
 HINGE     ``max(z - a, 0)`` (``b >= 0``)     ``max(z-a, 0)`` (``max(a-z, 0)`` for ``b < 0``)
+LOGISTIC  ``1 / (1 + exp(-b (z - a)))``      ``logistic(b*(z-a))`` (``[z>=a]`` smoothed, width ``1/b``)
 ========  =================================  ==========
 
 ``STEP`` marks a regime, e.g. an overflowing tank (``[x1>=10]``: the level at
@@ -42,13 +43,14 @@ import re
 
 import numpy as np
 
-from ..dynamics._ops import ABS_POW, HINGE, POW, SIGN, SQRT, STEP, USER
+from ..dynamics._ops import ABS_POW, HINGE, LOGISTIC, POW, SIGN, SQRT, STEP, USER
 from ..dynamics._terms import check_terms, evaluate_terms, evaluate_terms_jacobian, terms_to_arrays
 from ..dynamics._user import operation, user_op
 
 __all__ = [
     "ABS_POW",
     "HINGE",
+    "LOGISTIC",
     "POW",
     "SIGN",
     "SQRT",

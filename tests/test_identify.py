@@ -367,15 +367,13 @@ def test_n_jobs_gives_the_same_search(oscillator):
 
 
 def test_refit_keeps_the_validated_terms(oscillator, monkeypatch):
-    # the choice is refitted on the whole record with the terms its validated (last-fold) fit kept, and no
+    # the choice is refitted on the whole record over the terms its validated (last-fold) fit kept, and no
     # others: here every candidate's validated support loses its last term, so the refit must lose it too
     real = stages_module.validated_terms
 
     def fewer(model, family):
         support = real(model, family)
-        if support is not None and len(support["terms"]) > 1:
-            support = dict(support, terms=support["terms"][:-1])
-        return support
+        return support[:-1] if support is not None and len(support) > 1 else support
 
     monkeypatch.setattr(stages_module, "validated_terms", fewer)
     u, y = oscillator
@@ -386,7 +384,7 @@ def test_refit_keeps_the_validated_terms(oscillator, monkeypatch):
     assert search.best_params_["n_terms"] == 2
 
 
-def test_validated_library_of_rows_with_their_own_supports():
+def test_validated_terms_of_rows_with_their_own_supports():
     from sindybench.libraries import PolynomialLibrary
 
     u = np.linspace(0.0, 1.0, 50)[:, None]
@@ -394,8 +392,6 @@ def test_validated_library_of_rows_with_their_own_supports():
     model.fit(u, np.hstack([np.exp(np.linspace(0, 1, 50))[:, None], np.ones((50, 1))]))
     model.coef_ = np.array([[0.0, 1.0, 0.0, 2.0], [3.0, 0.0, 0.0, 0.0]])  # rows keep {x0, u0} and {1}
     support = stages_module.validated_terms(model, "first_order")
-    assert support["shared"] is False and len(support["terms"]) == 3
-    library, level = stages_module.validated_library({"threshold": 0.2, "support": support}, PolynomialLibrary())
-    assert level == 0.2  # rows with their own supports: the union, pruned at the candidate's level
+    library = stages_module.validated_library({"support": support}, PolynomialLibrary())
     assert library.fit(np.zeros((1, 3))).get_feature_names_out(["x0", "x1", "u0"]).tolist() == ["1", "x0", "u0"]
     assert stages_module.validated_terms(model, "order1+latent") is None  # a family with its own term selection

@@ -360,8 +360,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
 
         def refit(i):
             chosen = {k: rows[i][k] for k in STRUCTURE + ("threshold", "refine")}
-            library, level = validated_library(rows[i], libraries[i])  # the terms its validation scored
-            final = make_estimator(chosen, library, stls_threshold(level, n), dt, settings,
+            library = validated_library(rows[i], libraries[i])  # no term that no validation block scored
+            final = make_estimator(chosen, library, stls_threshold(chosen["threshold"], n), dt, settings,
                                    refine=refinement if chosen["refine"] else None, random_state=ctx["random_state"])
             if several:
                 final.fit(X, y)

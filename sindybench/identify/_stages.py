@@ -151,10 +151,9 @@ def _equations(model):
 def validated_terms(model, family):
     """The terms a candidate's validated fit kept, for its refit on the whole record (see :func:`validated_library`).
 
-    ``{"terms": [...], "shared": bool}``: the library terms with a nonzero
-    coefficient in some learned row of ``model`` (the fit of the last fold), in
-    the library's order and their JSON form, and whether every learned row kept
-    them all; None for a family that selects its terms inside its own fit (the
+    The library terms with a nonzero coefficient in some learned row of
+    ``model`` (the fit of the last fold), in the library's order and their JSON
+    form; None for a family that selects its terms inside its own fit (the
     latent, lag and linear families), a library without terms, or no model.
 
     Examples
@@ -163,9 +162,8 @@ def validated_terms(model, family):
     >>> from sindybench.libraries import PolynomialLibrary
     >>> t = np.arange(200) * 0.05
     >>> model = SINDy(library=PolynomialLibrary(degree=2), dt=0.05).fit(np.sin(t)[:, None], np.cos(t)[:, None])
-    >>> support = validated_terms(model, "first_order")
-    >>> len(support["terms"]) == int(np.count_nonzero(np.any(model.coef_ != 0, axis=0))), support["shared"]
-    (True, True)
+    >>> len(validated_terms(model, "first_order")) == int(np.count_nonzero(np.any(model.coef_ != 0, axis=0)))
+    True
     """
     if model is None or family in LATENT_FAMILIES:
         return None
@@ -173,43 +171,36 @@ def validated_terms(model, family):
     coef = getattr(model, "coef_", None)
     if terms is None or coef is None or len(terms) != np.shape(coef)[1]:
         return None
-    nonzero = np.asarray(coef) != 0
-    union = np.any(nonzero, axis=0)
-    shared = bool(np.all(nonzero[:, union]))
-    return {"terms": [[[float(v) if k >= 2 else int(v) for k, v in enumerate(f)] for f in terms[j]]
-                      for j in np.flatnonzero(union)], "shared": shared}
+    kept = np.flatnonzero(np.any(np.asarray(coef) != 0, axis=0))
+    return [[[float(v) if k >= 2 else int(v) for k, v in enumerate(f)] for f in terms[j]] for j in kept]
 
 
 def validated_library(row, library):
-    """``(library, level)`` of a chosen candidate's refit on the whole record: the terms its validated fit kept.
+    """The library of a chosen candidate's refit on the whole record: the terms its validated fit kept.
 
-    The refit re-estimates the coefficients of the terms that the fit of the
-    last fold kept (``row["support"]``, :func:`validated_terms`), as a
-    :class:`~sindybench.libraries.TermsLibrary`: the same threshold level on
-    more samples may keep terms that no validation block scored (on EMPS the
-    validated pick ``1, y', u, y'^2, sign(y')`` gained ``y, y^2`` at its refit:
-    test 6.88 mm instead of 5.41). With the support shared by every learned row
-    the level is 0 (the validated terms exactly); rows with their own supports
-    keep the candidate's level on that union. A row without a support (a family
-    with its own term selection, a candidate read back from an older store) keeps
-    ``library`` and its level.
+    The refit thresholds at the candidate's level as before, but over the
+    terms that the fit of the last fold kept (``row["support"]``,
+    :func:`validated_terms`, as a :class:`~sindybench.libraries.TermsLibrary`):
+    it may drop a term whose contribution falls below the level on more
+    samples, never add one that no validation block scored (on EMPS the
+    validated pick ``1, y', u, y'^2, sign(y')`` gained ``y`` and ``y^2`` when
+    refitted over the whole library: test 6.88 mm instead of 5.41). A row
+    without a support (a family with its own term selection, a candidate read
+    back from an older store) keeps ``library``.
 
     Examples
     --------
     >>> from sindybench.libraries import PolynomialLibrary
-    >>> row = {"threshold": 0.5, "support": {"terms": [[], [[1, 0, 1.0, 0.0]]], "shared": True}}
-    >>> library, level = validated_library(row, PolynomialLibrary(degree=2))
-    >>> library.fit(np.zeros((1, 2))).get_feature_names_out(["y", "u"]).tolist(), level
-    (['1', 'u'], 0.0)
-    >>> validated_library({"threshold": 0.5}, PolynomialLibrary(degree=2))[1]
-    0.5
+    >>> row = {"support": [[], [[1, 0, 1.0, 0.0]]]}
+    >>> validated_library(row, PolynomialLibrary(degree=2)).fit(np.zeros((1, 2))).get_feature_names_out(["y", "u"])
+    array(['1', 'u'], dtype=object)
+    >>> validated_library({}, PolynomialLibrary(degree=2))
+    PolynomialLibrary()
     """
     from ..libraries import TermsLibrary
 
     support = row.get("support")
-    if not support or not support["terms"]:
-        return library, row["threshold"]
-    return TermsLibrary(terms=support["terms"]), 0.0 if support["shared"] else row["threshold"]
+    return TermsLibrary(terms=support) if support else library
 
 
 def hold_twin(third):

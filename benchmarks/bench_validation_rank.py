@@ -28,8 +28,8 @@ from scipy.stats import spearmanr  # noqa: E402
 from bench_identify import TARGETS, _identified, _warm_up  # noqa: E402
 from sindybench.experiments._runner import _n_init, evaluate, test_sets  # noqa: E402
 from sindybench.identify._search import stls_threshold  # noqa: E402
-from sindybench.identify._space import make_estimator, structures  # noqa: E402
-from sindybench.identify._stages import STRUCTURE  # noqa: E402
+from sindybench.identify._space import LATENT_FAMILIES, make_estimator, structures  # noqa: E402
+from sindybench.identify._stages import STRUCTURE, validated_library, validated_terms  # noqa: E402
 
 
 def scored_rows(table):
@@ -47,16 +47,25 @@ def scored_rows(table):
 
 
 def refit_candidate(search, i, X, y, dt):
-    """Row ``i`` of a fitted ``IdentifyCV``'s table refitted on the whole record ``(X, y)`` as its choice is."""
+    """Row ``i`` of a fitted ``IdentifyCV``'s table refitted on the whole record ``(X, y)`` as its choice is: on the
+    terms that its fit on the last fold's training part keeps (``validated_library``)."""
     table, settings = search.cv_results_, search.settings_
     row = {k: table[k][i] for k in STRUCTURE}
     libraries = {tuple(s[k] for k in ("family", "library", "derivative")): lib
                  for s, lib in structures(X, y, dt, settings, families=search.families)}
     library = libraries[(row["family"], row["library"], row["derivative"])]
     refine = search._refinement(len(y), search.criterion_["horizon"]) if table["stage"][i] == "refine" else None
-    model = make_estimator(row, library, stls_threshold(table["threshold"][i], len(y)), dt, settings,
-                           refine=refine, random_state=search.random_state or 0)
-    return model.fit(X, y)
+
+    def make(library, level, n):
+        return make_estimator(row, library, stls_threshold(level, n), dt, settings, refine=refine,
+                              random_state=search.random_state or 0)
+
+    chosen = {"threshold": table["threshold"][i], "support": None}
+    if row["family"] not in LATENT_FAMILIES:  # the others choose their terms in their own fit
+        stop = search.blocks_[-1][0]  # the last fold trains on the samples before its block
+        last = make(library, chosen["threshold"], stop).fit(X[:stop], y[:stop])
+        chosen["support"] = validated_terms(last, row["family"])
+    return make(validated_library(chosen, library), chosen["threshold"], len(y)).fit(X, y)
 
 
 def rank(name, settings):

@@ -364,3 +364,34 @@ def test_n_jobs_gives_the_same_search(oscillator):
     two = IdentifyCV(n_jobs=2, **kwargs).fit(u, y)
     assert one.best_params_ == two.best_params_
     np.testing.assert_array_equal(one.cv_results_["mean_validation_error"], two.cv_results_["mean_validation_error"])
+
+
+def test_refit_keeps_the_validated_terms(oscillator, monkeypatch):
+    # the choice is refitted on the whole record over the terms its validated (last-fold) fit kept, and no
+    # others: here every candidate's validated support loses its last term, so the refit must lose it too
+    real = stages_module.validated_terms
+
+    def fewer(model, family):
+        support = real(model, family)
+        return support[:-1] if support is not None and len(support) > 1 else support
+
+    monkeypatch.setattr(stages_module, "validated_terms", fewer)
+    u, y = oscillator
+    search = IdentifyCV(dt=DT, families=["order2"], libraries=["linear"], **QUICK).fit(u, y)
+    model = search.best_estimator_
+    assert search.best_params_["family"] == "order2"
+    assert _support(model) == {"y0", "y0'"}  # u0 (the library's last term) was dropped from the support
+    assert search.best_params_["n_terms"] == 2
+
+
+def test_validated_terms_of_rows_with_their_own_supports():
+    from sindybench.libraries import PolynomialLibrary
+
+    u = np.linspace(0.0, 1.0, 50)[:, None]
+    model = SINDy(library=PolynomialLibrary(degree=1), optimizer=sindybench.STLS(threshold=0.0), dt=0.1)
+    model.fit(u, np.hstack([np.exp(np.linspace(0, 1, 50))[:, None], np.ones((50, 1))]))
+    model.coef_ = np.array([[0.0, 1.0, 0.0, 2.0], [3.0, 0.0, 0.0, 0.0]])  # rows keep {x0, u0} and {1}
+    support = stages_module.validated_terms(model, "first_order")
+    library = stages_module.validated_library({"support": support}, PolynomialLibrary())
+    assert library.fit(np.zeros((1, 3))).get_feature_names_out(["x0", "x1", "u0"]).tolist() == ["1", "x0", "u0"]
+    assert stages_module.validated_terms(model, "order1+latent") is None  # a family with its own term selection

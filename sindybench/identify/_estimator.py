@@ -18,7 +18,7 @@ from ._run_stages import run_stages
 from ._search import describe_blocks, pareto_front, record_folds, segments, stls_threshold
 from ._space import n_terms
 from ._space import FAMILIES, LIBRARIES, data_settings, make_estimator, structures
-from ._stages import STRUCTURE, Budget, parallel_map, refit_choice, refit_failed
+from ._stages import STRUCTURE, Budget, parallel_map, refit_choice, refit_failed, validated_library
 from . import _persist  # noqa: F401  (model files keep identification_: registers its codec)
 
 __all__ = ["IdentifyCV", "identify"]
@@ -360,7 +360,8 @@ class IdentifyCV(RegressorMixin, BaseEstimator):
 
         def refit(i):
             chosen = {k: rows[i][k] for k in STRUCTURE + ("threshold", "refine")}
-            final = make_estimator(chosen, libraries[i], stls_threshold(chosen["threshold"], n), dt, settings,
+            library = validated_library(rows[i], libraries[i])  # no term that no validation block scored
+            final = make_estimator(chosen, library, stls_threshold(chosen["threshold"], n), dt, settings,
                                    refine=refinement if chosen["refine"] else None, random_state=ctx["random_state"])
             if several:
                 final.fit(X, y)

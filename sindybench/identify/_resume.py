@@ -190,6 +190,8 @@ class CandidateStore:
         attrs.update(extra, key=key, errors=_encode(row["errors"]))
         if row.get("equations") is not None:
             attrs["equations"] = list(row["equations"])
+        if row.get("support") is not None:  # the terms the refit of a chosen candidate keeps
+            attrs["support"] = row["support"]
         ok = row["errors"] and all(math.isfinite(e) for e in row["errors"])
         dists = {"threshold": optuna.distributions.FloatDistribution(row["threshold"], row["threshold"]),
                  "input_delay": optuna.distributions.IntDistribution(row["input_delay"], row["input_delay"])}

@@ -64,3 +64,32 @@ def test_model_dict_round_trip(data):
 def test_bad_parameters(data, params, match):
     with pytest.raises(ValueError, match=match):
         ForwardOLS(**params).fit(*data)
+
+
+@pytest.mark.parametrize("center", [False, True])
+def test_a_selection_of_more_terms_resumes_the_last_one(data, center):
+    """A search over n_terms: the second call resumes the first's selection, with the numbers of a fresh one."""
+    from sindybench.optimizers import _forward
+
+    theta, y = data
+    _forward._LAST.value = None
+    fresh = forward_ols(theta, y, n_terms=3, center=center)
+    _forward._LAST.value = None
+    first = forward_ols(theta, y, n_terms=2, center=center)
+    resumed = forward_ols(theta, y, n_terms=3, center=center)
+    assert len(_forward._LAST.value["selections"][0].chosen) == 3  # one selection, taken one step further
+    np.testing.assert_array_equal(resumed[0], fresh[0])
+    assert resumed[1] == fresh[1] and first[1] == [fresh[1][0][:2]]
+    theta2 = theta.copy()
+    theta2[:, 1] = 0.0  # other columns: a selection of their own, not the last one resumed
+    assert 1 not in forward_ols(theta2, y, n_terms=3, center=center)[1][0]
+
+
+def test_subtract_outer_in_blocks_is_the_outer_product_subtracted():
+    from sindybench.optimizers._forward import _subtract_outer
+
+    rng = np.random.default_rng(3)
+    W, q, v = rng.normal(size=(1000, 7)), rng.normal(size=1000), rng.normal(size=7)
+    expected = W - np.outer(q, v)
+    _subtract_outer(W, q, v, rows=64)  # 16 blocks, the last one short
+    np.testing.assert_array_equal(W, expected)

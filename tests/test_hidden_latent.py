@@ -199,3 +199,24 @@ def test_gauge_is_a_hook_of_every_strategy():
     assert LatentHiddenState(n_latent=2).gauge().splitlines() == [
         "z0: the coefficient of u0 in z0' is held at 1 by the refinement (scale gauge)",
         "z1: the coefficient of z0 in z1' is held at 1 by the refinement (scale gauge)"]
+
+
+def test_a_lag_chain_asked_again_is_the_one_simulated_before(monkeypatch):
+    """The starting lag of one drive and time constant is simulated once; later calls get a copy of it."""
+    from sindybench.hidden import _latent
+
+    monkeypatch.setattr(_latent, "_LAG_CHAINS", __import__("collections").OrderedDict())
+    strategy = LatentHiddenState()
+    drive = np.sin(np.arange(400) * 0.05)
+    z, z_dot = strategy._lags(drive, {"tau": 0.5, "gain": 1.0}, 0.01)
+    z[:] = np.nan  # the caller's copy: the kept chain is not changed
+    again, again_dot = strategy._lags(drive.copy(), {"tau": 0.5, "gain": 1.0}, 0.01)
+    assert len(_latent._LAG_CHAINS) == 1
+    fresh = simulate(lambda x, u: np.array([u[0] - x[0] / 0.5]), again[:1, 0], drive[:, None], 0.01, n_substeps=4)
+    np.testing.assert_allclose(again, fresh, rtol=1e-12)
+    np.testing.assert_array_equal(again_dot, np.c_[again, drive] @ [[-2.0], [1.0]])
+    strategy._lags(drive, {"tau": 0.7, "gain": 1.0}, 0.01)  # another time constant: another chain
+    assert len(_latent._LAG_CHAINS) == 2
+    monkeypatch.setattr(_latent, "_LAG_CHAINS_BYTES", again.nbytes)  # room for one chain: the oldest goes
+    strategy._lags(drive + 1.0, {"tau": 0.5, "gain": 1.0}, 0.01)
+    assert len(_latent._LAG_CHAINS) == 1

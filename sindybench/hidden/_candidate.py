@@ -11,12 +11,12 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .._regression import fit_sparse
 from .._validation import check_signal
 from ..dynamics import Dynamics, assemble
 from ._base import Design, ModelView, Structure
 from ._derivative import Derivative
 from ._refinement import initial_state
+from ._regressions import fit_regression
 
 __all__ = ["Candidate", "candidate_initial_state", "fit_candidate", "structure_dynamics"]
 
@@ -105,9 +105,10 @@ def fit_candidate(hidden, params, library, optimizer, derivative, Xs, ys, n_rows
         feature_filter = filters[0]
     else:
         feature_filter = _RecordFilters(filters, [len(y) for y in ys])
-    coef = fit_sparse(library, optimizer, np.hstack([np.vstack([p[1] for p in parts]), np.vstack(Xs)]),
-                      np.vstack([p[2] for p in parts]), rows=np.concatenate([p[3] for p in parts]),
-                      feature_filter=feature_filter, what="library output Theta([x, u])", normalize=normalize)
+    library, optimizer, coef = fit_regression(
+        library, optimizer, np.hstack([np.vstack([p[1] for p in parts]), np.vstack(Xs)]),
+        np.vstack([p[2] for p in parts]), rows=np.concatenate([p[3] for p in parts]), feature_filter=feature_filter,
+        what="library output Theta([x, u])", normalize=normalize)
     support = getattr(hidden, "coef_support", lambda *a, **k: None)(
         getattr(library, "terms_", None), n_outputs=ys[0].shape[1], n_inputs=Xs[0].shape[1])
     if support is not None:  # terms a row may not have (the strategy's structure): 0

@@ -41,7 +41,10 @@ model at an operating point) come from
 :func:`sindybench.estimation.latent_invariants`.
 """
 
+import collections
+import hashlib
 import numbers
+import threading
 import warnings
 
 import numpy as np
@@ -59,6 +62,35 @@ from ._latent_starts import subspace_start, support_warnings
 from ._base import Design, HiddenStrategy, Structure, bounds_space, linear_term, with_defaults
 
 __all__ = ["LatentHiddenState"]
+
+# the lag chains simulated last, by their inputs (see _lag_chain), and the most bytes they keep
+_LAG_CHAINS = collections.OrderedDict()
+_LAG_CHAINS_BYTES = 64 * 2**20
+_LAG_CHAINS_LOCK = threading.Lock()
+
+
+def _lag_chain(coef, terms, q, x0, drive, dt, bounds):
+    """The lag chain's simulation from ``x0`` driven by ``drive`` (a copy of the one kept when asked before).
+
+    A search asks for the same chain many times: every library, input hold and refined candidate of one
+    record and time constant. The chain is a function of its inputs only, so the one simulated before is
+    returned (the same numbers); the chains kept take at most ``_LAG_CHAINS_BYTES``, the oldest dropped first.
+    """
+    drive = np.ascontiguousarray(drive, dtype=float)
+    key = (hashlib.blake2b(drive.tobytes(), digest_size=20).digest(), drive.shape, q, float(dt),
+           *(np.asarray(a, dtype=float).tobytes() for a in (coef, x0, *bounds)))
+    with _LAG_CHAINS_LOCK:
+        z = _LAG_CHAINS.get(key)
+        if z is not None:
+            _LAG_CHAINS.move_to_end(key)
+            return z.copy()
+    z = simulate(TermsRHS(coef, terms, q), x0, drive[:, None], dt, n_substeps=4, bounds=bounds)
+    if z.nbytes <= _LAG_CHAINS_BYTES:
+        with _LAG_CHAINS_LOCK:
+            _LAG_CHAINS[key] = z.copy()
+            while sum(v.nbytes for v in _LAG_CHAINS.values()) > _LAG_CHAINS_BYTES:
+                _LAG_CHAINS.popitem(last=False)
+    return z
 
 
 class LatentHiddenState(HiddenStrategy):
@@ -416,7 +448,7 @@ class LatentHiddenState(HiddenStrategy):
         zlo, zhi = self._latent_range(params)
         x0 = np.clip(np.cumprod(np.full(q, tau * gain)) * drive[0], zlo[0], zhi[0])
         bounds = (np.full(q, zlo[0]), np.full(q, zhi[0]))
-        z = simulate(TermsRHS(coef, terms, q), x0, drive[:, None], dt, n_substeps=4, bounds=bounds)
+        z = _lag_chain(coef, terms, q, x0, drive, dt, bounds)
         return z, np.c_[z, drive] @ coef  # the lags and their exact derivatives
 
     def _measured(self, y, derivative):

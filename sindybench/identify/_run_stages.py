@@ -10,6 +10,7 @@ from functools import partial
 import numpy as np
 
 from .._progress import progress_bar
+from ..hidden._regressions import reused_regressions
 from ._search import pareto_front, parsimonious_index
 from ._space import LATENT_FAMILIES
 from ._stages import (confirm_hold, hold_twin, run_stage, score_candidate, screen_structure, store_full, store_screen,
@@ -32,7 +33,8 @@ def run_stages(search, structs, settings, ctx, budget, store, parallel, refineme
     stored_screens, store_screens = partial(stored_screen, store), partial(store_screen, store)
     stored_scores, store_scores = partial(stored_full, store), partial(store_full, store)
     rows, libraries = [], []
-    with progress_bar(len(structs), desc="identify", show=search.show_progress_bar) as bar:
+    # the candidates that repeat a regression (the other hold, the inner searches' refined ones) take a copy of it
+    with progress_bar(len(structs), desc="identify", show=search.show_progress_bar) as bar, reused_regressions():
         # stage 1: every structure's pruning path on the last block (the latent family has its own search)
         latent = [(s, lib) for s, lib in structs if s["family"] in LATENT_FAMILIES]
         structs = [(s, lib) for s, lib in structs if s["family"] not in LATENT_FAMILIES]

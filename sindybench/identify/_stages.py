@@ -7,20 +7,25 @@ holds and recording the others as they finish; ``Budget`` counts the
 candidates and seconds left; ``refit_choice`` refits the choice on the whole record, the next one where that fails.
 """
 
+import copy
 import time
 
 import numpy as np
 
+from ._lag import LAG_FAMILY
 from ._resume import CandidateStore
 from ._search import evaluate, path_thresholds, segments, stls_threshold
 from ._space import LATENT_FAMILIES, make_estimator
 
-__all__ = ["STRUCTURE", "Budget", "confirm_hold", "hold_twin", "parallel_map", "refit_choice", "refit_failed",
-           "run_stage", "score_candidate", "screen_structure", "store_full", "store_screen", "stored_full", "stored_screen",
-           "validated_library", "validated_terms"]
+__all__ = ["HOLD_FREE", "STRUCTURE", "Budget", "confirm_hold", "hold_twin", "parallel_map", "refit_choice",
+           "refit_failed", "run_stage", "score_candidate", "screen_structure", "store_full", "store_screen", "stored_full",
+           "stored_screen", "validated_library", "validated_terms"]
 
 # the settings that make a structure (the threshold and the refinement make a candidate of it)
 STRUCTURE = ("family", "library", "derivative", "input_hold", "input_delay")
+#: the families whose estimator does not use the input hold (a lag model holds its inputs by construction): their
+#: candidates with either hold are one computation (see :func:`score_candidate`)
+HOLD_FREE = (LAG_FAMILY,)
 
 
 def parallel_map(n_jobs):
@@ -126,8 +131,19 @@ def store_full(store, call, result):
 
 
 def score_candidate(row, library, ctx, refinement):
-    """Stages 2 and 3: one candidate on every block (refined when ``refinement`` is given)."""
+    """Stages 2 and 3: one candidate on every block (refined when ``refinement`` is given).
+
+    A candidate of a family that does not use the input hold (:data:`HOLD_FREE`) takes the result of its twin
+    with the other hold when this process has scored it in the same search (``ctx``): the same computation.
+    """
     struct = {k: row[k] for k in STRUCTURE}
+    twin = _hold_free_key(row, refinement)
+    scored = ctx.setdefault("hold_free", {}) if twin is not None else {}
+    if twin in scored:
+        start = time.perf_counter()
+        result = copy.deepcopy(scored[twin])
+        result.update(input_hold=row["input_hold"], fit_time=time.perf_counter() - start)
+        return result
     make = lambda n: make_estimator(struct, library, stls_threshold(row["threshold"], n), ctx["dt"],  # noqa: E731
                                     ctx["settings"], refine=refinement, random_state=ctx["random_state"])
     result = evaluate(make, ctx["X"], ctx["y"], ctx["folds"], n_init=ctx["n_init"], scale=ctx["scale"],
@@ -136,8 +152,18 @@ def score_candidate(row, library, ctx, refinement):
     result["equations"] = _equations(model)
     result["support"] = validated_terms(model, struct["family"])
     refined = refinement is not None or struct["family"] in LATENT_FAMILIES  # the latent families refine in fit
-    return dict(struct, threshold=row["threshold"], refine=refined,
-                stage="refine" if refinement is not None else "blocks", **result)
+    result = dict(struct, threshold=row["threshold"], refine=refined,
+                  stage="refine" if refinement is not None else "blocks", **result)
+    if twin is not None:
+        scored[twin] = copy.deepcopy(result)
+    return result
+
+
+def _hold_free_key(row, refinement):
+    """What makes a candidate of a :data:`HOLD_FREE` family (its settings but the hold), or None for another family."""
+    if row["family"] not in HOLD_FREE:
+        return None
+    return repr([(k, row[k]) for k in STRUCTURE + ("threshold",) if k != "input_hold"] + [repr(refinement)])
 
 
 def _equations(model):

@@ -20,6 +20,8 @@ explain the most: on collinear candidate terms (the lagged outputs of a
 polynomial NARX) it gives far fewer terms for the same one-step fit.
 """
 
+import threading
+
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 
@@ -40,34 +42,73 @@ def _check_params(n_terms, tol):
     return n_terms, float(tol)
 
 
-def _select(theta, y, n_terms, tol, center):
-    """The indices chosen for one target, in the order of selection, and their error-reduction ratios."""
-    W = theta - theta.mean(axis=0) if center else theta.copy()
-    y = y - y.mean() if center else y
-    norms = np.einsum("ij,ij->j", W, W)
-    total = float(y @ y)
-    chosen, ratios = [], []
-    if total == 0.0:
-        return chosen, ratios
-    active = norms > 0.0
-    explained = 0.0
-    for _ in range(min(n_terms, theta.shape[1])):
-        ww = np.einsum("ij,ij->j", W, W)
-        ok = active & (ww > _DEPENDENT**2 * norms)
-        if not np.any(ok):
-            break
-        wy = W.T @ y
-        err = np.where(ok, wy**2 / np.where(ok, ww, 1.0), -1.0) / total
-        best = int(np.argmax(err))
-        chosen.append(best)
-        ratios.append(float(err[best]))
-        explained += err[best]
-        q = W[:, best] / np.sqrt(ww[best])
-        active[best] = False
-        W -= np.outer(q, q @ W)
-        if 1.0 - explained <= tol:
-            break
-    return chosen, ratios
+class _Selection:
+    """One target's greedy selection, resumable: its orthogonalized columns and the terms chosen so far.
+
+    The first ``k`` steps of a selection do not depend on how many follow, so a selection of more terms on
+    the same columns and target resumes one of fewer (a search over ``n_terms``) instead of starting again.
+    """
+
+    def __init__(self, theta, y, tol, center):
+        self.W = theta - theta.mean(axis=0) if center else theta.copy()
+        self.y = y - y.mean() if center else y.copy()
+        self.norms = np.einsum("ij,ij->j", self.W, self.W)
+        self.total = float(self.y @ self.y)
+        self.tol = tol
+        self.chosen, self.ratios = [], []
+        self.active = self.norms > 0.0
+        self.explained = 0.0
+        self.done = self.total == 0.0
+
+    def run(self, n_terms):
+        """Take steps until ``n_terms`` are chosen (or the selection stops); the first ``n_terms`` chosen and ratios."""
+        W = self.W
+        while not self.done and len(self.chosen) < min(n_terms, W.shape[1]):
+            ww = np.einsum("ij,ij->j", W, W)
+            ok = self.active & (ww > _DEPENDENT**2 * self.norms)
+            if not np.any(ok):
+                self.done = True
+                break
+            wy = W.T @ self.y
+            err = np.where(ok, wy**2 / np.where(ok, ww, 1.0), -1.0) / self.total
+            best = int(np.argmax(err))
+            self.chosen.append(best)
+            self.ratios.append(float(err[best]))
+            self.explained += err[best]
+            q = W[:, best] / np.sqrt(ww[best])
+            self.active[best] = False
+            _subtract_outer(W, q, q @ W)
+            if 1.0 - self.explained <= self.tol:
+                self.done = True
+        return self.chosen[:n_terms], self.ratios[:n_terms]
+
+
+def _subtract_outer(W, q, v, rows=2048):
+    """``W -= np.outer(q, v)`` in place, a block of rows at a time (the same numbers, without an array of W's size)."""
+    work = np.empty((min(rows, W.shape[0]), W.shape[1]))
+    for start in range(0, W.shape[0], rows):
+        stop = min(start + rows, W.shape[0])
+        block = work[: stop - start]
+        np.multiply(q[start:stop, None], v[None, :], out=block)
+        W[start:stop] -= block
+
+
+# the selections of this thread's last forward_ols call, with a copy of its columns and targets (see _Selection)
+_LAST = threading.local()
+
+
+def _selections(theta, target, tol, center):
+    """The resumable selections of ``target``'s columns on ``theta``: the last call's when its data are the same."""
+    last = getattr(_LAST, "value", None)
+    if (last is not None and last["tol"] == tol and last["center"] == center
+            and last["theta"].shape == theta.shape and last["target"].shape == target.shape
+            and np.array_equal(last["theta"], theta) and np.array_equal(last["target"], target)):
+        return last["selections"]
+    _LAST.value = None  # the old copies go before the new ones are made
+    selections = [None] * target.shape[1]
+    _LAST.value = {"theta": theta.copy(), "target": target.copy(), "tol": tol, "center": center,
+                   "selections": selections}
+    return selections
 
 
 def forward_ols(theta, target, *, n_terms, tol=0.0, center=False):
@@ -116,8 +157,11 @@ def forward_ols(theta, target, *, n_terms, tol=0.0, center=False):
     if center:
         spread = np.ptp(theta, axis=0) if theta.shape[0] else np.zeros(theta.shape[1])
         constant = [int(i) for i in np.flatnonzero((spread == 0) & (theta[0] != 0))][:1] if theta.shape[0] else []
+    selections = _selections(theta, target2, tol, center)
     for j in range(target2.shape[1]):
-        chosen, _ = _select(theta, target2[:, j], n_terms, tol, center)
+        if selections[j] is None:
+            selections[j] = _Selection(theta, target2[:, j], tol, center)
+        chosen, _ = selections[j].run(n_terms)
         cols = sorted(set(chosen) | set(constant))
         if cols:
             coef[cols, j] = np.linalg.lstsq(theta[:, cols], target2[:, j], rcond=None)[0]

@@ -13,12 +13,16 @@ def _candidates(u, y, dt, settings):
     return {s["library"]: (s, lib) for s, lib in structures(u, y, dt, settings, families=["order1+latent"])}
 
 
-def test_the_cascade_candidate_comes_with_the_hinge_candidate_only():
+def test_the_cascade_candidate_comes_with_the_hinge_candidate_of_a_positive_output_only():
     t = np.arange(600) * 0.05
-    u, y = np.sin(0.7 * t)[:, None], np.cos(0.5 * t)[:, None] - 2.0
+    u, y = np.sin(0.7 * t)[:, None], np.cos(0.5 * t)[:, None] + 2.0  # a level: stays positive
     settings = data_settings(u, y, 0.05, families=["order1+latent"])
+    assert settings["positive"] == [0]
     cands = _candidates(u, y, 0.05, settings)
     assert LATENT_HINGE in cands and LATENT_CASCADE in cands
+    signed = data_settings(u, y - 2.0, 0.05, families=["order1+latent"])  # a displacement: the hinges alone
+    assert LATENT_HINGE in _candidates(u, y - 2.0, 0.05, signed)
+    assert LATENT_CASCADE not in _candidates(u, y - 2.0, 0.05, signed)
     assert not [s for s, _ in structures(u, y, 0.05, settings, families=["order1+latent"], libraries=["linear"])
                 if s["library"] == LATENT_CASCADE]
     struct, lib = cands[LATENT_CASCADE]

@@ -66,7 +66,7 @@ _LATENT_START = "lag"
 _MAX_ABS = 1e6  # the estimators' default divergence bound
 #: the order-1 latent family's cascade candidate: the hinge candidate's library with the latent row free of the
 #: output's terms (``LatentHiddenState(cascade=True)``: z' = f(z, u), y' = g(y, z, u)), so that the hard terms
-#: reach the latent row on the latent state only
+#: reach the latent row on the latent state only; proposed for a positive output (a stored quantity)
 LATENT_CASCADE = "cascade+hard"
 #: graded libraries, from the poorest; ``"+hard"`` adds the terms the data proposes to the library before it
 LIBRARIES = ("linear", "poly2", "poly3", "linear+hard", "poly2+hard")
@@ -200,6 +200,17 @@ def _latent_hinges(X, settings, n_inputs, libraries, *, indicator=True):
                                 indicator=indicator and settings["indicator"][0] is not None)  # a hidden overflow
 
 
+def _latent_cascade(X, settings, n_inputs, libraries):
+    """The order-1 latent family's cascade candidate's library: the hinges, for a stored quantity only; or None.
+
+    Proposed where the output stays positive (the advice's power-law flow: a level, a temperature, a
+    concentration), the storage of which a hidden cascade of storages (tanks in series, thermal lags) is
+    made; a signed output (a displacement, a voltage) keeps the hinge candidate alone, and the cascade's
+    cost (one latent search and refinement per input hold) is not spent on it.
+    """
+    return _latent_hinges(X, settings, n_inputs, libraries, indicator=False) if settings["positive"] else None
+
+
 def _library(name, family, settings, n_outputs, n_inputs):
     base = name.split("+")[0]
     lib = PolynomialLibrary(degree=_DEGREE[base])
@@ -256,7 +267,7 @@ def structures(X, y, dt, settings, *, families=FAMILIES, libraries=LIBRARIES, de
                 for lib_name, lib in (("linear", PolynomialLibrary(degree=1)),
                                       ("linear+hard", _latent_hard_terms(settings, n_inputs)),
                                       (LATENT_HINGE, _latent_hinges(X, settings, n_inputs, libraries)),
-                                      (LATENT_CASCADE, _latent_hinges(X, settings, n_inputs, libraries, indicator=False))):
+                                      (LATENT_CASCADE, _latent_cascade(X, settings, n_inputs, libraries))):
                     if lib is not None:
                         out.append(({"family": family, "library": lib_name, "derivative": "finite_difference",
                                      "input_hold": hold, "input_delay": delay}, lib))

@@ -16,9 +16,7 @@ back: two processes saving two specializations of one function at once can both 
 data file, and the index can then point one signature at the other's machine code (numba issue
 #10128). :func:`lock_numba_cache` makes a process save under a file lock that the other
 processes of the same run share; reading the cache needs no lock (numba replaces its files
-atomically). Runs that start processes beside other compiling processes (a test session in
-several workers that itself starts runs) name one lock for all of them in the environment
-variable ``SINDYBENCH_NUMBA_LOCK`` (:func:`run_lock_file`).
+atomically).
 """
 
 import functools
@@ -27,11 +25,7 @@ import importlib
 import os
 from pathlib import Path
 
-__all__ = ["lock_numba_cache", "numba_cache_lockable", "op_table_fingerprint", "run_lock_file",
-           "stamp_kernels_with_op_table"]
-
-#: the environment variable naming a lock file that every process of a session shares (see the module text)
-LOCK_VARIABLE = "SINDYBENCH_NUMBA_LOCK"
+__all__ = ["lock_numba_cache", "numba_cache_lockable", "op_table_fingerprint", "stamp_kernels_with_op_table"]
 
 # the save method whose read-modify-write of the index the lock covers
 _NUMBA_SAVE = ("numba.core.caching", "IndexDataCacheFile", "save")
@@ -45,17 +39,6 @@ def _save_method():
         return cls, getattr(cls, method)
     except (ImportError, AttributeError):
         return None
-
-
-def run_lock_file(default):
-    """The lock file a run's processes save numba's cache under: ``$SINDYBENCH_NUMBA_LOCK`` if set, else ``default``.
-
-    Examples
-    --------
-    >>> run_lock_file("/tmp/run/numba-cache.lock") == os.environ.get(LOCK_VARIABLE, "/tmp/run/numba-cache.lock")
-    True
-    """
-    return os.environ.get(LOCK_VARIABLE) or default
 
 
 def numba_cache_lockable():

@@ -25,7 +25,7 @@ import warnings
 
 import numpy as np
 
-from ._numba_cache import lock_numba_cache, run_lock_file
+from ._numba_cache import lock_numba_cache
 
 __all__ = ["warm"]
 
@@ -119,7 +119,7 @@ def warm(*, n_jobs=None):
     if n_jobs in (None, 1):
         return {name: _run(name) for name in names}
     with tempfile.TemporaryDirectory(prefix="sindybench-warm-") as tmp:
-        lock_file = run_lock_file(os.path.join(tmp, "numba-cache.lock"))
+        lock_file = os.path.join(tmp, "numba-cache.lock")
         seconds = Parallel(n_jobs=n_jobs)(delayed(_run)(name, lock_file) for name in names)
     return dict(zip(names, seconds))
 

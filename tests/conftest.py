@@ -1,7 +1,6 @@
 """Shared fixtures: seeded generators, the benchmark data home, slow-test switch, a PostgreSQL server."""
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -16,23 +15,6 @@ def pytest_configure(config):
     path = os.environ.get("SINDYBENCH_DATA")
     if path:
         os.environ["SINDYBENCH_DATA"] = str(Path(path).resolve())
-    # The README runs the tests in two processes (pytest-xdist), and some tests start runs in worker
-    # processes of their own: every one of them saves numba's cache under one lock file, which the first
-    # process (the controller, or a plain run) names in the environment its workers inherit.
-    from sindybench._numba_cache import LOCK_VARIABLE, lock_numba_cache
-
-    if LOCK_VARIABLE not in os.environ:
-        handle, lock = tempfile.mkstemp(prefix="sindybench-tests-", suffix=".numba.lock")
-        os.close(handle)
-        os.environ[LOCK_VARIABLE] = config._sindybench_lock = lock
-    lock_numba_cache(os.environ[LOCK_VARIABLE])
-
-
-def pytest_unconfigure(config):
-    lock = getattr(config, "_sindybench_lock", None)
-    if lock is not None:
-        os.environ.pop("SINDYBENCH_NUMBA_LOCK", None)
-        Path(lock).unlink(missing_ok=True)
 
 
 def pytest_addoption(parser):

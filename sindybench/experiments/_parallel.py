@@ -25,7 +25,7 @@ from pathlib import Path
 
 from threadpoolctl import threadpool_limits
 
-from .._numba_cache import lock_numba_cache, run_lock_file
+from .._numba_cache import lock_numba_cache
 from .._progress import ENV_VAR as PROGRESS_ENV_VAR
 from ._report import write_results
 from ._runner import run_benchmark, test_sets
@@ -182,7 +182,7 @@ def run_in_workers(benchmarks, data, staging, n_workers, *, costs, settings):
     done = [None] * len(benchmarks)
     start = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="sindybench-run-") as tmp:
-        setup = _parent_setup(run_lock_file(Path(tmp) / "numba-cache.lock"))
+        setup = _parent_setup(Path(tmp) / "numba-cache.lock")
         warm_up(n_workers)
         logger.info("%d benchmarks in %d worker processes, the longest first: %s", len(benchmarks), n_workers,
                     ", ".join(benchmarks[i].name for i in order))

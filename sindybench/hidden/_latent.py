@@ -93,6 +93,12 @@ def _lag_chain(coef, terms, q, x0, drive, dt, bounds):
     return z
 
 
+def forget_lag_chains():
+    """Drop the kept lag chains (a search keeps them for itself; up to ``_LAG_CHAINS_BYTES`` in all)."""
+    with _LAG_CHAINS_LOCK:
+        _LAG_CHAINS.clear()
+
+
 class LatentHiddenState(HiddenStrategy):
     """Latent states with learned sparse equations (fitted by simulation error).
 

@@ -4,13 +4,16 @@ See :class:`~sindybench.identify.IdentifyCV` for what each stage keeps; :mod:`._
 structure or candidate, and this module runs them stage after stage under the budget.
 """
 
+import contextlib
 import math
 from functools import partial
 
 import numpy as np
 
 from .._progress import progress_bar
+from ..hidden._latent import forget_lag_chains
 from ..hidden._regressions import reused_regressions
+from ..optimizers._forward import forget_selections
 from ._search import pareto_front, parsimonious_index
 from ._space import LATENT_FAMILIES
 from ._stages import (confirm_hold, hold_twin, run_stage, score_candidate, screen_structure, store_full, store_screen,
@@ -20,6 +23,22 @@ __all__ = ["run_stages"]
 
 # the most a screening stage keeps, whatever the fraction
 _MAX_SURVIVORS = 16
+
+
+@contextlib.contextmanager
+def _search_memory():
+    """What a search keeps of the work it repeats, for the search only.
+
+    The equation-error regressions (:func:`~sindybench.hidden._regressions.reused_regressions`), the
+    latent starts' lag chains and ForwardOLS's last selection are dropped when the search ends: a process
+    that runs several searches (``run all``'s workers) does not carry them from one to the next.
+    """
+    try:
+        with reused_regressions():
+            yield
+    finally:
+        forget_lag_chains()
+        forget_selections()
 
 
 def run_stages(search, structs, settings, ctx, budget, store, parallel, refinement, n_inputs, n_folds):
@@ -34,7 +53,7 @@ def run_stages(search, structs, settings, ctx, budget, store, parallel, refineme
     stored_scores, store_scores = partial(stored_full, store), partial(store_full, store)
     rows, libraries = [], []
     # the candidates that repeat a regression (the other hold, the inner searches' refined ones) take a copy of it
-    with progress_bar(len(structs), desc="identify", show=search.show_progress_bar) as bar, reused_regressions():
+    with progress_bar(len(structs), desc="identify", show=search.show_progress_bar) as bar, _search_memory():
         # stage 1: every structure's pruning path on the last block (the latent family has its own search)
         latent = [(s, lib) for s, lib in structs if s["family"] in LATENT_FAMILIES]
         structs = [(s, lib) for s, lib in structs if s["family"] not in LATENT_FAMILIES]

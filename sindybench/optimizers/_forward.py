@@ -97,6 +97,11 @@ def _subtract_outer(W, q, v, rows=2048):
 _LAST = threading.local()
 
 
+def forget_selections():
+    """Drop this thread's kept selection (its copies of the last design and targets: tens of MB on long records)."""
+    _LAST.value = None
+
+
 def _selections(theta, target, tol, center):
     """The resumable selections of ``target``'s columns on ``theta``: the last call's when its data are the same."""
     last = getattr(_LAST, "value", None)

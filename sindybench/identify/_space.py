@@ -310,9 +310,12 @@ def _make(structure, library, threshold, dt, settings, *, refine, random_state):
     inside ``fit`` on an even grid of time constants (20 and 12 of them, log-spaced
     from 1 to 1000 samples; the same at every seed), the two best starts refined
     by simulation error side by side and the best after refinement kept
-    (``n_refined=2``); the ``cascade+hard`` candidate is the hinge candidate
-    with ``LatentHiddenState(cascade=True)`` (no output term in the latent
-    row). ``refine`` (an
+    (``n_refined=2``); the hinge candidate is warm-started from the plain
+    latent model (``levels="range"``), and the ``cascade+hard`` candidate has
+    its hinges (no latent indicator) in a cascade
+    (``LatentHiddenState(cascade=True)``: no output term in the latent row),
+    the latent state in u0's units and the hinges at the library's levels.
+    ``refine`` (an
     :class:`~sindybench.refine.OutputErrorRefinement`) refines the fit by its
     simulation error, and a refined hidden-state model starts new data by
     least squares on its first samples (``initial_state="fit"``).

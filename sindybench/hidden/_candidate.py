@@ -109,8 +109,8 @@ def fit_candidate(hidden, params, library, optimizer, derivative, Xs, ys, n_rows
         library, optimizer, np.hstack([np.vstack([p[1] for p in parts]), np.vstack(Xs)]),
         np.vstack([p[2] for p in parts]), rows=np.concatenate([p[3] for p in parts]), feature_filter=feature_filter,
         what="library output Theta([x, u])", normalize=normalize)
-    support = getattr(hidden, "coef_support", lambda *a, **k: None)(
-        getattr(library, "terms_", None), n_outputs=ys[0].shape[1], n_inputs=Xs[0].shape[1])
+    support = hidden.coef_support(getattr(library, "terms_", None), n_outputs=ys[0].shape[1],
+                                  n_inputs=Xs[0].shape[1])
     if support is not None:  # terms a row may not have (the strategy's structure): 0
         coef = np.where(support, coef, 0.0)
     return Candidate(params=params, structure=structure, library=library, optimizer=optimizer,

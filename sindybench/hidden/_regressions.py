@@ -84,9 +84,11 @@ def fit_regression(library, optimizer, Z, target, *, rows=None, feature_filter=N
         coef = fit_sparse(library, optimizer, Z, target, rows=rows, feature_filter=feature_filter, what=what,
                           normalize=normalize)
         return library, optimizer, coef
-    if key in kept:
-        kept.move_to_end(key)
-        return copy.deepcopy(kept[key])
+    hit = kept.get(key)  # one read: another thread dropping the entry cannot make it vanish between two
+    if hit is not None:
+        with contextlib.suppress(KeyError):  # dropped meanwhile: the copy below is still the entry's
+            kept.move_to_end(key)
+        return copy.deepcopy(hit)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         coef = fit_sparse(library, optimizer, Z, target, rows=rows, what=what, normalize=normalize)
